@@ -1,0 +1,67 @@
+// Plain constexpr types of the compile-time robot description. The values
+// come from the generated header (tools/urdf2model reads the URDF); nothing
+// here knows about a particular robot.
+#pragma once
+
+#include <array>
+#include <string_view>
+
+namespace springbok::model {
+
+// A rigid transform from a child frame to its parent: p_parent = R p_child + t.
+struct Transform {
+  std::array<double, 9> rotation;     // row-major 3x3
+  std::array<double, 3> translation;  // [m]
+};
+
+// Rigid-body inertia: mass, centre of mass and the inertia tensor about the COM,
+// all in the body frame.
+struct Inertia {
+  double mass_kg;
+  std::array<double, 3> com_m;
+  std::array<double, 6> inertia_com_kgm2;  // ixx iyy izz ixy ixz iyz
+};
+
+enum class JointType { revolute, continuous };
+
+struct JointLimits {
+  bool bounded;            // false for continuous joints
+  double lower_rad;
+  double upper_rad;
+  double effort_nm;
+  double velocity_rad_s;
+};
+
+// A movable joint; it moves body (index + 1), whose inertia is `inertia`
+// (fixed-attached child links already merged). Body 0 is the floating base.
+struct Joint {
+  std::string_view name;
+  std::string_view child_link;
+  int parent_body;               // < this joint's body index
+  Transform origin;              // joint frame in the parent body frame (q = 0)
+  std::array<double, 3> axis;    // unit axis in the joint frame
+  JointType type;
+  JointLimits limits;
+  double damping_nms_per_rad;    // URDF <dynamics>; not part of M or h
+  Inertia inertia;
+};
+
+// A named frame rigidly attached to a body (a fixed-joint child link).
+struct Frame {
+  std::string_view name;
+  int body;
+  Transform placement;           // frame in the body frame
+};
+
+enum class Shape { box, cylinder, sphere };
+
+// A collision primitive on a body. box: size = (x, y, z) full lengths;
+// cylinder: (radius, length, 0) along its local z; sphere: (radius, 0, 0).
+struct Collision {
+  int body;
+  Shape shape;
+  std::array<double, 3> size_m;
+  Transform origin;              // primitive frame in the body frame
+};
+
+}  // namespace springbok::model
