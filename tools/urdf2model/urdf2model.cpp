@@ -255,9 +255,9 @@ struct Tree {
 Tree read_urdf(const std::string& path) {
   tinyxml2::XMLDocument doc;
   if (doc.LoadFile(path.c_str()) != tinyxml2::XML_SUCCESS)
-    throw Error(path + ": cannot parse XML: " + std::string(doc.ErrorStr()));
+    throw Error("cannot parse XML: " + std::string(doc.ErrorStr()));
   const auto* robot = doc.FirstChildElement("robot");
-  if (!robot) throw Error(path + ": no <robot> element");
+  if (!robot) throw Error("no <robot> element");
   Tree t;
   t.robot_name = robot->Attribute("name") ? robot->Attribute("name") : "robot";
   for (const auto* e = robot->FirstChildElement("link"); e; e = e->NextSiblingElement("link")) {
@@ -266,7 +266,7 @@ Tree read_urdf(const std::string& path) {
     t.link_index[l.name] = static_cast<int>(t.links.size());
     t.links.push_back(std::move(l));
   }
-  if (t.links.empty()) throw Error(path + ": no <link>");
+  if (t.links.empty()) throw Error("no <link>");
   std::set<std::string> children;
   for (const auto* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint")) {
     JointIn j = parse_joint(e);
