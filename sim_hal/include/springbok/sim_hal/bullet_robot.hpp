@@ -1,0 +1,97 @@
+// The simulated robot: a `final` HAL backend on a Bullet (3.24, double
+// precision) btMultiBody built from the compile-time model springbok::robot.
+//
+// Lockstep use, one tick per loop:   hw.read(m) -> controller -> hw.write(c) -> hw.step()
+// The clock is stepped: step() advances the simulated time by exactly step_s.
+// Identical configuration and inputs give bit-identical results.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string_view>
+
+#include "springbok/hal/hardware.hpp"
+#include "springbok/model/model.hpp"
+#include "springbok/sim_hal/external_wrench.hpp"
+
+namespace springbok::sim {
+
+struct ImuNoise {
+  double gyro_noise_rad_s = 0.0;           // white noise std per sample
+  double accel_noise_m_s2 = 0.0;
+  double gyro_bias_rad_s = 0.0;            // std of a constant bias drawn once
+  double accel_bias_m_s2 = 0.0;
+  std::uint64_t seed = 1;
+};
+
+struct SimConfig {
+  double step_s = 0.001;                   // one controller tick
+  int substeps = 1;                        // physics steps per tick (drive law re-evaluated each)
+  int solver_iterations = 10;
+  double gravity_m_s2 = kGravity_m_s2;     // along -z; 0 for weightless tests
+  bool ground = true;                      // a flat ground plane at z = 0
+  double ground_friction = 0.8;            // the Coulomb coefficient of a foot on the ground
+  double ground_restitution = 0.0;
+  bool fixed_base = false;                 // trunk welded to the world (tests)
+  bool saturate_torques = true;            // clamp drive torques to the model's effort limits
+  ImuNoise imu;
+  VecNq initial_q = default_q();           // [p_WB, quaternion xyzw, joints]
+  VecNv initial_v = VecNv::Zero();         // [v_B, w_B trunk frame, joint rates]
+
+  static VecNq default_q() {
+    VecNq q = VecNq::Zero();
+    q[6] = 1.0;
+    return q;
+  }
+};
+
+// What a test or a plot may know but a controller on hardware may not.
+struct GroundTruth {
+  double time_s = 0.0;
+  VecNq q = SimConfig::default_q();
+  VecNv v = VecNv::Zero();
+  std::array<Vec3, kFeet> foot_force_n{};  // force of the ground on each foot, world axes
+  std::array<bool, kFeet> foot_contact{};
+  Vec3 ground_force_n = Vec3::Zero();      // sum over every robot-ground contact
+  bool non_foot_ground_contact = false;    // a link other than a foot touches the ground
+  VecNj tau_applied_nm = VecNj::Zero();    // the joint torques of the last step
+};
+
+class BulletRobot final : public hal::Hardware {
+ public:
+  static constexpr int kMaxExternalWrenches = 8;
+
+  explicit BulletRobot(const SimConfig& config);
+  ~BulletRobot() override;
+  BulletRobot(const BulletRobot&) = delete;
+  BulletRobot& operator=(const BulletRobot&) = delete;
+
+  std::string_view name() const noexcept override { return "bullet"; }
+  hal::LifecycleResult configure() override;   // builds the world; checks the configuration
+  hal::LifecycleResult activate() override;    // drives enabled
+  hal::IoStatus read(hal::Measurements& out) noexcept override;        // rt: no alloc
+  hal::IoStatus write(const hal::JointCommands& cmd) noexcept override;  // rt: no alloc
+  void deactivate() noexcept override;         // drives disabled (no torque)
+
+  // ---- simulation only ----
+  // Before activate(); false when the table is full.
+  bool add_external_wrench(const ExternalWrench& wrench) noexcept;
+  // Advances the world by one tick (step_s, in `substeps` physics steps).
+  void step() noexcept;
+  double time_s() const noexcept;
+  const GroundTruth& ground_truth() const noexcept;
+  // Teleports the robot (after configure); clears the contact report.
+  void set_state(const VecNq& q, const VecNv& v) noexcept;
+  // World placement of a frame (p = R x + t) for the current state.
+  Eigen::Isometry3d frame_placement(const FrameRef& frame) const noexcept;
+  // Lowest point of the four foot spheres above the ground [m].
+  double lowest_foot_clearance_m() const noexcept;
+  const SimConfig& config() const noexcept;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace springbok::sim
