@@ -1,0 +1,67 @@
+// Logging from the RT thread: fixed-size records pushed into a lock-free
+// ring, drained by a normal-priority thread that formats and writes them.
+// The RT side never blocks; a full ring drops the record and counts it (gaps
+// show as missing tick indexes).
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <thread>
+
+#include "springbok/rt/spsc_ring.hpp"
+
+namespace springbok::rt {
+
+enum class LogEvent : std::uint16_t {
+  overrun = 1,           // a: skipped ticks, b: late [ns]
+  mode_change = 2,       // a: old mode, b: new mode
+  fault_latched = 3,     // a: new fault bits, b: all latched bits
+  command_accepted = 4,  // a: command kind, b: request id
+  command_rejected = 5,  // a: command kind, b: reason code
+  hal_io = 6,            // a: IoStatus, b: consecutive stale ticks
+  stats = 7,             // a: ticks, b: overruns, x: max wake latency [us]
+};
+
+const char* to_string(LogEvent event) noexcept;
+
+struct LogRecord {
+  std::uint64_t tick = 0;
+  std::int64_t stamp_ns = 0;
+  LogEvent event = LogEvent::stats;
+  std::int64_t a = 0;
+  std::int64_t b = 0;
+  double x = 0.0;
+};
+
+// 1 s at 1 kHz with up to 4 records per tick: the drainer's worst stall.
+using LogRing = SpscRing<LogRecord, 4096>;
+
+// The non-RT thread that empties a LogRing into a FILE every period and
+// reports drops. Start-up code (allocates); never runs on the tick path.
+class LogDrainer {
+ public:
+  LogDrainer(LogRing& ring, std::FILE* out, std::int64_t period_ms = 10);
+  ~LogDrainer();
+  LogDrainer(const LogDrainer&) = delete;
+  LogDrainer& operator=(const LogDrainer&) = delete;
+
+  // Stops the thread after a final drain. Safe to call more than once.
+  void stop();
+  std::uint64_t written() const noexcept { return written_.load(std::memory_order_relaxed); }
+
+ private:
+  void run();
+  std::size_t drain_once();
+
+  LogRing& ring_;
+  std::FILE* out_;
+  std::int64_t period_ms_;
+  std::uint64_t reported_drops_ = 0;
+  std::atomic<bool> stop_{false};
+  std::atomic<std::uint64_t> written_{0};
+  std::thread thread_;
+};
+
+}  // namespace springbok::rt
