@@ -1,0 +1,645 @@
+// springbok::qp::Solver<N, ME, MI>: the dual active-set method of Goldfarb and
+// Idnani (1983) for strictly convex dense QPs, sized at compile time.
+//
+// The method, as built here:
+//  1. H = L L' (Cholesky once; or the caller's factor).
+//  2. Equalities (Aeq rows and lb == ub rows of Ain) are eliminated as one block:
+//     B = L^-1 E' is factored by Householder QR with column pivoting, B P = Q [Re; 0].
+//     Rank-deficient (duplicated, redundant) rows are detected here and checked for
+//     consistency. In the coordinates v = Q' L' x = [v1; w] the equalities fix
+//     v1 = Re^-T e, and what remains is a QP in w with identity Hessian:
+//         minimize 1/2 |w|^2 + c2'w   s.t.  lb_i - h_i <= at_i'w <= ub_i - h_i
+//     with t_i = Q' L^-1 a_i = [h-part; at_i], h_i = t_i[:r]'v1, c = Q' L^-1 g.
+//  3. Goldfarb-Idnani on that reduced QP. With H = I the GI basis J = [Q1 Q2] needs
+//     only Q1, the orthonormal basis of the active normals (N = Q1 R), kept by
+//     Gram-Schmidt with re-orthogonalisation on additions and Givens rotations on
+//     drops; the step direction is z = n - Q1 Q1'n. The reduced normal t_i of a
+//     row is computed only when the row is picked (rows that never become
+//     violated cost one dot product per outer iteration, in Ain x).
+//  4. Multipliers of the equalities are recovered at the end from Re.
+//
+// Every loop is bounded (iteration cap), every division guarded; solve() is
+// noexcept and never allocates: the workspace lives in the object.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include "springbok/qp/dense.hpp"
+#include "springbok/qp/types.hpp"
+
+namespace springbok::qp {
+
+template <int N, int ME, int MI>
+class Solver {
+ public:
+  using ProblemType = Problem<N, ME, MI>;
+  using ResultType = Result<N, ME, MI>;
+  using Hint = StartHint<N, MI>;
+  static constexpr int kMaxVariables = N;
+  static constexpr int kMaxEqualities = ME;
+  static constexpr int kMaxInequalities = MI;
+
+  explicit Solver(const Options& options = {}) noexcept : options_(options) {}
+
+  // rt: no alloc, no block
+  Status solve(const ProblemType& problem, ResultType& result, const Hint& hint = {}) noexcept {
+    p_ = &problem;
+    result.iterations = 0;
+    result.active.clear();
+    result.objective = std::numeric_limits<double>::quiet_NaN();
+    iterations_ = 0;
+    Status status = prepare(hint);
+    if (status == Status::optimal) status = run(hint.active_set);
+    if (status == Status::optimal || status == Status::maxiter) {
+      if (!finish(result)) status = Status::bad_input;  // non-finite result from finite (huge) data
+    }
+    if (status != Status::optimal && status != Status::maxiter) {
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      std::fill(result.x.begin(), result.x.end(), nan);
+      std::fill(result.lambda_eq.begin(), result.lambda_eq.end(), nan);
+      std::fill(result.lambda_in.begin(), result.lambda_in.end(), nan);
+      result.active.clear();
+    }
+    result.iterations = iterations_;
+    result.status = status;
+    return status;
+  }
+
+ private:
+  static constexpr int kLd = ((N + 3) / 4) * 4;  // padded leading dimension
+  static constexpr int kMaxEqRows = ME + MI;
+  static constexpr double kInf = std::numeric_limits<double>::infinity();
+  static constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+  enum class RowKind : std::uint8_t { dead, lower, upper, both, equal };
+
+  template <class T, int Size>
+  using Buf = std::array<T, static_cast<std::size_t>(Size)>;
+
+  static bool finite(double v) noexcept { return std::isfinite(v); }
+
+  // ---- step 0: validate and classify -------------------------------------
+  Status classify() noexcept {
+    const ProblemType& p = *p_;
+    n_ = p.n;
+    if (p.n < 1 || p.n > N || p.meq < 0 || p.meq > ME || p.mi < 0 || p.mi > MI) return Status::bad_input;
+    meq_ = p.meq;
+    mi_ = p.mi;
+    for (int j = 0; j < n_; ++j) {
+      for (int i = 0; i < n_; ++i)
+        if (!finite(p.hessian[idx(i, j, N)])) return Status::bad_input;
+      if (!finite(p.gradient[j])) return Status::bad_input;
+      for (int i = 0; i < meq_; ++i)
+        if (!finite(p.aeq[idx(i, j, ME)])) return Status::bad_input;
+      for (int i = 0; i < mi_; ++i)
+        if (!finite(p.ain[idx(i, j, MI)])) return Status::bad_input;
+    }
+    for (int i = 0; i < meq_; ++i)
+      if (!finite(p.beq_values[i])) return Status::bad_input;
+    for (int i = 0; i < mi_; ++i)
+      if (std::isnan(p.lower[i]) || std::isnan(p.upper[i])) return Status::bad_input;
+
+    // Row norms (Ain is column-major: accumulate column by column).
+    std::fill_n(row_norm_.begin(), mi_, 0.0);
+    for (int j = 0; j < n_; ++j) {
+      const double* col = p.ain.data() + idx(0, j, MI);
+      for (int i = 0; i < mi_; ++i) row_norm_[i] += col[i] * col[i];
+    }
+    bool infeasible = false;
+    for (int i = 0; i < mi_; ++i) {
+      row_norm_[i] = std::sqrt(row_norm_[i]);
+      const double lo = p.lower[i], hi = p.upper[i];
+      if (lo >= kInfiniteBound || hi <= -kInfiniteBound) infeasible = true;  // bound at +-infinity
+      const bool has_lo = lo > -kInfiniteBound, has_hi = hi < kInfiniteBound;
+      if (has_lo && has_hi && lo > hi) infeasible = true;
+      RowKind kind = has_lo ? (has_hi ? (lo == hi ? RowKind::equal : RowKind::both) : RowKind::lower)
+                            : (has_hi ? RowKind::upper : RowKind::dead);
+      if (row_norm_[i] == 0.0 && kind != RowKind::dead) {  // zero row: 0 must lie in [lb, ub]
+        if ((has_lo && lo > 0.0) || (has_hi && hi < 0.0)) infeasible = true;
+        kind = RowKind::dead;
+      }
+      kind_[i] = kind;
+      active_side_[i] = 0;
+      have_t_[i] = false;
+      skipped_epoch_[i] = -1;
+    }
+    return infeasible ? Status::infeasible : Status::optimal;
+  }
+
+  static constexpr std::size_t idx(int i, int j, int ld) noexcept {
+    return static_cast<std::size_t>(j) * static_cast<std::size_t>(ld > 0 ? ld : 1) + static_cast<std::size_t>(i);
+  }
+  double* lcol(int j) noexcept { return l_.data() + idx(0, j, kLd); }
+  double* bcol(int j) noexcept { return b_.data() + idx(0, j, kLd); }
+  double* q1col(int j) noexcept { return q1_.data() + idx(0, j, kLd); }
+  double* rcol(int j) noexcept { return r_.data() + idx(0, j, kLd); }
+  double* tvec(int row) noexcept { return t_.data() + idx(0, row, kLd); }
+
+  // ---- step 1: Cholesky ----------------------------------------------------
+  Status factor(const double* given_lower) noexcept {
+    const ProblemType& p = *p_;
+    if (given_lower != nullptr) {
+      for (int j = 0; j < n_; ++j) {
+        const double diag = given_lower[idx(j, j, N)];
+        if (!(diag > 0.0) || !finite(diag)) return Status::bad_input;
+        inv_diag_[j] = 1.0 / diag;
+        for (int i = j; i < n_; ++i) {
+          const double v = given_lower[idx(i, j, N)];
+          if (!finite(v)) return Status::bad_input;
+          lcol(j)[i] = v;
+        }
+      }
+      return Status::optimal;
+    }
+    double max_diag = 0.0;
+    for (int j = 0; j < n_; ++j) {
+      max_diag = std::max(max_diag, std::abs(p.hessian[idx(j, j, N)]));
+      std::copy_n(p.hessian.data() + idx(j, j, N), n_ - j, lcol(j) + j);
+    }
+    const double min_pivot = static_cast<double>(n_) * kEps * max_diag;
+    if (!dense::cholesky_lower(l_.data(), kLd, n_, min_pivot, inv_diag_.data())) return Status::not_positive_definite;
+    return Status::optimal;
+  }
+
+  // ---- step 2: the equality block --------------------------------------------
+  Status eliminate_equalities() noexcept {
+    const ProblemType& p = *p_;
+    me_ = 0;
+    for (int k = 0; k < meq_; ++k) {
+      double* col = bcol(me_);
+      for (int j = 0; j < n_; ++j) col[j] = p.aeq[idx(k, j, ME)];
+      eq_rhs_[me_] = p.beq_values[k];
+      eq_src_[me_] = k;
+      ++me_;
+    }
+    for (int i = 0; i < mi_; ++i) {
+      if (kind_[i] != RowKind::equal) continue;
+      double* col = bcol(me_);
+      for (int j = 0; j < n_; ++j) col[j] = p.ain[idx(i, j, MI)];
+      eq_rhs_[me_] = p.lower[i];
+      eq_src_[me_] = -1 - i;
+      ++me_;
+    }
+    for (int k = 0; k < me_; ++k) {
+      dense::forward_solve(l_.data(), kLd, inv_diag_.data(), n_, bcol(k));
+      eq_norm2_[k] = dense::squared_norm(bcol(k), n_);
+      eq_left2_[k] = eq_norm2_[k];
+    }
+    // Householder QR with column pivoting on the relative remaining norm.
+    rank_ = 0;
+    const double rel_tol2 = options_.rank_tol * options_.rank_tol;
+    const int steps = std::min(n_, me_);
+    for (int k = 0; k < steps; ++k) {
+      int best = -1;
+      double best_rel = rel_tol2;
+      for (int j = k; j < me_; ++j) {
+        if (!(eq_norm2_[j] > 0.0)) continue;
+        const double rel = eq_left2_[j] / eq_norm2_[j];
+        if (rel > best_rel) {
+          best_rel = rel;
+          best = j;
+        }
+      }
+      if (best < 0) break;
+      if (best != k) {
+        std::swap_ranges(bcol(k), bcol(k) + n_, bcol(best));
+        std::swap(eq_rhs_[k], eq_rhs_[best]);
+        std::swap(eq_src_[k], eq_src_[best]);
+        std::swap(eq_norm2_[k], eq_norm2_[best]);
+        std::swap(eq_left2_[k], eq_left2_[best]);
+      }
+      double* vk = bcol(k) + k;
+      const int len = n_ - k;
+      tau_[k] = dense::make_householder(vk, len);
+      for (int j = k + 1; j < me_; ++j) {
+        double* cj = bcol(j) + k;
+        dense::apply_householder(vk + 1, tau_[k], len, cj);
+        eq_left2_[j] = dense::squared_norm(cj + 1, len - 1);
+      }
+      ++rank_;
+    }
+    m_ = n_ - rank_;
+    // v1 = Re^-T e (forward substitution with the transpose of the upper Re).
+    for (int k = 0; k < rank_; ++k) {
+      const double* ck = bcol(k);
+      v1_[k] = (eq_rhs_[k] - dense::dot(ck, v1_.data(), k)) / ck[k];
+    }
+    // Dependent rows must be implied: e_j'x = rho_j'v1 for rho_j = R-part of column j.
+    for (int j = rank_; j < me_; ++j) {
+      const double* cj = bcol(j);
+      double implied = 0.0, scale = std::abs(eq_rhs_[j]);
+      for (int k = 0; k < rank_; ++k) {
+        implied += cj[k] * v1_[k];
+        scale += std::abs(cj[k] * v1_[k]);
+      }
+      if (std::abs(implied - eq_rhs_[j]) > 1e-9 * scale) return Status::infeasible;
+    }
+    // c = Q' L^-1 g; the unconstrained reduced minimiser is w0 = -c[r:].
+    std::copy_n(p.gradient.data(), n_, c_.data());
+    dense::forward_solve(l_.data(), kLd, inv_diag_.data(), n_, c_.data());
+    apply_qt(c_.data());
+    for (int i = 0; i < m_; ++i) w_[i] = -c_[rank_ + i];
+    return Status::optimal;
+  }
+
+  void apply_qt(double* y) noexcept {
+    for (int k = 0; k < rank_; ++k) dense::apply_householder(bcol(k) + k + 1, tau_[k], n_ - k, y + k);
+  }
+  void apply_q(double* y) noexcept {
+    for (int k = rank_ - 1; k >= 0; --k) dense::apply_householder(bcol(k) + k + 1, tau_[k], n_ - k, y + k);
+  }
+
+  Status prepare(const Hint& hint) noexcept {
+    Status s = classify();
+    if (s != Status::optimal) return s;
+    s = factor(hint.cholesky_lower);
+    if (s != Status::optimal) return s;
+    return eliminate_equalities();
+  }
+
+  // t_i = Q' L^-1 a_i, cached per solve.
+  const double* t_of(int row) noexcept {
+    double* t = tvec(row);
+    if (!have_t_[row]) {
+      const double* a = p_->ain.data() + idx(row, 0, MI);
+      for (int j = 0; j < n_; ++j) t[j] = a[idx(0, j, MI)];
+      dense::forward_solve(l_.data(), kLd, inv_diag_.data(), n_, t);
+      apply_qt(t);
+      have_t_[row] = true;
+    }
+    return t;
+  }
+
+  // Reduced constraint of row `row` on side sigma (+1 lower, -1 upper): np'w >= rhs.
+  // Writes np into np_ and |L^-1 a| (the scale for dependence tests: np itself is
+  // only rounding noise when the row lies in the span of the equalities) into
+  // full_norm_; returns rhs.
+  double reduced_row(int row, int sigma) noexcept {
+    const double* t = t_of(row);
+    full_norm_ = std::sqrt(dense::squared_norm(t, n_));
+    const double h = dense::dot(t, v1_.data(), rank_);
+    const double* at = t + rank_;
+    const double s = static_cast<double>(sigma);
+    for (int i = 0; i < m_; ++i) np_[i] = s * at[i];
+    return sigma > 0 ? p_->lower[row] - h : h - p_->upper[row];
+  }
+
+  // z = np - Q1 Q1'np (twice), d = Q1'np.
+  void project() noexcept {
+    std::copy_n(np_.data(), m_, z_.data());
+    for (int pass = 0; pass < 2; ++pass) {
+      for (int j = 0; j < q_; ++j) {
+        const double coef = dense::dot(q1col(j), z_.data(), m_);
+        e_[j] = coef;
+        d_[j] = pass == 0 ? coef : d_[j] + coef;
+      }
+      for (int j = 0; j < q_; ++j) dense::axpy(-e_[j], q1col(j), z_.data(), m_);
+    }
+  }
+
+  void append(int row, int sigma, double rhs, double np_norm, double z_norm, double multiplier) noexcept {
+    double* qc = q1col(q_);
+    const double inv = 1.0 / z_norm;
+    for (int i = 0; i < m_; ++i) qc[i] = z_[i] * inv;
+    double* rc = rcol(q_);
+    std::copy_n(d_.data(), q_, rc);
+    rc[q_] = z_norm;
+    u_[q_] = multiplier;
+    act_row_[q_] = row;
+    act_sigma_[q_] = static_cast<std::int8_t>(sigma);
+    act_rhs_[q_] = rhs;
+    act_norm_[q_] = np_norm;
+    active_side_[row] = static_cast<std::int8_t>(sigma);
+    ++q_;
+    ++epoch_;
+  }
+
+  // Remove active constraint k; restore R upper triangular by Givens rotations,
+  // applied to the columns of Q1 as well (N = Q1 R stays true).
+  void drop(int k) noexcept {
+    ++epoch_;
+    active_side_[act_row_[k]] = 0;
+    for (int j = k; j + 1 < q_; ++j) {
+      std::copy_n(rcol(j + 1), j + 2, rcol(j));
+      u_[j] = u_[j + 1];
+      act_row_[j] = act_row_[j + 1];
+      act_sigma_[j] = act_sigma_[j + 1];
+      act_rhs_[j] = act_rhs_[j + 1];
+      act_norm_[j] = act_norm_[j + 1];
+    }
+    for (int j = k; j + 1 < q_; ++j) {
+      double c = 1.0, s = 0.0;
+      double* rj = rcol(j);
+      rj[j] = dense::givens(rj[j], rj[j + 1], c, s);
+      rj[j + 1] = 0.0;
+      for (int col = j + 1; col + 1 < q_; ++col) {
+        double* rc = rcol(col);
+        const double a = rc[j], b = rc[j + 1];
+        rc[j] = c * a + s * b;
+        rc[j + 1] = c * b - s * a;
+      }
+      double* qa = q1col(j);
+      double* qb = q1col(j + 1);
+      for (int i = 0; i < m_; ++i) {
+        const double a = qa[i], b = qb[i];
+        qa[i] = c * a + s * b;
+        qb[i] = c * b - s * a;
+      }
+    }
+    --q_;
+  }
+
+  // r = R^-1 d (back substitution).
+  void solve_r(const double* d, double* out) noexcept {
+    for (int j = q_ - 1; j >= 0; --j) {
+      double v = d[j];
+      for (int l = j + 1; l < q_; ++l) v -= rcol(l)[j] * out[l];
+      out[j] = v / rcol(j)[j];
+    }
+  }
+
+  // x = L^-T Q [v1; w]; also |x|_2.
+  void compute_x() noexcept {
+    std::copy_n(v1_.data(), rank_, x_.data());
+    std::copy_n(w_.data(), m_, x_.data() + rank_);
+    apply_q(x_.data());
+    dense::backward_solve_transposed(l_.data(), kLd, inv_diag_.data(), n_, x_.data());
+    x_norm_ = std::sqrt(dense::squared_norm(x_.data(), n_));
+  }
+
+  // The most violated inactive row (violation / |a_i|), or -1.
+  int most_violated(int& sigma) noexcept {
+    const ProblemType& p = *p_;
+    std::fill_n(slack_.begin(), mi_, 0.0);
+    for (int j = 0; j < n_; ++j) dense::axpy(x_[j], p.ain.data() + idx(0, j, MI), slack_.data(), mi_);
+    const double tol = options_.feasibility_tol;
+    int best = -1;
+    double best_score = 0.0;
+    for (int i = 0; i < mi_; ++i) {
+      const RowKind kind = kind_[i];
+      if (kind == RowKind::dead || kind == RowKind::equal || active_side_[i] != 0 || skipped_epoch_[i] == epoch_)
+        continue;
+      const double s = slack_[i], ax_scale = row_norm_[i] * x_norm_;
+      if (kind != RowKind::upper) {
+        const double viol = p.lower[i] - s;
+        if (viol > tol * std::max(ax_scale, std::abs(p.lower[i])) && viol > best_score * row_norm_[i]) {
+          best_score = viol / row_norm_[i];
+          best = i;
+          sigma = 1;
+        }
+      }
+      if (kind != RowKind::lower) {
+        const double viol = s - p.upper[i];
+        if (viol > tol * std::max(ax_scale, std::abs(p.upper[i])) && viol > best_score * row_norm_[i]) {
+          best_score = viol / row_norm_[i];
+          best = i;
+          sigma = -1;
+        }
+      }
+    }
+    return best;
+  }
+
+  // |[v1; w]| = |L' x|.
+  double v_norm() const noexcept {
+    return std::sqrt(dense::squared_norm(v1_.data(), rank_) + dense::squared_norm(w_.data(), m_));
+  }
+
+  bool count_iteration() noexcept { return ++iterations_ <= max_iterations_; }
+
+  // Warm start: add the hinted rows (skipping invalid or dependent ones), take the
+  // minimiser on that set, drop rows with a wrong-sign multiplier one at a time.
+  void warm_start(const ActiveSet<MI>& hint) noexcept {
+    const int count = std::min(hint.size, MI);
+    for (int e = 0; e < count && q_ < m_; ++e) {
+      const int row = hint.row[static_cast<std::size_t>(e)];
+      const Side side = hint.side[static_cast<std::size_t>(e)];
+      if (row < 0 || row >= mi_ || active_side_[row] != 0 || side == Side::equal) continue;
+      const RowKind kind = kind_[row];
+      const int sigma = side == Side::lower ? 1 : -1;
+      if (kind == RowKind::dead || kind == RowKind::equal) continue;
+      if ((sigma > 0 && kind == RowKind::upper) || (sigma < 0 && kind == RowKind::lower)) continue;
+      const double rhs = reduced_row(row, sigma);
+      const double np_norm = full_norm_;
+      project();
+      const double z_norm = std::sqrt(dense::squared_norm(z_.data(), m_));
+      if (q_ >= m_ || !(z_norm > dependence_tol() * np_norm)) continue;
+      append(row, sigma, rhs, np_norm, z_norm, 0.0);
+    }
+    for (;;) {
+      // beta = R^-T rhs - Q1'w0, u = R^-1 beta.
+      for (int j = 0; j < q_; ++j) {
+        const double* rj = rcol(j);
+        double v = act_rhs_[j];
+        for (int l = 0; l < j; ++l) v -= rj[l] * beta_[l];
+        beta_[j] = v / rj[j];
+      }
+      for (int j = 0; j < q_; ++j) beta_[j] -= dense::dot(q1col(j), w_.data(), m_);
+      solve_r(beta_.data(), u_.data());
+      int worst = -1;
+      double worst_u = 0.0;
+      for (int j = 0; j < q_; ++j) {
+        if (u_[j] < worst_u) {
+          worst_u = u_[j];
+          worst = j;
+        }
+      }
+      if (worst < 0) break;
+      drop(worst);
+      ++iterations_;
+    }
+    for (int j = 0; j < q_; ++j) dense::axpy(beta_[j], q1col(j), w_.data(), m_);
+  }
+
+  double dependence_tol() const noexcept { return 1e-11; }
+
+  // ---- step 3: Goldfarb-Idnani on the reduced problem -------------------------
+  Status run(const ActiveSet<MI>* warm) noexcept {
+    q_ = 0;
+    epoch_ = 0;
+    max_iterations_ = options_.max_iterations > 0 ? options_.max_iterations : 10 * (n_ + mi_) + 50;
+    if (warm != nullptr && warm->size > 0) warm_start(*warm);
+    for (;;) {
+      compute_x();
+      int sigma = 0;
+      const int p = most_violated(sigma);
+      if (p < 0) return Status::optimal;
+      const double rhs = reduced_row(p, sigma);
+      const double np_norm = full_norm_;
+      double slack = dense::dot(np_.data(), w_.data(), m_) - rhs;  // < 0 when violated
+      double u_plus = 0.0;
+      for (;;) {
+        if (!count_iteration()) return Status::maxiter;
+        project();
+        const double zz = dense::squared_norm(z_.data(), m_);
+        const double z_norm = std::sqrt(zz);
+        solve_r(d_.data(), rdir_.data());
+        // Partial (dual) step: the first active multiplier to reach zero.
+        double t1 = kInf;
+        int k = -1;
+        for (int j = 0; j < q_; ++j) {
+          if (rdir_[j] * act_norm_[j] > 1e-12 * np_norm) {
+            const double ratio = u_[j] / rdir_[j];
+            if (ratio < t1) {
+              t1 = ratio;
+              k = j;
+            }
+          }
+        }
+        const bool dependent = q_ >= m_ || !(z_norm > dependence_tol() * np_norm);
+        const double t2 = dependent ? kInf : std::max(0.0, -slack / zz);
+        const double t = std::min(t1, t2);
+        if (!(t < kInf)) {
+          // Dependent on the active rows with no multiplier to trade: infeasible, unless
+          // the violation is at the rounding level of the reduced coordinates (a
+          // degenerate vertex); then skip the row until the active set changes.
+          if (u_plus == 0.0 && -slack <= 1e-9 * (full_norm_ * v_norm() + std::abs(rhs))) {
+            skipped_epoch_[p] = epoch_;
+            --iterations_;  // no step taken
+            break;
+          }
+          return Status::infeasible;
+        }
+        for (int j = 0; j < q_; ++j) u_[j] = std::max(0.0, u_[j] - t * rdir_[j]);
+        u_plus += t;
+        if (!dependent) {
+          dense::axpy(t, z_.data(), w_.data(), m_);
+          slack += t * zz;
+        }
+        if (!dependent && t2 <= t1) {
+          append(p, sigma, rhs, np_norm, z_norm, u_plus);
+          break;
+        }
+        drop(k);
+      }
+    }
+  }
+
+  // ---- step 4: x, objective, multipliers, active set --------------------------
+  // Residual of the final active rows, measured in the original space, relative to
+  // max(|a_i| |x|, |bound|). Ill-conditioned H (cond 1e10) leaves ~1e-8 here.
+  double active_residuals() noexcept {
+    const ProblemType& p = *p_;
+    double worst = 0.0;
+    for (int k = 0; k < rank_; ++k) {
+      const int src = eq_src_[k];
+      double ax = 0.0, norm2 = 0.0;
+      for (int j = 0; j < n_; ++j) {
+        const double a = src >= 0 ? p.aeq[idx(src, j, ME)] : p.ain[idx(-1 - src, j, MI)];
+        ax += a * x_[j];
+        norm2 += a * a;
+      }
+      eq_res_[k] = eq_rhs_[k] - ax;
+      worst = std::max(worst, std::abs(eq_res_[k]) / std::max(std::sqrt(norm2) * x_norm_, std::abs(eq_rhs_[k])));
+    }
+    for (int j = 0; j < q_; ++j) {
+      const int row = act_row_[j];
+      double ax = 0.0;
+      for (int l = 0; l < n_; ++l) ax += p.ain[idx(row, l, MI)] * x_[l];
+      const double bound = act_sigma_[j] > 0 ? p.lower[row] : p.upper[row];
+      act_res_[j] = bound - ax;
+      worst = std::max(worst, std::abs(act_res_[j]) / std::max(row_norm_[row] * x_norm_, std::abs(bound)));
+    }
+    return worst;
+  }
+
+  // One step of iterative refinement on the final active set: the minimum-norm
+  // (in the H metric) correction that zeroes the active residuals. Moves w only
+  // along the active normals, so the reduced stationarity holds with u += R^-1 R^-T rho.
+  void refine() noexcept {
+    for (int k = 0; k < rank_; ++k) {
+      const double* ck = bcol(k);
+      e_[k] = (eq_res_[k] - dense::dot(ck, e_.data(), k)) / ck[k];  // dv1 = Re^-T res
+    }
+    for (int j = 0; j < q_; ++j) {
+      const double* t = tvec(act_row_[j]);
+      const double res = act_res_[j] - dense::dot(t, e_.data(), rank_);
+      const double* rj = rcol(j);
+      double v = static_cast<double>(act_sigma_[j]) * res;
+      for (int l = 0; l < j; ++l) v -= rj[l] * beta_[l];
+      beta_[j] = v / rj[j];  // R^-T rho
+    }
+    for (int k = 0; k < rank_; ++k) v1_[k] += e_[k];
+    for (int j = 0; j < q_; ++j) dense::axpy(beta_[j], q1col(j), w_.data(), m_);
+    solve_r(beta_.data(), rdir_.data());
+    for (int j = 0; j < q_; ++j) u_[j] = std::max(0.0, u_[j] + rdir_[j]);
+    compute_x();
+  }
+
+  bool finish(ResultType& result) noexcept {
+    const ProblemType& p = *p_;
+    compute_x();
+    if (active_residuals() > 1e-13) refine();
+    std::copy_n(x_.data(), n_, result.x.begin());
+    // v = [v1; w] = Q' L' x, f = 1/2 |v|^2 + c'v.
+    double objective = 0.0;
+    for (int i = 0; i < rank_; ++i) objective += v1_[i] * (0.5 * v1_[i] + c_[i]);
+    for (int i = 0; i < m_; ++i) objective += w_[i] * (0.5 * w_[i] + c_[rank_ + i]);
+    result.objective = objective;
+    std::fill_n(result.lambda_eq.begin(), meq_, 0.0);
+    std::fill_n(result.lambda_in.begin(), mi_, 0.0);
+    // Equality multipliers: Re lambda_E = -(v1 + c1 + sum_j lambda_j t_j[:r]).
+    for (int k = 0; k < rank_; ++k) y_[k] = -(v1_[k] + c_[k]);
+    for (int j = 0; j < q_; ++j) {
+      const double lambda = -static_cast<double>(act_sigma_[j]) * u_[j];
+      result.lambda_in[static_cast<std::size_t>(act_row_[j])] = lambda;
+      dense::axpy(-lambda, tvec(act_row_[j]), y_.data(), rank_);
+    }
+    for (int k = rank_ - 1; k >= 0; --k) {
+      double v = y_[k];
+      for (int l = k + 1; l < rank_; ++l) v -= bcol(l)[k] * y_[l];
+      y_[k] = v / bcol(k)[k];
+    }
+    for (int k = 0; k < rank_; ++k) {
+      const int src = eq_src_[k];
+      if (src >= 0)
+        result.lambda_eq[static_cast<std::size_t>(src)] = y_[k];
+      else
+        result.lambda_in[static_cast<std::size_t>(-1 - src)] = y_[k];
+    }
+    for (int j = 0; j < q_; ++j) result.active.push(act_row_[j], act_sigma_[j] > 0 ? Side::lower : Side::upper);
+    for (int i = 0; i < mi_; ++i)
+      if (kind_[i] == RowKind::equal) result.active.push(i, Side::equal);
+    bool ok = finite(objective);
+    for (int i = 0; i < n_; ++i) ok = ok && finite(result.x[i]);
+    for (int i = 0; i < meq_; ++i) ok = ok && finite(result.lambda_eq[i]);
+    for (int i = 0; i < mi_; ++i) ok = ok && finite(result.lambda_in[i]);
+    (void)p;
+    return ok;
+  }
+
+  Options options_;
+  const ProblemType* p_ = nullptr;
+  int n_ = 0, meq_ = 0, mi_ = 0;
+  int me_ = 0, rank_ = 0, m_ = 0, q_ = 0;
+  int iterations_ = 0, max_iterations_ = 0, epoch_ = 0;
+  double x_norm_ = 0.0, full_norm_ = 0.0;
+
+  // factor of H
+  alignas(64) Buf<double, kLd * N> l_{};
+  Buf<double, N> inv_diag_{};
+  // equality block: Householder QR of L^-1 E' (column-major, leading dim kLd)
+  alignas(64) Buf<double, kLd * kMaxEqRows> b_{};
+  Buf<double, kMaxEqRows> tau_{}, eq_rhs_{}, eq_norm2_{}, eq_left2_{}, eq_res_{};
+  Buf<int, kMaxEqRows> eq_src_{};
+  // reduced problem
+  alignas(64) Buf<double, N> v1_{}, c_{}, w_{}, x_{}, y_{}, np_{}, z_{}, d_{}, e_{}, rdir_{}, beta_{};
+  alignas(64) Buf<double, kLd * N> q1_{};
+  alignas(64) Buf<double, kLd * N> r_{};
+  Buf<double, N> u_{}, act_rhs_{}, act_norm_{}, act_res_{};
+  Buf<int, N> act_row_{};
+  Buf<std::int8_t, N> act_sigma_{};
+  // per inequality row
+  alignas(64) Buf<double, kLd * MI> t_{};
+  alignas(64) Buf<double, MI> slack_{};
+  Buf<double, MI> row_norm_{};
+  Buf<RowKind, MI> kind_{};
+  Buf<std::int8_t, MI> active_side_{};
+  Buf<bool, MI> have_t_{};
+  Buf<int, MI> skipped_epoch_{};  // row skipped as a rounding-level violation while epoch_ holds
+};
+
+}  // namespace springbok::qp

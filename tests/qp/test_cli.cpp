@@ -1,0 +1,145 @@
+// Runs the springbok-qp command line: good files give one line each in the
+// documented format; a malformed file gets an error naming line and token and a
+// non-zero exit status while the other files are still solved; --solution files
+// parse back and hold the right x; --bench adds two timing fields.
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "qp_file.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+  int exit_code;
+  std::vector<std::vector<std::string>> lines;  // stdout, split in fields
+  std::string err;
+};
+
+std::string read_all(const fs::path& p) {
+  std::ifstream f(p);
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+
+CliRun run_cli(const std::string& args, const fs::path& work) {
+  const fs::path out = work / "stdout.txt", err = work / "stderr.txt";
+  const std::string cmd = std::string(SPRINGBOK_BIN_DIR) + "/springbok-qp " + args + " >" + out.string() + " 2>" + err.string();
+  const int status = std::system(cmd.c_str());
+  CliRun r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, {}, read_all(err)};
+  std::istringstream lines(read_all(out));
+  std::string line;
+  while (std::getline(lines, line)) {
+    std::istringstream words(line);
+    std::vector<std::string> fields;
+    std::string w;
+    while (words >> w) fields.push_back(w);
+    r.lines.push_back(fields);
+  }
+  return r;
+}
+
+class QpCli : public ::testing::Test {
+ protected:
+  fs::path work = fs::temp_directory_path() / ("springbok_qp_cli_" + std::to_string(::getpid()));
+  std::string inst(const std::string& name) { return std::string(SPRINGBOK_SHARED_DIR) + "/qp/instances/" + name; }
+  void SetUp() override {
+    fs::remove_all(work);
+    fs::create_directories(work / "sol");
+  }
+  void TearDown() override { fs::remove_all(work); }
+};
+
+TEST_F(QpCli, SolvesWritesSolutionsAndReportsMalformedFiles) {
+  // A malformed copy of a good file: one H entry replaced by a word.
+  std::string text = read_all(inst("HS21.qp"));
+  std::istringstream in(text);
+  std::string line, broken;
+  int line_no = 0, bad_line = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (bad_line == 0 && line.rfind("H", 0) == 0 && line.size() == 1) {  // the "H" keyword line; next line holds numbers
+      broken += line + "\n";
+      std::getline(in, line);
+      ++line_no;
+      bad_line = line_no;
+      line = "1.0 bogus\n";
+      broken += line;
+      continue;
+    }
+    broken += line + "\n";
+  }
+  ASSERT_GT(bad_line, 0);
+  std::ofstream(work / "broken.qp") << broken;
+
+  const std::vector<std::string> good = {"HS21.qp", "wbc_trot_02.qp", "wbc_infeas_lb_gt_ub_0.qp", "patho_nan_H.qp",
+                                         "CVXQP3_S_reg.qp"};
+  const CliRun r = run_cli("--solution " + (work / "sol").string() + " " + inst(good[0]) + " " + inst(good[1]) + " " +
+                            (work / "broken.qp").string() + " " + inst(good[2]) + " " + inst(good[3]) + " " +
+                            inst(good[4]),
+                        work);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("broken.qp:" + std::to_string(bad_line) + ":"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("'bogus'"), std::string::npos) << r.err;
+  ASSERT_EQ(r.lines.size(), 6u);
+  const std::vector<std::string> names = {"HS21", "wbc_trot_02", "broken", "wbc_infeas_lb_gt_ub_0", "patho_nan_H",
+                                          "CVXQP3_S_reg"};
+  const std::vector<std::string> status = {"optimal", "optimal", "error", "infeasible", "error", "optimal"};
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    ASSERT_EQ(r.lines[i].size(), 4u);
+    EXPECT_EQ(r.lines[i][0], names[i]);
+    EXPECT_EQ(r.lines[i][1], status[i]);
+  }
+  // Solution files parse back; x matches x*, objective on the line matches obj.
+  for (const std::size_t i : {0u, 1u, 5u}) {
+    std::string error;
+    const auto q = springbok::qpfile::read_instance(inst(good[i < 2 ? i : 4]), error);
+    ASSERT_TRUE(q.has_value()) << error;
+    const auto sol = springbok::qpfile::read_solution((work / "sol" / (q->name + ".sol")).string(), q->n, q->meq, q->mi, error);
+    ASSERT_TRUE(sol.has_value()) << error;
+    EXPECT_EQ(sol->status, "optimal");
+    double xs = 0.0;
+    for (double v : q->xstar) xs = std::max(xs, std::abs(v));
+    for (int k = 0; k < q->n; ++k)
+      EXPECT_NEAR(sol->x[static_cast<std::size_t>(k)], q->xstar[static_cast<std::size_t>(k)], 1e-6 * std::max(1.0, xs));
+    EXPECT_NEAR(std::stod(r.lines[i][2]), q->obj, 1e-6 * std::max(1.0, std::abs(q->obj)));
+  }
+  std::string error;
+  const auto infeasible = springbok::qpfile::read_solution((work / "sol" / "wbc_infeas_lb_gt_ub_0.sol").string(), 0, 0, 0, error);
+  ASSERT_TRUE(infeasible.has_value()) << error;
+  EXPECT_EQ(infeasible->status, "infeasible");
+  EXPECT_TRUE(infeasible->x.empty());
+}
+
+TEST_F(QpCli, BenchAddsMedianAndP99) {
+  for (const std::string flags : {"--bench 5", "--bench 5 --warm"}) {
+    const CliRun r = run_cli(flags + " " + inst("wbc_stance4_19.qp"), work);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    ASSERT_EQ(r.lines.size(), 1u);
+    ASSERT_EQ(r.lines[0].size(), 6u);
+    EXPECT_EQ(r.lines[0][1], "optimal");
+    const double median = std::stod(r.lines[0][4]), p99 = std::stod(r.lines[0][5]);
+    EXPECT_GT(median, 0.0);
+    EXPECT_GE(p99, median);
+  }
+}
+
+TEST_F(QpCli, BadArgumentsAreRejected) {
+  EXPECT_EQ(run_cli("", work).exit_code, 2);
+  EXPECT_EQ(run_cli("--bench zero " + inst("HS21.qp"), work).exit_code, 2);
+  EXPECT_EQ(run_cli("--frobnicate " + inst("HS21.qp"), work).exit_code, 2);
+  const CliRun missing = run_cli((work / "does_not_exist.qp").string(), work);
+  EXPECT_NE(missing.exit_code, 0);
+  EXPECT_NE(missing.err.find("cannot open"), std::string::npos);
+}
+
+}  // namespace

@@ -1,0 +1,397 @@
+// Property tests on thousands of random QPs:
+//  - optimal ones built from chosen KKT conditions (x*, multipliers with the right
+//    signs, active / inactive / degenerate / dependent / duplicated rows, lb == ub
+//    rows, redundant equalities), so x* is known exactly: g = -(H x* + Aeq'le + Ain'li);
+//  - infeasible ones with a Farkas certificate built in (contradictory combinations,
+//    conflicting equalities, lb > ub);
+//  - bad inputs (NaN, inf, indefinite H, sizes out of range, garbage warm starts)
+//    that must be reported, never crash, never return a non-finite "solution".
+#include <cmath>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "kkt_check.hpp"
+#include "springbok/qp/solver.hpp"
+
+namespace {
+
+using springbok::qp::Side;
+using springbok::qp::Status;
+using springbok::qp::test::DenseQp;
+using springbok::qp::test::kkt_check;
+
+constexpr int kN = 24, kME = 12, kMI = 48;
+using Solver = springbok::qp::Solver<kN, kME, kMI>;
+using Problem = Solver::ProblemType;
+using Result = Solver::ResultType;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+struct Rng {
+  std::mt19937_64 engine;
+  explicit Rng(std::uint64_t seed) : engine(seed) {}
+  double normal() { return std::normal_distribution<double>(0.0, 1.0)(engine); }
+  double uniform(double a, double b) { return std::uniform_real_distribution<double>(a, b)(engine); }
+  int integer(int a, int b) { return std::uniform_int_distribution<int>(a, b)(engine); }
+  bool chance(double p) { return uniform(0.0, 1.0) < p; }
+};
+
+double row_dot(const std::vector<double>& a, int row, int n, const std::vector<double>& x) {
+  double s = 0.0;
+  for (int j = 0; j < n; ++j) s += a[static_cast<std::size_t>(row * n + j)] * x[static_cast<std::size_t>(j)];
+  return s;
+}
+
+// Random SPD H = M M' + delta I, sometimes badly scaled (D H D).
+std::vector<double> random_spd(Rng& rng, int n) {
+  std::vector<double> m(static_cast<std::size_t>(n * n)), h(static_cast<std::size_t>(n * n), 0.0), d(static_cast<std::size_t>(n), 1.0);
+  for (double& v : m) v = rng.normal();
+  const double delta = std::pow(10.0, rng.uniform(-2.0, 1.0));
+  if (rng.chance(0.3))
+    for (double& v : d) v = std::pow(10.0, rng.uniform(-1.5, 1.5));
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      double s = i == j ? delta : 0.0;
+      for (int k = 0; k < n; ++k) s += m[static_cast<std::size_t>(i * n + k)] * m[static_cast<std::size_t>(j * n + k)];
+      h[static_cast<std::size_t>(i * n + j)] = s * d[static_cast<std::size_t>(i)] * d[static_cast<std::size_t>(j)];
+    }
+  return h;
+}
+
+struct Generated {
+  DenseQp qp;
+  std::vector<double> xstar;
+};
+
+// An optimal QP with known solution, from chosen KKT conditions.
+Generated make_optimal(Rng& rng) {
+  Generated out;
+  DenseQp& q = out.qp;
+  q.n = rng.integer(1, kN);
+  const int n = q.n;
+  q.meq = rng.integer(0, std::min(kME, n));
+  q.mi = rng.integer(0, kMI);
+  q.H = random_spd(rng, n);
+  const double x_scale = std::pow(10.0, rng.uniform(-1.0, 1.0));
+  std::vector<double>& x = out.xstar;
+  x.resize(static_cast<std::size_t>(n));
+  for (double& v : x) v = x_scale * rng.normal();
+  std::vector<double> le(static_cast<std::size_t>(q.meq)), li(static_cast<std::size_t>(q.mi), 0.0);
+  q.Aeq.assign(static_cast<std::size_t>(q.meq * n), 0.0);
+  q.beq.resize(static_cast<std::size_t>(q.meq));
+  const int independent = rng.integer(0, std::min(q.meq, n - 1));
+  for (int k = 0; k < q.meq; ++k) {
+    if (k < independent || k == 0) {
+      for (int j = 0; j < n; ++j) q.Aeq[static_cast<std::size_t>(k * n + j)] = rng.normal();
+    } else {  // redundant: a scaled duplicate or a combination of earlier rows
+      const int a = rng.integer(0, k - 1), b = rng.integer(0, k - 1);
+      const double ca = rng.uniform(-3.0, 3.0), cb = rng.chance(0.5) ? 0.0 : rng.uniform(-3.0, 3.0);
+      for (int j = 0; j < n; ++j)
+        q.Aeq[static_cast<std::size_t>(k * n + j)] =
+            ca * q.Aeq[static_cast<std::size_t>(a * n + j)] + cb * q.Aeq[static_cast<std::size_t>(b * n + j)];
+    }
+    q.beq[static_cast<std::size_t>(k)] = row_dot(q.Aeq, k, n, x);
+    le[static_cast<std::size_t>(k)] = rng.chance(0.2) ? 0.0 : rng.normal();
+  }
+  q.Ain.assign(static_cast<std::size_t>(q.mi * n), 0.0);
+  q.lb.resize(static_cast<std::size_t>(q.mi));
+  q.ub.resize(static_cast<std::size_t>(q.mi));
+  std::vector<int> active_rows;
+  for (int i = 0; i < q.mi; ++i) {
+    const int kind = rng.integer(0, 9);
+    auto row = [&](int j) -> double& { return q.Ain[static_cast<std::size_t>(i * n + j)]; };
+    if (kind == 7 && !active_rows.empty()) {  // dependent on (a copy or combination of) active rows
+      const int a = active_rows[static_cast<std::size_t>(rng.integer(0, static_cast<int>(active_rows.size()) - 1))];
+      const int b = active_rows[static_cast<std::size_t>(rng.integer(0, static_cast<int>(active_rows.size()) - 1))];
+      const double ca = rng.chance(0.5) ? 1.0 : rng.uniform(0.1, 3.0), cb = rng.chance(0.5) ? 0.0 : rng.uniform(-2.0, 2.0);
+      for (int j = 0; j < n; ++j)
+        row(j) = ca * q.Ain[static_cast<std::size_t>(a * n + j)] + cb * q.Ain[static_cast<std::size_t>(b * n + j)];
+    } else if (kind == 8) {  // zero row, 0 inside the bounds
+      for (int j = 0; j < n; ++j) row(j) = 0.0;
+    } else {
+      const double row_scale = rng.chance(0.2) ? std::pow(10.0, rng.uniform(-3.0, 3.0)) : 1.0;
+      for (int j = 0; j < n; ++j) row(j) = row_scale * rng.normal();
+    }
+    const double ax = row_dot(q.Ain, i, n, x);
+    const double gap1 = rng.uniform(0.01, 2.0) * (1.0 + std::abs(ax)), gap2 = rng.uniform(0.01, 2.0) * (1.0 + std::abs(ax));
+    double& lo = q.lb[static_cast<std::size_t>(i)];
+    double& hi = q.ub[static_cast<std::size_t>(i)];
+    double& lam = li[static_cast<std::size_t>(i)];
+    const bool degenerate = rng.chance(0.15);
+    if (kind == 8) {
+      lo = -gap1;
+      hi = rng.chance(0.5) ? gap2 : 0.0;
+    } else if (kind <= 2 || kind == 7) {  // active at the lower bound
+      lo = ax;
+      hi = rng.chance(0.3) ? (rng.chance(0.5) ? kInf : 1e20) : ax + gap2;
+      lam = degenerate ? 0.0 : -rng.uniform(0.01, 3.0);
+      active_rows.push_back(i);
+    } else if (kind <= 4) {  // active at the upper bound
+      hi = ax;
+      lo = rng.chance(0.3) ? (rng.chance(0.5) ? -kInf : -1e20) : ax - gap1;
+      lam = degenerate ? 0.0 : rng.uniform(0.01, 3.0);
+      active_rows.push_back(i);
+    } else if (kind == 5) {  // lb == ub row
+      lo = hi = ax;
+      lam = rng.normal();
+    } else if (kind == 6 && rng.chance(0.3)) {  // free row
+      lo = -kInf;
+      hi = kInf;
+    } else {  // inactive
+      lo = rng.chance(0.2) ? -kInf : ax - gap1;
+      hi = rng.chance(0.2) ? kInf : ax + gap2;
+    }
+  }
+  q.g.resize(static_cast<std::size_t>(n));
+  for (int j = 0; j < n; ++j) {
+    double s = 0.0;
+    for (int k = 0; k < n; ++k) s += q.H[static_cast<std::size_t>(j * n + k)] * x[static_cast<std::size_t>(k)];
+    for (int k = 0; k < q.meq; ++k) s += q.Aeq[static_cast<std::size_t>(k * n + j)] * le[static_cast<std::size_t>(k)];
+    for (int k = 0; k < q.mi; ++k) s += q.Ain[static_cast<std::size_t>(k * n + j)] * li[static_cast<std::size_t>(k)];
+    q.g[static_cast<std::size_t>(j)] = -s;
+  }
+  return out;
+}
+
+void load(const DenseQp& q, Problem& p) {
+  p = Problem{};
+  p.resize(q.n, q.meq, q.mi);
+  for (int i = 0; i < q.n; ++i) {
+    for (int j = 0; j < q.n; ++j) p.H()(i, j) = q.H[static_cast<std::size_t>(i * q.n + j)];
+    p.g()(i) = q.g[static_cast<std::size_t>(i)];
+  }
+  for (int k = 0; k < q.meq; ++k) {
+    for (int j = 0; j < q.n; ++j) p.Aeq()(k, j) = q.Aeq[static_cast<std::size_t>(k * q.n + j)];
+    p.beq()(k) = q.beq[static_cast<std::size_t>(k)];
+  }
+  for (int k = 0; k < q.mi; ++k) {
+    for (int j = 0; j < q.n; ++j) p.Ain()(k, j) = q.Ain[static_cast<std::size_t>(k * q.n + j)];
+    p.lb()(k) = q.lb[static_cast<std::size_t>(k)];
+    p.ub()(k) = q.ub[static_cast<std::size_t>(k)];
+  }
+}
+
+struct QpProperties : ::testing::Test {
+  std::unique_ptr<Solver> solver = std::make_unique<Solver>();
+  std::unique_ptr<Problem> problem = std::make_unique<Problem>();
+  std::unique_ptr<Result> result = std::make_unique<Result>();
+};
+
+TEST_F(QpProperties, RandomKktConstructedQpsAreSolvedExactly) {
+  Rng rng(20240611);
+  int warm_checked = 0, warm_without_change = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    const Generated gen = make_optimal(rng);
+    const DenseQp& q = gen.qp;
+    load(q, *problem);
+    const Status status = solver->solve(*problem, *result);
+    ASSERT_EQ(status, Status::optimal) << "trial " << trial << " n " << q.n << " meq " << q.meq << " mi " << q.mi;
+    double xs = 0.0, err = 0.0;
+    for (int i = 0; i < q.n; ++i) {
+      xs = std::max(xs, std::abs(gen.xstar[static_cast<std::size_t>(i)]));
+      err = std::max(err, std::abs(result->x[static_cast<std::size_t>(i)] - gen.xstar[static_cast<std::size_t>(i)]));
+    }
+    ASSERT_LE(err, 1e-6 * std::max(1.0, xs)) << "trial " << trial;
+    const auto kkt = kkt_check(q, result->x.data(), result->lambda_eq.data(), result->lambda_in.data());
+    ASSERT_LE(kkt.primal, 1e-8) << "trial " << trial;
+    ASSERT_LE(kkt.stationarity, 1e-7) << "trial " << trial;
+    ASSERT_LE(kkt.wrong_sign, 1e-8) << "trial " << trial;
+    ASSERT_LE(kkt.complementarity, 1e-8) << "trial " << trial;
+    // Warm start from the found set: same x, (nearly always) no active-set change.
+    const auto warm = result->active;
+    Solver::Hint hint;
+    hint.active_set = &warm;
+    const std::array<double, kN> cold_x = result->x;
+    ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal) << "trial " << trial;
+    if (result->iterations == 0) ++warm_without_change;
+    for (int i = 0; i < q.n; ++i)
+      ASSERT_NEAR(result->x[static_cast<std::size_t>(i)], cold_x[static_cast<std::size_t>(i)], 1e-8 * std::max(1.0, xs));
+    ++warm_checked;
+  }
+  EXPECT_EQ(warm_checked, 3000);
+  // Degenerate vertices (zero multipliers, dependent rows) may cost a step or two;
+  // nearly always the found set is taken as is.
+  EXPECT_GE(warm_without_change, 2900);
+}
+
+// Appends a contradiction to an otherwise feasible random QP.
+DenseQp make_infeasible(Rng& rng, int trial) {
+  DenseQp q = make_optimal(rng).qp;
+  const int n = q.n;
+  std::vector<double> x0(static_cast<std::size_t>(n));
+  for (double& v : x0) v = rng.normal();
+  auto add_row = [&](const std::vector<double>& a, double lo, double hi) {
+    q.Ain.insert(q.Ain.end(), a.begin(), a.end());
+    q.lb.push_back(lo);
+    q.ub.push_back(hi);
+    ++q.mi;
+  };
+  if (q.mi > kMI - 4) {
+    q.mi = kMI - 4;
+    q.Ain.resize(static_cast<std::size_t>(q.mi * n));
+    q.lb.resize(static_cast<std::size_t>(q.mi));
+    q.ub.resize(static_cast<std::size_t>(q.mi));
+  }
+  const int kind = trial % 4;
+  if (kind == 0) {  // Farkas: a_1..a_k x >= a_i x0, -(sum c_i a_i) x >= -(sum c_i a_i x0) + eps
+    const int k = rng.integer(1, 3);
+    std::vector<double> combo(static_cast<std::size_t>(n), 0.0);
+    double rhs = 0.0;
+    for (int r = 0; r < k; ++r) {
+      std::vector<double> a(static_cast<std::size_t>(n));
+      for (double& v : a) v = rng.normal();
+      double ax0 = 0.0;
+      for (int j = 0; j < n; ++j) ax0 += a[static_cast<std::size_t>(j)] * x0[static_cast<std::size_t>(j)];
+      const double c = rng.uniform(0.2, 2.0);
+      for (int j = 0; j < n; ++j) combo[static_cast<std::size_t>(j)] -= c * a[static_cast<std::size_t>(j)];
+      rhs -= c * ax0;
+      add_row(a, ax0, rng.chance(0.5) ? kInf : ax0 + 1.0);
+    }
+    const double eps = 1e-3 * (1.0 + std::abs(rhs));
+    if (rng.chance(0.5)) {
+      add_row(combo, rhs + eps, kInf);
+    } else {  // the same constraint written as an upper bound
+      for (double& v : combo) v = -v;
+      add_row(combo, -kInf, -rhs - eps);
+    }
+  } else if (kind == 1) {  // lb > ub
+    std::vector<double> a(static_cast<std::size_t>(n));
+    for (double& v : a) v = rng.normal();
+    add_row(a, 1.0, 1.0 - 1e-3);
+  } else if (kind == 2 && q.meq > 0 && q.meq < kME) {  // conflicting scaled duplicate equality
+    const int src = rng.integer(0, q.meq - 1);
+    const double c = rng.uniform(0.5, 2.0);
+    for (int j = 0; j < n; ++j) q.Aeq.push_back(c * q.Aeq[static_cast<std::size_t>(src * n + j)]);
+    q.beq.push_back(c * q.beq[static_cast<std::size_t>(src)] + 1e-3 * (1.0 + std::abs(q.beq[static_cast<std::size_t>(src)])));
+    ++q.meq;
+  } else {  // a row pinned (lb == ub) away from an equal inequality's bounds: a x = b and a x <= b - eps
+    std::vector<double> a(static_cast<std::size_t>(n));
+    for (double& v : a) v = rng.normal();
+    add_row(a, 0.5, 0.5);
+    add_row(a, -kInf, 0.5 - 1e-3);
+  }
+  return q;
+}
+
+TEST_F(QpProperties, RandomInfeasibleQpsAreDetected) {
+  Rng rng(777);
+  for (int trial = 0; trial < 600; ++trial) {
+    const DenseQp q = make_infeasible(rng, trial);
+    load(q, *problem);
+    EXPECT_EQ(solver->solve(*problem, *result), Status::infeasible) << "trial " << trial << " kind " << trial % 4;
+  }
+}
+
+TEST_F(QpProperties, RandomBadInputsNeverCrash) {
+  Rng rng(4242);
+  const double poison[] = {std::nan(""), kInf, -kInf};
+  for (int trial = 0; trial < 600; ++trial) {
+    DenseQp q = make_optimal(rng).qp;
+    const int what = trial % 6;
+    Status expected = Status::bad_input;
+    const double bad = poison[rng.integer(0, 2)];
+    auto pick = [&](std::vector<double>& v) -> double& { return v[static_cast<std::size_t>(rng.integer(0, static_cast<int>(v.size()) - 1))]; };
+    if (what == 0) {
+      pick(q.H) = bad;
+    } else if (what == 1) {
+      pick(q.g) = bad;
+    } else if (what == 2 && q.meq > 0) {
+      (rng.chance(0.5) ? pick(q.Aeq) : pick(q.beq)) = bad;
+    } else if (what == 3 && q.mi > 0) {
+      if (rng.chance(0.5)) pick(q.Ain) = bad;
+      else (rng.chance(0.5) ? pick(q.lb) : pick(q.ub)) = std::nan("");
+    } else if (what == 4) {  // indefinite H
+      for (int i = 0; i < q.n; ++i) q.H[static_cast<std::size_t>(i * q.n + i)] -= 1e3 * (1.0 + std::abs(q.H[static_cast<std::size_t>(i * q.n + i)]));
+      expected = Status::not_positive_definite;
+    } else {  // absurd magnitudes: anything but a crash or a non-finite "optimal"
+      pick(q.H) *= 1e300;
+      pick(q.g) = 1e300;
+      expected = Status::optimal;  // placeholder: checked below
+    }
+    load(q, *problem);
+    // Garbage warm start on every other trial.
+    springbok::qp::ActiveSet<kMI> junk;
+    for (int k = 0; k < 10; ++k) junk.push(rng.integer(-5, kMI + 5), static_cast<Side>(rng.integer(0, 2)));
+    Solver::Hint hint;
+    if (trial % 2 == 1) hint.active_set = &junk;
+    const Status s = solver->solve(*problem, *result, hint);
+    if (what == 5 || (what == 2 && q.meq == 0) || (what == 3 && q.mi == 0)) {
+      if (s == Status::optimal) {
+        for (int i = 0; i < q.n; ++i) ASSERT_TRUE(std::isfinite(result->x[static_cast<std::size_t>(i)])) << "trial " << trial;
+      }
+    } else {
+      EXPECT_EQ(s, expected) << "trial " << trial << " what " << what;
+    }
+  }
+}
+
+TEST_F(QpProperties, SizesOutOfRangeAreBadInput) {
+  problem->resize(kN + 1, 0, 0);
+  EXPECT_EQ(solver->solve(*problem, *result), Status::bad_input);
+  problem->resize(0, 0, 0);
+  EXPECT_EQ(solver->solve(*problem, *result), Status::bad_input);
+  problem->resize(3, kME + 1, 0);
+  EXPECT_EQ(solver->solve(*problem, *result), Status::bad_input);
+  problem->resize(3, 0, -1);
+  EXPECT_EQ(solver->solve(*problem, *result), Status::bad_input);
+}
+
+// Closed form: min 1/2|x|^2 - c'x with x_0 + x_1 = 1 and x_0 <= 0.2 (one-sided, huge lb).
+TEST_F(QpProperties, SmallClosedForm) {
+  *problem = Problem{};
+  problem->resize(2, 1, 1);
+  problem->H() << 1, 0, 0, 1;
+  problem->g() << -1, -2;
+  problem->Aeq() << 1, 1;
+  problem->beq() << 1;
+  problem->Ain() << 1, 0;
+  problem->lb() << -1e20;
+  problem->ub() << 0.2;
+  ASSERT_EQ(solver->solve(*problem, *result), Status::optimal);
+  // Without the bound: x = (0, 1). With x0 <= 0.2 inactive at x0 = 0: same.
+  EXPECT_NEAR(result->x[0], 0.0, 1e-14);
+  EXPECT_NEAR(result->x[1], 1.0, 1e-14);
+  problem->ub() << -0.5;  // now active: x = (-0.5, 1.5), lambda_in = -(x0 - 1) - lambda_eq ...
+  ASSERT_EQ(solver->solve(*problem, *result), Status::optimal);
+  EXPECT_NEAR(result->x[0], -0.5, 1e-14);
+  EXPECT_NEAR(result->x[1], 1.5, 1e-14);
+  // Stationarity: x1 - 2 + le = 0 -> le = 0.5; x0 - 1 + le + li = 0 -> li = 1.0 (>= 0 at the upper bound).
+  EXPECT_NEAR(result->lambda_eq[0], 0.5, 1e-14);
+  EXPECT_NEAR(result->lambda_in[0], 1.0, 1e-14);
+  ASSERT_EQ(result->active.size, 1);
+  EXPECT_EQ(result->active.side[0], Side::upper);
+}
+
+TEST_F(QpProperties, CallerFactorGivesTheSameAnswer) {
+  Rng rng(99);
+  for (int trial = 0; trial < 50; ++trial) {
+    const Generated gen = make_optimal(rng);
+    load(gen.qp, *problem);
+    ASSERT_EQ(solver->solve(*problem, *result), Status::optimal);
+    const std::array<double, kN> x_cold = result->x;
+    // Cholesky by hand, independent of the solver's kernel.
+    const int n = gen.qp.n;
+    std::array<double, kN * kN> l{};
+    for (int j = 0; j < n; ++j)
+      for (int i = j; i < n; ++i) {
+        double s = gen.qp.H[static_cast<std::size_t>(i * n + j)];
+        for (int k = 0; k < j; ++k) s -= l[static_cast<std::size_t>(k * kN + i)] * l[static_cast<std::size_t>(k * kN + j)];
+        l[static_cast<std::size_t>(j * kN + i)] = i == j ? std::sqrt(s) : s / l[static_cast<std::size_t>(j * kN + j)];
+      }
+    Solver::Hint hint;
+    hint.cholesky_lower = l.data();
+    ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal);
+    double xs = 0.0;
+    for (int i = 0; i < n; ++i) xs = std::max(xs, std::abs(x_cold[static_cast<std::size_t>(i)]));
+    for (int i = 0; i < n; ++i) EXPECT_NEAR(result->x[static_cast<std::size_t>(i)], x_cold[static_cast<std::size_t>(i)], 1e-8 * std::max(1.0, xs));
+  }
+  std::array<double, kN * kN> broken{};  // zero diagonal: rejected
+  Solver::Hint hint;
+  hint.cholesky_lower = broken.data();
+  EXPECT_EQ(solver->solve(*problem, *result, hint), Status::bad_input);
+}
+
+}  // namespace
