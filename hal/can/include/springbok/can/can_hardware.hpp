@@ -1,0 +1,169 @@
+// The SocketCAN joint-drive backend: one raw socket per bus, MIT-mode and
+// CiA 402 drives as configured, the fixed-phase tick of CAN.md section 3.3,
+// the error handling of section 4.
+//
+// Tick contract (called by the executive at 1 kHz):
+//   read(m)  at the start of tick k: (1) collects the replies to the frames sent
+//            at the start of tick k-1 (waiting at most until that send +
+//            rx_deadline_us for missing ones), counts missing/stale replies per
+//            joint, fills m; (2) sends the commands stored by the last write()
+//            (one frame per joint, then SYNC on CiA 402 buses). Sending right
+//            after draining, at the tick's start, keeps the phase fixed whatever
+//            the compute time.
+//   write(c) stores c, encoded, for the next read(). No I/O.
+// A drive whose reply is missing `missed_replies_lost` ticks in a row is
+// DriveState::lost; an EMCY, a fault bit or a vendor error code latches
+// DriveState::fault. Bus-off, ENETDOWN or ENOBUFS on tx_fault_ticks ticks in a
+// row fault the bus: its drives are lost, read() returns IoStatus::error, and
+// nothing resumes by itself: recovery is an operator action (restart the
+// controller, then recover_bus(), which re-runs that bus's start-up).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include "springbok/can/config.hpp"
+#include "springbok/can/socketcan.hpp"
+#include "springbok/hal/hardware.hpp"
+
+namespace springbok::can {
+
+enum class BusFault : std::uint8_t { none = 0, bus_off, restarted, net_down, tx_queue_full, socket_error, no_ack };
+const char* to_string(BusFault f) noexcept;
+
+struct BusDiagnostics {
+  std::uint64_t frames_sent = 0;
+  std::uint64_t frames_received = 0;
+  std::uint64_t tx_dropped = 0;          // frames not sent: ENOBUFS / EAGAIN (rest of the tick dropped)
+  std::uint64_t short_writes = 0;
+  std::uint64_t tx_errors = 0;           // other write errors
+  std::uint64_t error_frames = 0;
+  std::uint64_t warnings = 0;            // error warning level reached
+  std::uint64_t error_passive_events = 0;
+  std::uint64_t overflows = 0;           // controller RX/TX overflow: frames lost
+  std::uint64_t bad_frames = 0;          // wrong DLC, undecodable, implausible
+  std::uint64_t unexpected_frames = 0;   // an id / drive id that is no drive of this bus
+  std::uint64_t foreign_frames = 0;      // a valid frame of a drive on another bus: configuration fault
+  std::uint64_t duplicates = 0;          // more than one reply per command
+  bool error_passive = false;            // degraded (warning for safety)
+  BusFault fault = BusFault::none;       // latched until recover_bus()
+};
+
+// Per-joint runtime state of the backend (fixed size).
+struct JointRuntime {
+  DriveConfig cfg;
+  int bus = -1;
+  hal::DriveStatus status;
+  bool have_state = false;
+  double q_rad = 0.0, qd_rad_s = 0.0, tau_nm = 0.0;
+  std::uint64_t last_rx_tick = 0;
+  bool awaiting = false;          // a command / SYNC went out: a reply is due at the next read
+  int replies_this_tick = 0;      // MIT replies / CiA TPDO1 since the last read
+  bool tpdo2_this_tick = false;
+  int implausible_in_row = 0;
+  std::uint64_t last_heartbeat_tick = 0;
+  std::uint16_t statusword = 0;
+  std::uint16_t controlword = 0;
+  bool booted = false;            // CiA 402 start-up: boot-up seen
+  bool sdo_answered = false;
+  Frame sdo_answer;
+  Frame pending;                  // the command frame for the next send
+  bool has_pending = false;
+};
+
+class CanHardware final : public hal::Hardware {
+ public:
+  explicit CanHardware(CanConfig config);
+  ~CanHardware() override;
+  CanHardware(const CanHardware&) = delete;
+  CanHardware& operator=(const CanHardware&) = delete;
+
+  std::string_view name() const noexcept override { return "socketcan"; }
+  // Validates the layout (refusing a bus above the load limit), opens the sockets,
+  // finds every drive and configures it (CAN.md 4.2 steps 1-3, 4.3 steps 1-2).
+  hal::LifecycleResult configure() override;
+  // Enables every drive (MIT enter motor mode; CiA 402 NMT start and the state machine).
+  hal::LifecycleResult activate() override;
+  // rt: no alloc; bounded wait (rx deadline).
+  hal::IoStatus read(hal::Measurements& out) noexcept override;
+  // rt: no alloc, no I/O.
+  hal::IoStatus write(const hal::JointCommands& cmd) noexcept override;
+  // Damping (kp = 0, kd = D) for damping_time_ms or until every |qd| is below
+  // the stop speed, then disable (CAN.md 4.4). Safe to call more than once.
+  void deactivate() noexcept override;
+
+  // Operator recovery after a bus fault: reopen, re-run start-up and enable for that bus.
+  hal::LifecycleResult recover_bus(int bus);
+
+  const CanConfig& config() const noexcept { return config_; }
+  int bus_count() const noexcept { return bus_count_; }
+  const BusDiagnostics& diagnostics(int bus) const noexcept { return buses_[static_cast<std::size_t>(bus)].diag; }
+  const JointRuntime& joint(int j) const noexcept { return joints_[static_cast<std::size_t>(j)]; }
+  std::uint64_t tick() const noexcept { return tick_; }
+  // Commands that were not finite (replaced by zero torque).
+  std::uint64_t rejected_commands() const noexcept { return rejected_commands_; }
+
+ private:
+  struct Bus {
+    SocketCanBus socket;
+    std::array<int, kMaxDrivesPerBus> joints{};
+    int count = 0;
+    bool any_mit = false;
+    bool any_cia = false;
+    int enobufs_ticks_in_row = 0;
+    bool enobufs_this_tick = false;
+    BusDiagnostics diag;
+  };
+  struct SdoOutcome {
+    enum class Kind : std::uint8_t { ok, abort, timeout, bad_answer } kind = Kind::timeout;
+    std::uint32_t value = 0;
+    std::uint32_t abort_code = 0;
+  };
+
+  hal::LifecycleResult open_bus(int b);
+  hal::LifecycleResult start_bus(int b);
+  hal::LifecycleResult enable_bus(int b);
+  hal::LifecycleResult start_mit(int b);
+  hal::LifecycleResult enable_mit(int b);
+  hal::LifecycleResult start_cia402(int b);
+  hal::LifecycleResult enable_cia402(int b);
+  hal::LifecycleResult configure_node(int j);
+  SdoOutcome sdo(int j, bool write, std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size);
+  std::string drive_name(int j) const;
+  template <class Done>
+  bool pump_until(std::int64_t deadline_ns, Done&& done);
+
+  void process_frame(int b, const Frame& f) noexcept;
+  void process_mit_reply(int b, const Frame& f) noexcept;
+  void process_cia402_frame(int b, const Frame& f) noexcept;
+  void process_error_frame(int b, const Frame& f) noexcept;
+  bool accept_position(int j, double q_rad) noexcept;
+  int find_joint(int b, std::uint8_t drive_id, Protocol p) const noexcept;
+  void count_unknown(int b, std::uint8_t drive_id) noexcept;
+  void latch_fault(int j, std::uint16_t code) noexcept;
+  void fault_bus(int b, BusFault why) noexcept;
+  bool replies_complete() const noexcept;
+  void drain(int b) noexcept;
+  void evaluate_joints() noexcept;
+  void send_pending() noexcept;
+  void queue_command(int j, const hal::JointCommands& cmd) noexcept;
+  void queue_zero_command(int j) noexcept;
+  bool send_now(int b, const Frame& f) noexcept;
+  int handles(std::array<int, kMaxBuses>& out) const noexcept;
+
+  CanConfig config_;
+  int bus_count_ = 0;
+  std::uint64_t tick_ = 0;
+  std::uint64_t sequence_ = 0;
+  std::uint64_t rejected_commands_ = 0;
+  std::uint64_t heartbeat_lost_ticks_ = 0;
+  bool configured_ = false;
+  bool active_ = false;
+  std::int64_t last_send_ns_ = 0;
+  std::array<JointRuntime, kNj> joints_{};
+  std::array<Bus, kMaxBuses> buses_{};
+};
+
+}  // namespace springbok::can

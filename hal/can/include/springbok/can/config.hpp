@@ -1,0 +1,85 @@
+// The CAN bus layout and drive parameters the SocketCAN backend is built from.
+// Start-up data (may allocate); the backend copies it into fixed arrays.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "springbok/can/cia402.hpp"
+#include "springbok/can/mit.hpp"
+
+namespace springbok::can {
+
+enum class Protocol : std::uint8_t { mit, cia402 };
+const char* to_string(Protocol p) noexcept;
+
+inline constexpr int kMaxBuses = 10;
+inline constexpr int kMaxDrivesPerBus = 8;
+
+struct DriveConfig {
+  int joint = -1;                  // index into springbok::robot::kJoints (0..18)
+  std::uint8_t drive_id = 0;       // MIT drive id / CANopen node id, 1..127, unique on the robot
+  Protocol protocol = Protocol::mit;
+  // MIT mode
+  std::uint16_t mit_reply_id = 0;  // the drive's CAN master id: CAN id of its replies
+  bool mit_vendor_reply = false;   // CubeMars: 8-byte reply, byte 7 = error code (non-zero = fault)
+  mit::Ranges mit_ranges;
+  // CiA 402
+  cia402::Mapping mapping = cia402::Mapping::compact;
+  double counts_per_rad = 0.0;             // 0x6064 increments per joint radian
+  double velocity_units_per_rad_s = 0.0;   // 0x606C units per joint rad/s
+  double rated_torque_nm = 0.0;            // 0x6076 (checked against the drive at start-up)
+  double gear_ratio = 1.0;                 // 1 when the drive's torque is joint-side
+  std::uint16_t max_torque_permille = 1000;  // 0x6072
+};
+
+struct BusConfig {
+  std::string name;                 // for messages: "lf", "arm1", ...
+  std::string interface;            // "can0", "vcan3"
+  bool fd = false;                  // CAN FD with bit-rate switch
+  std::uint32_t bitrate = 1000000;  // nominal bit rate, bit/s
+  std::uint32_t data_bitrate = 0;   // FD data phase bit rate, bit/s
+  std::vector<DriveConfig> drives;
+};
+
+struct Timing {
+  std::uint32_t tick_us = 1000;                // control period (bus load is per tick)
+  std::uint32_t missed_replies_lost = 3;       // N ticks in a row without a fresh reply -> lost
+  std::uint32_t rx_deadline_us = 900;          // read() waits this long after the send for missing replies
+  std::uint32_t mit_presence_timeout_ms = 50;  // MIT start-up: reply to exit-motor-mode
+  std::uint32_t mit_presence_retries = 3;
+  std::uint32_t boot_timeout_ms = 5000;        // CiA 402: wait for boot-up
+  std::uint32_t sdo_timeout_ms = 100;
+  std::uint32_t sdo_retries = 2;
+  std::uint32_t state_step_timeout_ms = 100;   // CiA 402 state machine, per step
+  std::uint32_t heartbeat_period_ms = 100;     // 0x1017
+  std::uint32_t heartbeat_lost_periods = 3;
+  std::uint32_t tx_fault_ticks = 3;            // ENOBUFS on this many ticks in a row -> bus fault
+  double damping_kd_nms_per_rad = 2.0;         // shutdown damping
+  std::uint32_t damping_time_ms = 2000;
+  double damping_stop_speed_rad_s = 0.05;
+  double start_limit_margin_rad = 0.05;        // start-up position check against the joint limits
+};
+
+struct CanConfig {
+  std::vector<BusConfig> buses;
+  Timing timing;
+  double max_bus_load = 0.8;  // worst-case (CAN.md section 3) load a bus may have
+};
+
+// The built-in parameters of joint `joint` (0..18): id = joint + 1, MIT reply
+// id 0x100 + id, Mini Cheetah ranges with the torque range = the joint's effort
+// limit, CiA 402 scaling of a 19-bit joint-side encoder, rated torque = effort limit.
+DriveConfig default_drive(int joint, Protocol p);
+
+// CAN.md 3.3: seven classic 1 Mbit/s buses (one per leg, arm 1-3, 4-5, 6-7),
+// interfaces <prefix>0..6, drive id = joint + 1, every drive speaking `p`.
+CanConfig classic7_layout(Protocol p, const std::string& interface_prefix = "can");
+// Classic legs (MIT) + one CAN FD arm bus (1/5 Mbit/s, MIT-style frames): five buses.
+CanConfig fd5_layout(const std::string& interface_prefix = "can");
+
+// Empty when the config is consistent; otherwise the first problem, naming the field.
+std::string validate(const CanConfig& c);
+
+}  // namespace springbok::can

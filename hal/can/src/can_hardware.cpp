@@ -1,0 +1,459 @@
+// The tick path of the SocketCAN backend: frame processing, reply accounting,
+// sending. Start-up and shut-down are in can_startup.cpp.
+#include "springbok/can/can_hardware.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+
+#include "springbok/can/bus_load.hpp"
+
+namespace springbok::can {
+
+namespace {
+// Fault codes for DriveStatus::fault_code when the drive itself gave none.
+constexpr std::uint16_t kFaultImplausible = 0xFF01;   // position jumps twice in a row
+constexpr std::uint16_t kFaultStatusword = 0x1000;    // CiA 402 fault bit without an EMCY (generic error)
+constexpr std::uint16_t kFaultLeftEnabled = 0xFF02;   // CiA 402 drive left Operation enabled
+}  // namespace
+
+const char* to_string(BusFault f) noexcept {
+  switch (f) {
+    case BusFault::none: return "none";
+    case BusFault::bus_off: return "bus-off";
+    case BusFault::restarted: return "controller restarted after bus-off";
+    case BusFault::net_down: return "network down (ENETDOWN)";
+    case BusFault::tx_queue_full: return "transmit queue full (ENOBUFS) on consecutive ticks";
+    case BusFault::socket_error: return "socket error";
+    case BusFault::no_ack: return "no acknowledge";
+  }
+  return "?";
+}
+
+CanHardware::CanHardware(CanConfig config) : config_(std::move(config)) {}
+
+CanHardware::~CanHardware() {
+  deactivate();
+  for (Bus& b : buses_) b.socket.close();
+}
+
+int CanHardware::handles(std::array<int, kMaxBuses>& out) const noexcept {
+  int n = 0;
+  for (int b = 0; b < bus_count_; ++b) {
+    if (buses_[b].socket.is_open()) out[static_cast<std::size_t>(n++)] = buses_[b].socket.native_handle();
+  }
+  return n;
+}
+
+int CanHardware::find_joint(int b, std::uint8_t drive_id, Protocol p) const noexcept {
+  const Bus& bus = buses_[static_cast<std::size_t>(b)];
+  for (int k = 0; k < bus.count; ++k) {
+    const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    if (jr.cfg.drive_id == drive_id && jr.cfg.protocol == p) return bus.joints[k];
+  }
+  return -1;
+}
+
+void CanHardware::count_unknown(int b, std::uint8_t drive_id) noexcept {
+  BusDiagnostics& d = buses_[static_cast<std::size_t>(b)].diag;
+  for (const JointRuntime& jr : joints_) {
+    if (jr.bus >= 0 && jr.bus != b && jr.cfg.drive_id == drive_id) {
+      ++d.foreign_frames;  // a drive of another bus answers here: wiring / configuration fault
+      return;
+    }
+  }
+  ++d.unexpected_frames;
+}
+
+void CanHardware::latch_fault(int j, std::uint16_t code) noexcept {
+  hal::DriveStatus& s = joints_[static_cast<std::size_t>(j)].status;
+  if (s.state == hal::DriveState::fault) return;  // keep the first code
+  s.state = hal::DriveState::fault;
+  s.fault_code = code;
+}
+
+void CanHardware::fault_bus(int b, BusFault why) noexcept {
+  Bus& bus = buses_[static_cast<std::size_t>(b)];
+  if (bus.diag.fault == BusFault::none) bus.diag.fault = why;
+  for (int k = 0; k < bus.count; ++k) {
+    JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    if (jr.status.state != hal::DriveState::fault) jr.status.state = hal::DriveState::lost;
+    jr.awaiting = false;
+  }
+}
+
+bool CanHardware::accept_position(int j, double q_rad) noexcept {
+  JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  if (!jr.have_state || jr.status.state != hal::DriveState::enabled) return true;
+  // CAN.md 4.1: |dq| > v_max * dt * (age + 1) is implausible (plus two position LSBs).
+  const double v_max = robot::kJoints[static_cast<std::size_t>(j)].limits.velocity_rad_s;
+  const double dt_s = 1e-6 * config_.timing.tick_us;
+  const double age = static_cast<double>(tick_ - jr.last_rx_tick);
+  const double lsb = jr.cfg.protocol == Protocol::mit
+                         ? (jr.cfg.mit_ranges.p_max_rad - jr.cfg.mit_ranges.p_min_rad) / 65535.0
+                         : 1.0 / jr.cfg.counts_per_rad;
+  if (std::abs(q_rad - jr.q_rad) <= v_max * dt_s * (age + 1.0) + 2.0 * lsb) {
+    jr.implausible_in_row = 0;
+    return true;
+  }
+  ++buses_[static_cast<std::size_t>(jr.bus)].diag.bad_frames;
+  if (++jr.implausible_in_row >= 2) latch_fault(j, kFaultImplausible);
+  return false;
+}
+
+void CanHardware::process_mit_reply(int b, const Frame& f) noexcept {
+  Bus& bus = buses_[static_cast<std::size_t>(b)];
+  // The reply id picks the ranges to decode with; byte 0 (the drive id) is authoritative.
+  int by_id = -1;
+  for (int k = 0; k < bus.count; ++k) {
+    const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    if (jr.cfg.protocol == Protocol::mit && jr.cfg.mit_reply_id == f.id) by_id = bus.joints[k];
+  }
+  if (by_id < 0) {
+    ++bus.diag.unexpected_frames;
+    return;
+  }
+  if (f.len < 1) {
+    ++bus.diag.bad_frames;
+    return;
+  }
+  const int j = find_joint(b, f.data[0], Protocol::mit);
+  if (j < 0) {
+    count_unknown(b, f.data[0]);
+    return;
+  }
+  JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  mit::Reply r;
+  if (mit::decode_reply(f, jr.cfg.mit_ranges, r) != FrameStatus::ok || (f.len == mit::kReplyLenVendor) != jr.cfg.mit_vendor_reply) {
+    ++bus.diag.bad_frames;
+    return;
+  }
+  if (!accept_position(j, r.p_rad)) return;
+  if (jr.replies_this_tick > 0) ++bus.diag.duplicates;  // keep the newest
+  ++jr.replies_this_tick;
+  jr.q_rad = r.p_rad;
+  jr.qd_rad_s = r.v_rad_s;
+  jr.tau_nm = r.t_nm;
+  jr.have_state = true;
+  jr.last_rx_tick = tick_;
+  if (r.has_vendor_bytes && r.error_code != 0) latch_fault(j, r.error_code);
+}
+
+void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
+  Bus& bus = buses_[static_cast<std::size_t>(b)];
+  const auto node = static_cast<std::uint8_t>(f.id & 0x7F);
+  const std::uint32_t function = f.id & 0x780;
+  const int j = find_joint(b, node, Protocol::cia402);
+  if (j < 0) {
+    count_unknown(b, node);
+    return;
+  }
+  JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  switch (function) {
+    case cia402::cob::emcy: {
+      cia402::Emcy e;
+      if (cia402::decode_emcy(f, node, e) != FrameStatus::ok) {
+        ++bus.diag.bad_frames;
+        return;
+      }
+      if (e.error_code != 0) latch_fault(j, e.error_code);
+      return;
+    }
+    case cia402::cob::tpdo1: {
+      cia402::Feedback fb;
+      if (cia402::decode_tpdo1(f, node, jr.cfg.mapping, fb) != FrameStatus::ok) {
+        ++bus.diag.bad_frames;
+        return;
+      }
+      const double q_rad = static_cast<double>(fb.position) / jr.cfg.counts_per_rad;
+      if (!accept_position(j, q_rad)) return;
+      if (jr.replies_this_tick > 0) ++bus.diag.duplicates;
+      ++jr.replies_this_tick;
+      if (jr.cfg.mapping == cia402::Mapping::compact) {
+        // No velocity object in the compact mapping: the position difference over the reply age.
+        const double age_ticks = static_cast<double>(std::max<std::uint64_t>(1, tick_ - jr.last_rx_tick));
+        jr.qd_rad_s = jr.have_state ? (q_rad - jr.q_rad) / (age_ticks * 1e-6 * config_.timing.tick_us) : 0.0;
+        jr.tau_nm = cia402::permille_to_torque(fb.torque, jr.cfg.rated_torque_nm, jr.cfg.gear_ratio);
+      }
+      jr.q_rad = q_rad;
+      jr.have_state = true;
+      jr.last_rx_tick = tick_;
+      jr.statusword = fb.statusword;
+      const cia402::State s = cia402::decode_statusword(fb.statusword);
+      if (s == cia402::State::fault || s == cia402::State::fault_reaction_active) {
+        latch_fault(j, kFaultStatusword);
+      } else if (jr.status.state == hal::DriveState::enabled && s != cia402::State::operation_enabled) {
+        latch_fault(j, kFaultLeftEnabled);
+      }
+      return;
+    }
+    case cia402::cob::tpdo2: {
+      cia402::Feedback fb;
+      if (jr.cfg.mapping != cia402::Mapping::two_tpdo || cia402::decode_tpdo2(f, node, fb) != FrameStatus::ok) {
+        ++bus.diag.bad_frames;
+        return;
+      }
+      jr.qd_rad_s = static_cast<double>(fb.velocity) / jr.cfg.velocity_units_per_rad_s;
+      jr.tau_nm = cia402::permille_to_torque(fb.torque, jr.cfg.rated_torque_nm, jr.cfg.gear_ratio);
+      jr.tpdo2_this_tick = true;
+      return;
+    }
+    case cia402::cob::sdo_response:
+      jr.sdo_answer = f;
+      jr.sdo_answered = true;
+      return;
+    case cia402::cob::heartbeat: {
+      cia402::NmtState st{};
+      if (cia402::decode_heartbeat(f, node, st) != FrameStatus::ok) {
+        ++bus.diag.bad_frames;
+        return;
+      }
+      jr.last_heartbeat_tick = tick_;
+      if (st == cia402::NmtState::boot_up) jr.booted = true;
+      // A drive that rebooted or left Operational no longer follows the PDOs.
+      if (jr.status.state == hal::DriveState::enabled && st != cia402::NmtState::operational) {
+        jr.status.state = hal::DriveState::lost;
+      }
+      return;
+    }
+    default:
+      ++bus.diag.unexpected_frames;
+      return;
+  }
+}
+
+void CanHardware::process_error_frame(int b, const Frame& f) noexcept {
+  BusDiagnostics& d = buses_[static_cast<std::size_t>(b)].diag;
+  ++d.error_frames;
+  const ErrorFrameInfo e = classify_error_frame(f);
+  if (e.warning) ++d.warnings;
+  if (e.error_passive) {
+    d.error_passive = true;
+    ++d.error_passive_events;
+  }
+  if (e.back_to_active) d.error_passive = false;
+  if (e.overflow) ++d.overflows;
+  if (e.bus_off) fault_bus(b, BusFault::bus_off);
+  if (e.restarted) fault_bus(b, BusFault::restarted);
+  // CAN_ERR_ACK / TX_TIMEOUT / TRX act like a silent bus: the missing replies count.
+}
+
+void CanHardware::process_frame(int b, const Frame& f) noexcept {
+  if (f.error) {
+    process_error_frame(b, f);
+    return;
+  }
+  const Bus& bus = buses_[static_cast<std::size_t>(b)];
+  bool mit_reply_id = false;
+  for (int k = 0; k < bus.count; ++k) {
+    const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    mit_reply_id = mit_reply_id || (jr.cfg.protocol == Protocol::mit && jr.cfg.mit_reply_id == f.id);
+  }
+  if (mit_reply_id) {
+    process_mit_reply(b, f);
+  } else if (bus.any_cia) {
+    process_cia402_frame(b, f);
+  } else {
+    ++buses_[static_cast<std::size_t>(b)].diag.unexpected_frames;
+  }
+}
+
+void CanHardware::drain(int b) noexcept {
+  Bus& bus = buses_[static_cast<std::size_t>(b)];
+  Frame f;
+  for (;;) {
+    const RxStatus s = bus.socket.receive(f);
+    if (s == RxStatus::empty) return;
+    if (s == RxStatus::error) {
+      if (bus.socket.last_errno() == ENETDOWN) fault_bus(b, BusFault::net_down);
+      ++bus.diag.tx_errors;
+      return;
+    }
+    ++bus.diag.frames_received;
+    process_frame(b, f);
+  }
+}
+
+bool CanHardware::replies_complete() const noexcept {
+  for (const JointRuntime& jr : joints_) {
+    if (!jr.awaiting) continue;
+    if (jr.replies_this_tick == 0) return false;
+    if (jr.cfg.protocol == Protocol::cia402 && jr.cfg.mapping == cia402::Mapping::two_tpdo && !jr.tpdo2_this_tick) {
+      return false;
+    }
+  }
+  return true;
+}
+
+void CanHardware::evaluate_joints() noexcept {
+  for (JointRuntime& jr : joints_) {
+    if (jr.bus < 0) continue;
+    hal::DriveStatus& s = jr.status;
+    if (jr.awaiting) {
+      const bool fresh = jr.replies_this_tick > 0 &&
+                         (jr.cfg.protocol == Protocol::mit || jr.cfg.mapping == cia402::Mapping::compact ||
+                          jr.tpdo2_this_tick);
+      s.fresh = fresh;
+      if (fresh) {
+        s.missed_in_row = 0;
+      } else {
+        ++s.missed_in_row;
+        ++s.missed_total;
+        if (s.missed_in_row >= config_.timing.missed_replies_lost && s.state == hal::DriveState::enabled) {
+          s.state = hal::DriveState::lost;
+        }
+      }
+    } else {
+      s.fresh = false;
+    }
+    if (active_ && jr.cfg.protocol == Protocol::cia402 && s.state == hal::DriveState::enabled &&
+        tick_ - jr.last_heartbeat_tick > heartbeat_lost_ticks_) {
+      s.state = hal::DriveState::lost;  // CAN.md 4.1: heartbeat missing for 3 periods
+    }
+    jr.awaiting = false;
+    jr.replies_this_tick = 0;
+    jr.tpdo2_this_tick = false;
+  }
+}
+
+bool CanHardware::send_now(int b, const Frame& f) noexcept {
+  Bus& bus = buses_[static_cast<std::size_t>(b)];
+  switch (bus.socket.send(f)) {
+    case TxStatus::ok: ++bus.diag.frames_sent; return true;
+    case TxStatus::queue_full: bus.enobufs_this_tick = true; ++bus.diag.tx_dropped; return false;
+    case TxStatus::net_down: fault_bus(b, BusFault::net_down); return false;
+    case TxStatus::short_write: ++bus.diag.short_writes; return false;
+    case TxStatus::error: ++bus.diag.tx_errors; return false;
+  }
+  return false;
+}
+
+void CanHardware::send_pending() noexcept {
+  for (int b = 0; b < bus_count_; ++b) {
+    Bus& bus = buses_[static_cast<std::size_t>(b)];
+    if (bus.diag.fault != BusFault::none || !bus.socket.is_open()) continue;
+    bus.enobufs_this_tick = false;
+    bool dropping = false;  // after ENOBUFS the rest of this bus's frames wait for the next tick
+    for (int k = 0; k < bus.count; ++k) {
+      JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+      if (!jr.has_pending) continue;
+      if (dropping) {
+        ++bus.diag.tx_dropped;
+        continue;
+      }
+      const bool sent = send_now(b, jr.pending);
+      if (bus.enobufs_this_tick) dropping = true;
+      if (sent && jr.cfg.protocol == Protocol::mit) jr.awaiting = true;
+    }
+    if (bus.any_cia) {
+      Frame sync;
+      cia402::encode_sync(sync);
+      if (dropping) {
+        ++bus.diag.tx_dropped;
+      } else if (send_now(b, sync)) {
+        for (int k = 0; k < bus.count; ++k) {
+          JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+          if (jr.cfg.protocol == Protocol::cia402) jr.awaiting = true;
+        }
+      }
+    }
+    bus.enobufs_ticks_in_row = bus.enobufs_this_tick ? bus.enobufs_ticks_in_row + 1 : 0;
+    if (bus.enobufs_ticks_in_row >= static_cast<int>(config_.timing.tx_fault_ticks)) {
+      fault_bus(b, BusFault::tx_queue_full);
+    }
+  }
+}
+
+hal::IoStatus CanHardware::read(hal::Measurements& out) noexcept {
+  if (!configured_) return hal::IoStatus::error;
+  ++tick_;
+  std::array<int, kMaxBuses> fds{};
+  const int n_fds = handles(fds);
+  const std::int64_t deadline_ns = last_send_ns_ + 1000LL * config_.timing.rx_deadline_us;
+  for (;;) {
+    for (int b = 0; b < bus_count_; ++b) {
+      if (buses_[static_cast<std::size_t>(b)].socket.is_open()) drain(b);
+    }
+    const std::int64_t now_ns = monotonic_ns();
+    if (replies_complete() || now_ns >= deadline_ns) break;
+    wait_readable(std::span<const int>(fds.data(), static_cast<std::size_t>(n_fds)), (deadline_ns - now_ns) / 1000 + 1);
+  }
+  evaluate_joints();
+
+  out.sequence = ++sequence_;
+  out.stamp_ns = monotonic_ns();
+  int fresh = 0, expected = 0;
+  bool bus_fault = false;
+  for (int j = 0; j < kNj; ++j) {
+    const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+    out.q_rad[j] = jr.q_rad;
+    out.qd_rad_s[j] = jr.qd_rad_s;
+    out.tau_nm[j] = jr.tau_nm;
+    out.drives[static_cast<std::size_t>(j)] = jr.status;
+    if (jr.bus < 0) continue;
+    ++expected;
+    fresh += jr.status.fresh ? 1 : 0;
+  }
+  for (int b = 0; b < bus_count_; ++b) bus_fault = bus_fault || buses_[static_cast<std::size_t>(b)].diag.fault != BusFault::none;
+
+  if (active_) {
+    send_pending();
+    last_send_ns_ = monotonic_ns();
+  }
+  if (bus_fault) return hal::IoStatus::error;
+  if (fresh == expected) return hal::IoStatus::ok;
+  return fresh == 0 ? hal::IoStatus::timeout : hal::IoStatus::partial;
+}
+
+void CanHardware::queue_zero_command(int j) noexcept {
+  JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  if (jr.cfg.protocol == Protocol::mit) {
+    (void)mit::encode_command(jr.cfg.drive_id, mit::Command{}, jr.cfg.mit_ranges, jr.pending);
+  } else {
+    jr.controlword = cia402::controlword::enable_operation;
+    cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{jr.controlword, 0}, jr.pending);
+  }
+  jr.has_pending = true;
+}
+
+void CanHardware::queue_command(int j, const hal::JointCommands& cmd) noexcept {
+  JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  if (cmd.mode != hal::CommandMode::enabled) {
+    queue_zero_command(j);
+    return;
+  }
+  if (jr.cfg.protocol == Protocol::mit) {
+    const mit::Command c{cmd.q_des_rad[j], cmd.qd_des_rad_s[j], cmd.kp_nm_per_rad[j], cmd.kd_nms_per_rad[j],
+                         cmd.tau_ff_nm[j]};
+    if (mit::encode_command(jr.cfg.drive_id, c, jr.cfg.mit_ranges, jr.pending) != FrameStatus::ok) {
+      ++rejected_commands_;
+      queue_zero_command(j);
+      return;
+    }
+    jr.has_pending = true;
+    return;
+  }
+  // CiA 402 in CST: the impedance law runs on the host from the last measured state.
+  const double tau_nm = hal::drive_torque_nm(cmd, j, jr.q_rad, jr.qd_rad_s);
+  if (!std::isfinite(tau_nm)) {
+    ++rejected_commands_;
+    queue_zero_command(j);
+    return;
+  }
+  jr.controlword = cia402::controlword::enable_operation;
+  const std::int16_t permille =
+      cia402::torque_to_permille(tau_nm, jr.cfg.rated_torque_nm, jr.cfg.gear_ratio, jr.cfg.max_torque_permille);
+  cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{jr.controlword, permille}, jr.pending);
+  jr.has_pending = true;
+}
+
+hal::IoStatus CanHardware::write(const hal::JointCommands& cmd) noexcept {
+  if (!active_) return hal::IoStatus::error;
+  const std::uint64_t rejected_before = rejected_commands_;
+  for (int j = 0; j < kNj; ++j) {
+    if (joints_[static_cast<std::size_t>(j)].bus >= 0) queue_command(j, cmd);
+  }
+  return rejected_commands_ == rejected_before ? hal::IoStatus::ok : hal::IoStatus::error;
+}
+
+}  // namespace springbok::can

@@ -1,0 +1,520 @@
+// Start-up and shut-down of the SocketCAN backend (CAN.md 4.2, 4.3, 4.4).
+// Not real-time: may allocate (messages) and wait (bounded by the configured timeouts).
+#include <time.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "springbok/can/bus_load.hpp"
+#include "springbok/can/can_hardware.hpp"
+
+namespace springbok::can {
+
+namespace {
+using hal::LifecycleResult;
+
+std::int64_t after_ms(std::uint32_t ms) { return monotonic_ns() + 1000000LL * ms; }
+
+std::string hex(std::uint32_t v, int digits) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "0x%0*X", digits, v);
+  return buf;
+}
+
+void sleep_until_ns(std::int64_t t_ns) {
+  const timespec ts{static_cast<time_t>(t_ns / 1000000000LL), static_cast<long>(t_ns % 1000000000LL)};
+  while (::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+  }
+}
+}  // namespace
+
+std::string CanHardware::drive_name(int j) const {
+  const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  const BusConfig& bc = config_.buses[static_cast<std::size_t>(jr.bus)];
+  return "drive " + std::to_string(jr.cfg.drive_id) + " (joint " +
+         std::string(robot::kJoints[static_cast<std::size_t>(j)].name) + ", " + to_string(jr.cfg.protocol) +
+         ") on bus '" + bc.name + "' (" + bc.interface + ")";
+}
+
+template <class Done>
+bool CanHardware::pump_until(std::int64_t deadline_ns, Done&& done) {
+  std::array<int, kMaxBuses> fds{};
+  const int n = handles(fds);
+  for (;;) {
+    for (int b = 0; b < bus_count_; ++b) {
+      if (buses_[static_cast<std::size_t>(b)].socket.is_open()) drain(b);
+    }
+    if (done()) return true;
+    const std::int64_t now = monotonic_ns();
+    if (now >= deadline_ns) return false;
+    wait_readable(std::span<const int>(fds.data(), static_cast<std::size_t>(n)), (deadline_ns - now) / 1000 + 1);
+  }
+}
+
+LifecycleResult CanHardware::open_bus(int b) {
+  const BusConfig& bc = config_.buses[static_cast<std::size_t>(b)];
+  std::vector<std::uint32_t> ids;
+  for (const DriveConfig& d : bc.drives) {
+    if (d.protocol == Protocol::mit) {
+      ids.push_back(d.mit_reply_id);
+    } else {
+      for (std::uint32_t base : {cia402::cob::emcy, cia402::cob::tpdo1, cia402::cob::tpdo2, cia402::cob::sdo_response,
+                                 cia402::cob::heartbeat}) {
+        ids.push_back(base + d.drive_id);
+      }
+    }
+  }
+  Bus& bus = buses_[static_cast<std::size_t>(b)];
+  const std::string err = bus.socket.open(bc.interface, bc.fd, ids, true);
+  if (!err.empty()) return LifecycleResult::failure("bus '" + bc.name + "': " + err);
+  bus.diag = BusDiagnostics{};
+  bus.enobufs_ticks_in_row = 0;
+  return LifecycleResult::success();
+}
+
+LifecycleResult CanHardware::configure() {
+  if (active_) return LifecycleResult::failure("configure: the backend is active; deactivate first");
+  if (const std::string err = validate(config_); !err.empty()) return LifecycleResult::failure("CAN config: " + err);
+  if (const std::string err = check_bus_loads(config_); !err.empty()) {
+    return LifecycleResult::failure("CAN layout refused: " + err);
+  }
+  bus_count_ = static_cast<int>(config_.buses.size());
+  joints_ = {};
+  for (int b = 0; b < bus_count_; ++b) {
+    Bus& bus = buses_[static_cast<std::size_t>(b)];
+    bus.count = 0;
+    bus.any_mit = bus.any_cia = false;
+    for (const DriveConfig& d : config_.buses[static_cast<std::size_t>(b)].drives) {
+      JointRuntime& jr = joints_[static_cast<std::size_t>(d.joint)];
+      jr.cfg = d;
+      jr.bus = b;
+      bus.joints[static_cast<std::size_t>(bus.count++)] = d.joint;
+      bus.any_mit = bus.any_mit || d.protocol == Protocol::mit;
+      bus.any_cia = bus.any_cia || d.protocol == Protocol::cia402;
+    }
+  }
+  const std::uint64_t ticks_per_ms = std::max<std::uint64_t>(1, 1000 / config_.timing.tick_us);
+  heartbeat_lost_ticks_ = std::uint64_t{config_.timing.heartbeat_period_ms} * config_.timing.heartbeat_lost_periods *
+                          ticks_per_ms;
+  for (int b = 0; b < bus_count_; ++b) {
+    if (LifecycleResult r = open_bus(b); !r.ok) return r;
+  }
+  for (int b = 0; b < bus_count_; ++b) {
+    if (LifecycleResult r = start_bus(b); !r.ok) return r;
+  }
+  configured_ = true;
+  return LifecycleResult::success();
+}
+
+LifecycleResult CanHardware::start_bus(int b) {
+  const Bus& bus = buses_[static_cast<std::size_t>(b)];
+  if (bus.any_mit) {
+    if (LifecycleResult r = start_mit(b); !r.ok) return r;
+  }
+  if (bus.any_cia) {
+    if (LifecycleResult r = start_cia402(b); !r.ok) return r;
+  }
+  return LifecycleResult::success();
+}
+
+LifecycleResult CanHardware::enable_bus(int b) {
+  const Bus& bus = buses_[static_cast<std::size_t>(b)];
+  if (bus.any_mit) {
+    if (LifecycleResult r = enable_mit(b); !r.ok) return r;
+  }
+  if (bus.any_cia) {
+    if (LifecycleResult r = enable_cia402(b); !r.ok) return r;
+  }
+  for (int k = 0; k < bus.count; ++k) {
+    JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    jr.status = hal::DriveStatus{};
+    jr.status.state = hal::DriveState::enabled;
+    jr.last_rx_tick = tick_;
+    jr.last_heartbeat_tick = tick_;
+    jr.implausible_in_row = 0;
+    queue_zero_command(bus.joints[k]);
+  }
+  return LifecycleResult::success();
+}
+
+LifecycleResult CanHardware::activate() {
+  if (!configured_) return LifecycleResult::failure("activate: configure() has not succeeded");
+  if (active_) return LifecycleResult::success();
+  for (int b = 0; b < bus_count_; ++b) {
+    if (LifecycleResult r = enable_bus(b); !r.ok) return r;
+  }
+  active_ = true;
+  last_send_ns_ = monotonic_ns();
+  return LifecycleResult::success();
+}
+
+// ---- MIT mode (CAN.md 4.2) ---------------------------------------------------------------------
+LifecycleResult CanHardware::start_mit(int b) {
+  const Bus& bus = buses_[static_cast<std::size_t>(b)];
+  const auto mit_joints = [&](auto&& f) {
+    for (int k = 0; k < bus.count; ++k) {
+      if (joints_[static_cast<std::size_t>(bus.joints[k])].cfg.protocol == Protocol::mit) f(bus.joints[k]);
+    }
+  };
+  const auto all_replied = [&] {
+    bool all = true;
+    mit_joints([&](int j) { all = all && joints_[static_cast<std::size_t>(j)].replies_this_tick > 0; });
+    return all;
+  };
+  mit_joints([&](int j) { joints_[static_cast<std::size_t>(j)].replies_this_tick = 0; });
+  // 1. Exit motor mode: presence check; the reply gives the initial position.
+  for (std::uint32_t attempt = 0; attempt <= config_.timing.mit_presence_retries && !all_replied(); ++attempt) {
+    mit_joints([&](int j) {
+      JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+      if (jr.replies_this_tick > 0) return;
+      Frame f;
+      mit::encode_special(jr.cfg.drive_id, mit::Special::exit_motor_mode, f);
+      send_now(b, f);
+    });
+    pump_until(after_ms(config_.timing.mit_presence_timeout_ms), all_replied);
+  }
+  std::string missing;
+  mit_joints([&](int j) {
+    if (joints_[static_cast<std::size_t>(j)].replies_this_tick == 0) missing += (missing.empty() ? "" : "; ") + drive_name(j);
+  });
+  if (!missing.empty()) {
+    return LifecycleResult::failure("MIT start-up: no reply to exit-motor-mode after " +
+                                    std::to_string(config_.timing.mit_presence_retries + 1) + " tries of " +
+                                    std::to_string(config_.timing.mit_presence_timeout_ms) + " ms: " + missing);
+  }
+  // 2. A zero command, so the stored command is safe.
+  mit_joints([&](int j) {
+    joints_[static_cast<std::size_t>(j)].replies_this_tick = 0;
+    Frame f;
+    (void)mit::encode_command(joints_[static_cast<std::size_t>(j)].cfg.drive_id, mit::Command{},
+                              joints_[static_cast<std::size_t>(j)].cfg.mit_ranges, f);
+    send_now(b, f);
+  });
+  if (!pump_until(after_ms(config_.timing.mit_presence_timeout_ms), all_replied)) {
+    return LifecycleResult::failure("MIT start-up: a drive on bus '" + config_.buses[static_cast<std::size_t>(b)].name +
+                                    "' did not answer the zero command");
+  }
+  // 3. Positions within the joint limits.
+  std::string outside;
+  mit_joints([&](int j) {
+    JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+    jr.replies_this_tick = 0;
+    const auto& lim = robot::kJoints[static_cast<std::size_t>(j)].limits;
+    const double m = config_.timing.start_limit_margin_rad;
+    if (lim.bounded && (jr.q_rad < lim.lower_rad - m || jr.q_rad > lim.upper_rad + m)) {
+      outside += (outside.empty() ? "" : "; ") + drive_name(j) + " at " + std::to_string(jr.q_rad) + " rad, limits [" +
+                 std::to_string(lim.lower_rad) + ", " + std::to_string(lim.upper_rad) + "]";
+    }
+    jr.status.state = hal::DriveState::ready;
+  });
+  if (!outside.empty()) return LifecycleResult::failure("MIT start-up: position outside the joint limits: " + outside);
+  return LifecycleResult::success();
+}
+
+LifecycleResult CanHardware::enable_mit(int b) {
+  const Bus& bus = buses_[static_cast<std::size_t>(b)];
+  bool all_sent = true;
+  for (int k = 0; k < bus.count; ++k) {
+    JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    if (jr.cfg.protocol != Protocol::mit) continue;
+    jr.replies_this_tick = 0;
+    Frame f;
+    mit::encode_special(jr.cfg.drive_id, mit::Special::enter_motor_mode, f);
+    all_sent = send_now(b, f) && all_sent;
+  }
+  const auto all_replied = [&] {
+    for (int k = 0; k < bus.count; ++k) {
+      const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+      if (jr.cfg.protocol == Protocol::mit && jr.replies_this_tick == 0) return false;
+    }
+    return true;
+  };
+  const bool ok = all_sent && pump_until(after_ms(config_.timing.mit_presence_timeout_ms), all_replied);
+  for (int k = 0; k < bus.count; ++k) joints_[static_cast<std::size_t>(bus.joints[k])].replies_this_tick = 0;
+  if (!ok) {
+    return LifecycleResult::failure("MIT enable: a drive on bus '" + config_.buses[static_cast<std::size_t>(b)].name +
+                                    "' did not answer enter-motor-mode");
+  }
+  return LifecycleResult::success();
+}
+
+// ---- CiA 402 (CAN.md 4.3) --------------------------------------------------------------------------
+CanHardware::SdoOutcome CanHardware::sdo(int j, bool write, std::uint16_t index, std::uint8_t sub, std::uint32_t value,
+                                         std::uint8_t size) {
+  JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  SdoOutcome out;
+  for (std::uint32_t attempt = 0; attempt <= config_.timing.sdo_retries; ++attempt) {
+    cia402::SdoRequest req;
+    req.kind = write ? cia402::SdoRequest::Kind::write : cia402::SdoRequest::Kind::read;
+    req.index = index;
+    req.sub = sub;
+    req.value = value;
+    req.size = size;
+    Frame f;
+    cia402::encode_sdo_request(jr.cfg.drive_id, req, f);
+    jr.sdo_answered = false;
+    send_now(jr.bus, f);
+    if (!pump_until(after_ms(config_.timing.sdo_timeout_ms), [&] { return jr.sdo_answered; })) continue;
+    cia402::SdoResponse res;
+    if (cia402::decode_sdo_response(jr.sdo_answer, jr.cfg.drive_id, res) != FrameStatus::ok || res.index != index ||
+        res.sub != sub) {
+      out.kind = SdoOutcome::Kind::bad_answer;
+      return out;
+    }
+    if (res.kind == cia402::SdoResponse::Kind::abort) {
+      out.kind = SdoOutcome::Kind::abort;
+      out.abort_code = res.value;
+      return out;
+    }
+    if (res.kind != (write ? cia402::SdoResponse::Kind::write_ok : cia402::SdoResponse::Kind::read_ok)) {
+      out.kind = SdoOutcome::Kind::bad_answer;
+      return out;
+    }
+    out.kind = SdoOutcome::Kind::ok;
+    out.value = res.value;
+    return out;
+  }
+  out.kind = SdoOutcome::Kind::timeout;
+  return out;
+}
+
+LifecycleResult CanHardware::configure_node(int j) {
+  const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  const auto describe = [&](const SdoOutcome& o, bool write, std::uint16_t index, std::uint8_t sub) {
+    std::string what = std::string("SDO ") + (write ? "write " : "read ") + hex(index, 4) + ":" + std::to_string(sub) +
+                       " on " + drive_name(j) + ": ";
+    switch (o.kind) {
+      case SdoOutcome::Kind::ok: return what + "ok";
+      case SdoOutcome::Kind::abort:
+        return what + "aborted, " + hex(o.abort_code, 8) + " " + cia402::abort_code_name(o.abort_code);
+      case SdoOutcome::Kind::timeout:
+        return what + "no answer within " + std::to_string(config_.timing.sdo_timeout_ms) + " ms after " +
+               std::to_string(config_.timing.sdo_retries + 1) + " tries";
+      case SdoOutcome::Kind::bad_answer: return what + "malformed or mismatched answer";
+    }
+    return what;
+  };
+  const auto write = [&](std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size,
+                         bool optional) -> std::string {
+    const SdoOutcome o = sdo(j, true, index, sub, value, size);
+    if (o.kind == SdoOutcome::Kind::ok) return {};
+    if (optional && o.kind == SdoOutcome::Kind::abort &&
+        (o.abort_code == cia402::abort_code::no_object || o.abort_code == cia402::abort_code::no_subindex)) {
+      return {};  // "where present"
+    }
+    return describe(o, true, index, sub);
+  };
+  const auto read = [&](std::uint16_t index, std::uint8_t sub, std::uint32_t& value) -> std::string {
+    const SdoOutcome o = sdo(j, false, index, sub, 0, 0);
+    value = o.value;
+    return o.kind == SdoOutcome::Kind::ok ? std::string{} : describe(o, false, index, sub);
+  };
+  using namespace cia402;
+  std::string err;
+  std::uint32_t value = 0;
+  if (!(err = write(object::producer_heartbeat, 0, config_.timing.heartbeat_period_ms, 2, false)).empty()) return LifecycleResult::failure(err);
+  if (!(err = read(object::supported_modes, 0, value)).empty()) return LifecycleResult::failure(err);
+  if ((value & kSupportedModeCstBit) == 0) {
+    return LifecycleResult::failure(drive_name(j) + ": 0x6502 = " + hex(value, 8) + ", cyclic synchronous torque not supported");
+  }
+  if (!(err = read(object::rated_torque, 0, value)).empty()) return LifecycleResult::failure(err);
+  const double rated_nm = static_cast<double>(value) / 1000.0;
+  if (std::abs(rated_nm - jr.cfg.rated_torque_nm) > 0.005 * jr.cfg.rated_torque_nm) {
+    return LifecycleResult::failure(drive_name(j) + ": motor rated torque 0x6076 = " + std::to_string(value) +
+                                    " mNm, the config says rated_torque_nm = " + std::to_string(jr.cfg.rated_torque_nm));
+  }
+  std::array<SdoWrite, kMaxMappingWrites> seq{};
+  const int n = pdo_mapping_sequence(jr.cfg.drive_id, jr.cfg.mapping, seq);
+  for (int i = 0; i < n; ++i) {
+    if (!(err = write(seq[i].index, seq[i].sub, seq[i].value, seq[i].size, false)).empty()) return LifecycleResult::failure(err);
+  }
+  if (!(err = write(object::modes_of_operation, 0, static_cast<std::uint8_t>(kModeCst), 1, false)).empty()) return LifecycleResult::failure(err);
+  if (!(err = write(object::interpolation_period, 1, 1, 1, false)).empty()) return LifecycleResult::failure(err);
+  if (!(err = write(object::interpolation_period, 2, static_cast<std::uint8_t>(-3), 1, false)).empty()) return LifecycleResult::failure(err);
+  if (!(err = write(object::max_torque, 0, jr.cfg.max_torque_permille, 2, false)).empty()) return LifecycleResult::failure(err);
+  if (!(err = write(object::abort_connection, 0, 3, 2, true)).empty()) return LifecycleResult::failure(err);
+  if (!(err = write(object::error_behaviour, 1, 0, 1, true)).empty()) return LifecycleResult::failure(err);
+  if (!(err = read(object::modes_display, 0, value)).empty()) return LifecycleResult::failure(err);
+  if (static_cast<std::int8_t>(value & 0xFF) != kModeCst) {
+    return LifecycleResult::failure(drive_name(j) + ": modes of operation display 0x6061 reads " +
+                                    std::to_string(static_cast<std::int8_t>(value & 0xFF)) + ", expected 10 (CST)");
+  }
+  return LifecycleResult::success();
+}
+
+LifecycleResult CanHardware::start_cia402(int b) {
+  const Bus& bus = buses_[static_cast<std::size_t>(b)];
+  const BusConfig& bc = config_.buses[static_cast<std::size_t>(b)];
+  std::vector<int> nodes;
+  for (int k = 0; k < bus.count; ++k) {
+    if (joints_[static_cast<std::size_t>(bus.joints[k])].cfg.protocol == Protocol::cia402) nodes.push_back(bus.joints[k]);
+  }
+  const auto all_booted = [&] {
+    for (int j : nodes) {
+      if (!joints_[static_cast<std::size_t>(j)].booted) return false;
+    }
+    return true;
+  };
+  // 1. Boot-up: a node that is already up (or silent) is reset so that it boots again.
+  for (int j : nodes) joints_[static_cast<std::size_t>(j)].booted = false;
+  pump_until(after_ms(std::min<std::uint32_t>(200, config_.timing.boot_timeout_ms)), all_booted);
+  for (int j : nodes) {
+    JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+    if (jr.booted) continue;
+    Frame f;
+    cia402::encode_nmt(cia402::NmtCommand::reset_communication, jr.cfg.drive_id, f);
+    send_now(b, f);
+  }
+  if (!pump_until(after_ms(config_.timing.boot_timeout_ms), all_booted)) {
+    std::string missing;
+    for (int j : nodes) {
+      if (!joints_[static_cast<std::size_t>(j)].booted) missing += (missing.empty() ? "" : "; ") + drive_name(j);
+    }
+    return LifecycleResult::failure("CiA 402 start-up on bus '" + bc.name + "': no boot-up within " +
+                                    std::to_string(config_.timing.boot_timeout_ms) + " ms: " + missing);
+  }
+  // 2. Pre-operational configuration by SDO.
+  for (int j : nodes) {
+    if (LifecycleResult r = configure_node(j); !r.ok) return r;
+    joints_[static_cast<std::size_t>(j)].status.state = hal::DriveState::ready;
+  }
+  return LifecycleResult::success();
+}
+
+LifecycleResult CanHardware::enable_cia402(int b) {
+  const Bus& bus = buses_[static_cast<std::size_t>(b)];
+  std::vector<int> nodes;
+  for (int k = 0; k < bus.count; ++k) {
+    if (joints_[static_cast<std::size_t>(bus.joints[k])].cfg.protocol == Protocol::cia402) nodes.push_back(bus.joints[k]);
+  }
+  // 3. NMT start; SYNC every cycle from now on; TPDOs must appear.
+  for (int j : nodes) {
+    Frame f;
+    cia402::encode_nmt(cia402::NmtCommand::start, joints_[static_cast<std::size_t>(j)].cfg.drive_id, f);
+    send_now(b, f);
+  }
+  // 4. Walk the state machine with the controlword in RPDO1, target torque 0.
+  std::vector<cia402::State> state(nodes.size(), cia402::State::unknown);
+  std::vector<std::int64_t> since(nodes.size(), monotonic_ns());
+  for (JointRuntime& jr : joints_) jr.statusword = 0;
+  std::int64_t next_cycle = monotonic_ns();
+  for (;;) {
+    bool all_enabled = true;
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      JointRuntime& jr = joints_[static_cast<std::size_t>(nodes[i])];
+      const cia402::State s = jr.replies_this_tick > 0 || jr.statusword != 0 ? cia402::decode_statusword(jr.statusword)
+                                                                             : cia402::State::unknown;
+      if (s != state[i]) {
+        state[i] = s;
+        since[i] = monotonic_ns();
+      } else if (s != cia402::State::operation_enabled &&
+                 monotonic_ns() - since[i] > 1000000LL * config_.timing.state_step_timeout_ms) {
+        return LifecycleResult::failure("CiA 402 enable: " + drive_name(nodes[i]) + " stuck in '" +
+                                        cia402::to_string(s) + "' (statusword " + hex(jr.statusword, 4) + ") for " +
+                                        std::to_string(config_.timing.state_step_timeout_ms) + " ms");
+      }
+      all_enabled = all_enabled && s == cia402::State::operation_enabled;
+      jr.controlword = cia402::controlword_towards_enabled(s, jr.controlword);
+      jr.replies_this_tick = 0;
+    }
+    if (all_enabled) break;
+    for (int j : nodes) {
+      JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+      Frame f;
+      cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{jr.controlword, 0}, f);
+      send_now(b, f);
+    }
+    Frame sync;
+    cia402::encode_sync(sync);
+    send_now(b, sync);
+    const auto all_tpdo = [&] {
+      for (int j : nodes) {
+        if (joints_[static_cast<std::size_t>(j)].replies_this_tick == 0) return false;
+      }
+      return true;
+    };
+    pump_until(after_ms(config_.timing.state_step_timeout_ms), all_tpdo);
+    next_cycle += 1000LL * config_.timing.tick_us;
+    sleep_until_ns(std::max(next_cycle, monotonic_ns()));
+  }
+  for (int j : nodes) joints_[static_cast<std::size_t>(j)].replies_this_tick = 0;
+  return LifecycleResult::success();
+}
+
+// ---- recovery and shut-down -------------------------------------------------------------------------
+LifecycleResult CanHardware::recover_bus(int b) {
+  if (!configured_ || b < 0 || b >= bus_count_) return LifecycleResult::failure("recover_bus: no such bus");
+  if (LifecycleResult r = open_bus(b); !r.ok) return r;
+  if (LifecycleResult r = start_bus(b); !r.ok) return r;
+  if (active_) {
+    if (LifecycleResult r = enable_bus(b); !r.ok) return r;
+  }
+  return LifecycleResult::success();
+}
+
+void CanHardware::deactivate() noexcept {
+  if (!active_) return;
+  // 1. Damping: tau = -D qd until slow or T_damp (CAN.md 4.4).
+  hal::JointCommands damping;
+  damping.mode = hal::CommandMode::enabled;
+  damping.kd_nms_per_rad.setConstant(config_.timing.damping_kd_nms_per_rad);
+  hal::Measurements m;
+  const std::int64_t period_ns = 1000LL * config_.timing.tick_us;
+  const std::int64_t end_ns = monotonic_ns() + 1000000LL * config_.timing.damping_time_ms;
+  std::int64_t next = monotonic_ns();
+  while (monotonic_ns() < end_ns) {
+    (void)read(m);
+    bool slow = true;
+    for (int j = 0; j < kNj; ++j) {
+      const hal::DriveState s = m.drives[static_cast<std::size_t>(j)].state;
+      if (s == hal::DriveState::enabled && std::abs(m.qd_rad_s[j]) >= config_.timing.damping_stop_speed_rad_s) slow = false;
+    }
+    if (slow && tick_ > 1) break;
+    (void)write(damping);
+    next += period_ns;
+    sleep_until_ns(next);
+  }
+  // 2. Disable. 3. Stop sending.
+  for (int b = 0; b < bus_count_; ++b) {
+    Bus& bus = buses_[static_cast<std::size_t>(b)];
+    if (!bus.socket.is_open() || bus.diag.fault != BusFault::none) continue;
+    for (const std::uint16_t cw : {cia402::controlword::disable_operation, cia402::controlword::shutdown}) {
+      if (!bus.any_cia) break;
+      for (int k = 0; k < bus.count; ++k) {
+        const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+        if (jr.cfg.protocol != Protocol::cia402) continue;
+        Frame f;
+        cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{cw, 0}, f);
+        send_now(b, f);
+      }
+      Frame sync;
+      cia402::encode_sync(sync);
+      send_now(b, sync);
+      sleep_until_ns(monotonic_ns() + period_ns);
+    }
+    for (int k = 0; k < bus.count; ++k) {
+      JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+      if (jr.cfg.protocol == Protocol::mit) {
+        Frame f;
+        mit::encode_special(jr.cfg.drive_id, mit::Special::exit_motor_mode, f);
+        send_now(b, f);
+      }
+      if (jr.status.state == hal::DriveState::enabled) jr.status.state = hal::DriveState::ready;
+      jr.has_pending = false;
+      jr.awaiting = false;
+    }
+    if (bus.any_cia) {
+      Frame f;
+      cia402::encode_nmt(cia402::NmtCommand::enter_pre_operational, 0, f);
+      send_now(b, f);
+    }
+  }
+  // Let the last replies arrive so they do not count against a later start-up.
+  pump_until(monotonic_ns() + 20000000LL, [] { return false; });
+  active_ = false;
+}
+
+}  // namespace springbok::can

@@ -1,0 +1,161 @@
+#include "springbok/can/config.hpp"
+
+#include <array>
+#include <cmath>
+#include <numbers>
+#include <set>
+#include <string>
+
+#include <Eigen/Geometry>  // model.hpp uses Eigen::Quaterniond without including it
+
+#include "springbok/model/model.hpp"
+
+namespace springbok::can {
+
+const char* to_string(Protocol p) noexcept { return p == Protocol::mit ? "mit" : "cia402"; }
+
+DriveConfig default_drive(int joint, Protocol p) {
+  DriveConfig d;
+  d.joint = joint;
+  d.drive_id = static_cast<std::uint8_t>(joint + 1);
+  d.protocol = p;
+  d.mit_reply_id = static_cast<std::uint16_t>(0x100 + d.drive_id);
+  const double effort_nm = robot::kJoints[static_cast<std::size_t>(joint)].limits.effort_nm;
+  d.mit_ranges.t_min_nm = -effort_nm;
+  d.mit_ranges.t_max_nm = effort_nm;
+  d.counts_per_rad = 524288.0 / (2.0 * std::numbers::pi);  // 19-bit joint-side encoder
+  d.velocity_units_per_rad_s = 1000.0;           // mrad/s
+  d.rated_torque_nm = effort_nm;
+  d.gear_ratio = 1.0;
+  d.max_torque_permille = 1000;
+  return d;
+}
+
+namespace {
+
+BusConfig make_bus(const std::string& name, const std::string& iface, int first, int count, Protocol p) {
+  BusConfig b;
+  b.name = name;
+  b.interface = iface;
+  for (int j = first; j < first + count; ++j) b.drives.push_back(default_drive(j, p));
+  return b;
+}
+
+bool ordered_finite(double lo, double hi) { return std::isfinite(lo) && std::isfinite(hi) && lo < hi; }
+
+}  // namespace
+
+CanConfig classic7_layout(Protocol p, const std::string& prefix) {
+  CanConfig c;
+  const std::array<const char*, 4> legs{"lf", "rf", "lh", "rh"};
+  for (int leg = 0; leg < 4; ++leg) c.buses.push_back(make_bus(legs[leg], prefix + std::to_string(leg), 3 * leg, 3, p));
+  c.buses.push_back(make_bus("arm0", prefix + "4", 12, 3, p));
+  c.buses.push_back(make_bus("arm1", prefix + "5", 15, 2, p));
+  c.buses.push_back(make_bus("arm2", prefix + "6", 17, 2, p));
+  return c;
+}
+
+CanConfig fd5_layout(const std::string& prefix) {
+  CanConfig c;
+  const std::array<const char*, 4> legs{"lf", "rf", "lh", "rh"};
+  for (int leg = 0; leg < 4; ++leg) {
+    c.buses.push_back(make_bus(legs[leg], prefix + std::to_string(leg), 3 * leg, 3, Protocol::mit));
+  }
+  BusConfig arm = make_bus("arm", prefix + "4", 12, 7, Protocol::mit);
+  arm.fd = true;
+  arm.data_bitrate = 5000000;
+  c.buses.push_back(arm);
+  return c;
+}
+
+std::string validate(const CanConfig& c) {
+  if (c.buses.empty()) return "can.buses: no bus configured";
+  if (static_cast<int>(c.buses.size()) > kMaxBuses) return "can.buses: more than " + std::to_string(kMaxBuses) + " buses";
+  if (!(c.max_bus_load > 0.0 && c.max_bus_load <= 1.0)) return "can.max_bus_load: must be in (0, 1]";
+  const Timing& t = c.timing;
+  if (t.tick_us == 0) return "can.timing.tick_us: must be > 0";
+  if (t.missed_replies_lost == 0) return "can.timing.missed_replies_lost: must be >= 1";
+  if (t.rx_deadline_us == 0) return "can.timing.rx_deadline_us: must be > 0";
+  if (t.mit_presence_timeout_ms == 0) return "can.timing.mit_presence_timeout_ms: must be > 0";
+  if (t.boot_timeout_ms == 0) return "can.timing.boot_timeout_ms: must be > 0";
+  if (t.sdo_timeout_ms == 0) return "can.timing.sdo_timeout_ms: must be > 0";
+  if (t.state_step_timeout_ms == 0) return "can.timing.state_step_timeout_ms: must be > 0";
+  if (t.heartbeat_period_ms == 0 || t.heartbeat_period_ms > 65535) return "can.timing.heartbeat_period_ms: must be 1..65535";
+  if (t.heartbeat_lost_periods == 0) return "can.timing.heartbeat_lost_periods: must be >= 1";
+  if (t.tx_fault_ticks == 0) return "can.timing.tx_fault_ticks: must be >= 1";
+  if (!(std::isfinite(t.damping_kd_nms_per_rad) && t.damping_kd_nms_per_rad >= 0.0)) {
+    return "can.timing.damping_kd_nms_per_rad: must be finite and >= 0";
+  }
+  if (!(std::isfinite(t.damping_stop_speed_rad_s) && t.damping_stop_speed_rad_s >= 0.0)) {
+    return "can.timing.damping_stop_speed_rad_s: must be finite and >= 0";
+  }
+  if (!(std::isfinite(t.start_limit_margin_rad) && t.start_limit_margin_rad >= 0.0)) {
+    return "can.timing.start_limit_margin_rad: must be finite and >= 0";
+  }
+
+  std::array<bool, kNj> joint_seen{};
+  std::set<int> drive_ids;
+  std::set<std::string> names, interfaces;
+  for (std::size_t bi = 0; bi < c.buses.size(); ++bi) {
+    const BusConfig& b = c.buses[bi];
+    const std::string where = "can.buses[" + std::to_string(bi) + "]";
+    if (b.name.empty()) return where + ".name: empty";
+    if (!names.insert(b.name).second) return where + ".name: '" + b.name + "' used twice";
+    if (b.interface.empty() || b.interface.size() >= 16) return where + ".interface: must be 1..15 characters";
+    if (!interfaces.insert(b.interface).second) return where + ".interface: '" + b.interface + "' used twice";
+    if (b.bitrate == 0) return where + ".bitrate: must be > 0";
+    if (b.fd && b.data_bitrate < b.bitrate) return where + ".data_bitrate: an FD bus needs data_bitrate >= bitrate";
+    if (b.drives.empty()) return where + ".drives: no drive on bus '" + b.name + "'";
+    if (static_cast<int>(b.drives.size()) > kMaxDrivesPerBus) {
+      return where + ".drives: more than " + std::to_string(kMaxDrivesPerBus) + " drives on bus '" + b.name + "'";
+    }
+    std::set<std::uint32_t> rx_ids;
+    for (std::size_t di = 0; di < b.drives.size(); ++di) {
+      const DriveConfig& d = b.drives[di];
+      const std::string dw = where + ".drives[" + std::to_string(di) + "]";
+      if (d.joint < 0 || d.joint >= kNj) return dw + ".joint: must name one of the " + std::to_string(kNj) + " joints";
+      if (joint_seen[static_cast<std::size_t>(d.joint)]) {
+        return dw + ".joint: '" + std::string(robot::kJoints[static_cast<std::size_t>(d.joint)].name) +
+               "' is on more than one drive";
+      }
+      joint_seen[static_cast<std::size_t>(d.joint)] = true;
+      if (d.drive_id < 1 || d.drive_id > cia402::kMaxNode) return dw + ".id: must be 1..127";
+      if (!drive_ids.insert(d.drive_id).second) return dw + ".id: " + std::to_string(d.drive_id) + " used twice";
+      if (d.protocol == Protocol::mit) {
+        const mit::Ranges& r = d.mit_ranges;
+        if (!ordered_finite(r.p_min_rad, r.p_max_rad)) return dw + ".mit_ranges.p: need finite min < max";
+        if (!ordered_finite(r.v_min_rad_s, r.v_max_rad_s)) return dw + ".mit_ranges.v: need finite min < max";
+        if (!ordered_finite(r.kp_min, r.kp_max)) return dw + ".mit_ranges.kp: need finite min < max";
+        if (!ordered_finite(r.kd_min, r.kd_max)) return dw + ".mit_ranges.kd: need finite min < max";
+        if (!ordered_finite(r.t_min_nm, r.t_max_nm)) return dw + ".mit_ranges.t: need finite min < max";
+        if (d.mit_reply_id > kStandardIdMask) return dw + ".reply_id: must be an 11-bit id";
+        if (d.mit_reply_id <= cia402::kMaxNode) {
+          return dw + ".reply_id: " + std::to_string(d.mit_reply_id) + " collides with the drive command ids (1..127)";
+        }
+        if (!rx_ids.insert(d.mit_reply_id).second) return dw + ".reply_id: used twice on bus '" + b.name + "'";
+      } else {
+        if (b.fd) return dw + ".protocol: CiA 402 on a CAN FD bus is not supported";
+        if (!(std::isfinite(d.counts_per_rad) && d.counts_per_rad > 0.0)) return dw + ".counts_per_rad: must be > 0";
+        if (!(std::isfinite(d.velocity_units_per_rad_s) && d.velocity_units_per_rad_s > 0.0)) {
+          return dw + ".velocity_units_per_rad_s: must be > 0";
+        }
+        if (!(std::isfinite(d.rated_torque_nm) && d.rated_torque_nm > 0.0)) return dw + ".rated_torque_nm: must be > 0";
+        if (!(std::isfinite(d.gear_ratio) && d.gear_ratio > 0.0)) return dw + ".gear_ratio: must be > 0";
+        if (d.max_torque_permille == 0 || d.max_torque_permille > 32767) {
+          return dw + ".max_torque_permille: must be 1..32767";
+        }
+        for (std::uint32_t base : {cia402::cob::tpdo1, cia402::cob::tpdo2}) {
+          if (!rx_ids.insert(base + d.drive_id).second) return dw + ".id: its PDO id collides on bus '" + b.name + "'";
+        }
+      }
+    }
+  }
+  for (int j = 0; j < kNj; ++j) {
+    if (!joint_seen[static_cast<std::size_t>(j)]) {
+      return "can.buses: joint '" + std::string(robot::kJoints[static_cast<std::size_t>(j)].name) + "' has no drive";
+    }
+  }
+  return {};
+}
+
+}  // namespace springbok::can

@@ -1,0 +1,132 @@
+// The CAN config: built-in layouts validate; the YAML loader reads every field
+// and rejects bad input with an error naming the field.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "springbok/can/config_yaml.hpp"
+
+namespace springbok::can {
+namespace {
+
+TEST(CanConfig, BuiltInLayoutsAreValid) {
+  EXPECT_EQ(validate(classic7_layout(Protocol::mit)), "");
+  EXPECT_EQ(validate(classic7_layout(Protocol::cia402)), "");
+  EXPECT_EQ(validate(fd5_layout()), "");
+}
+
+TEST(CanConfig, LayoutShortcutFromYaml) {
+  const ConfigResult r = load_can_config_text(R"(
+can:
+  layout: classic7
+  protocol: cia402
+  interface_prefix: vcan
+  timing: {missed_replies_lost: 5, rx_deadline_us: 20000}
+)");
+  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_EQ(r.config.buses.size(), 7u);
+  EXPECT_EQ(r.config.buses[6].interface, "vcan6");
+  EXPECT_EQ(r.config.buses[6].drives[1].drive_id, 19);
+  EXPECT_EQ(r.config.buses[6].drives[1].protocol, Protocol::cia402);
+  EXPECT_EQ(r.config.timing.missed_replies_lost, 5u);
+  EXPECT_EQ(r.config.timing.rx_deadline_us, 20000u);
+  EXPECT_EQ(r.config.timing.sdo_timeout_ms, 100u);  // default kept
+}
+
+std::string full_config(const std::string& lf_drive0_extra) {
+  std::string s = "can:\n  max_bus_load: 0.8\n  buses:\n";
+  const char* names[] = {"lf", "rf", "lh", "rh", "arm0", "arm1", "arm2"};
+  const int first[] = {0, 3, 6, 9, 12, 15, 17};
+  const int count[] = {3, 3, 3, 3, 3, 2, 2};
+  for (int b = 0; b < 7; ++b) {
+    s += "    - name: " + std::string(names[b]) + "\n      interface: vcan" + std::to_string(b) + "\n";
+    s += "      protocol: mit\n      drives:\n";
+    for (int j = first[b]; j < first[b] + count[b]; ++j) {
+      s += "        - joint: " + std::to_string(j) + "\n          id: " + std::to_string(j + 1) + "\n";
+      if (j == 0) s += lf_drive0_extra;
+    }
+  }
+  return s;
+}
+
+TEST(CanConfig, ExplicitBusesWithEveryDriveField) {
+  const ConfigResult r = load_can_config_text(full_config(
+      "          reply_id: 0x181\n          vendor_reply: true\n"
+      "          mit_ranges: {p: [-12.5, 12.5], v: [-45, 45], kp: [0, 500], kd: [0, 5], t: [-15, 15]}\n"));
+  ASSERT_TRUE(r.ok) << r.error;
+  const DriveConfig& d = r.config.buses[0].drives[0];
+  EXPECT_EQ(d.mit_reply_id, 0x181);
+  EXPECT_TRUE(d.mit_vendor_reply);
+  EXPECT_DOUBLE_EQ(d.mit_ranges.v_max_rad_s, 45.0);
+  EXPECT_DOUBLE_EQ(d.mit_ranges.t_min_nm, -15.0);
+  // Defaults of the other drives: reply id 0x100 + id, torque range = effort limit.
+  EXPECT_EQ(r.config.buses[0].drives[1].mit_reply_id, 0x102);
+  EXPECT_DOUBLE_EQ(r.config.buses[0].drives[1].mit_ranges.t_max_nm, 150.0);
+  EXPECT_DOUBLE_EQ(r.config.buses[6].drives[1].mit_ranges.t_max_nm, 9.0);
+}
+
+TEST(CanConfig, JointByName) {
+  std::string s = full_config("");
+  const auto pos = s.find("joint: 0\n");
+  s.replace(pos, 9, "joint: lf_haa_joint\n");
+  const ConfigResult r = load_can_config_text(s);
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.config.buses[0].drives[0].joint, 0);
+}
+
+struct BadCase {
+  const char* extra;
+  const char* field;
+};
+
+TEST(CanConfig, ErrorsNameTheField) {
+  const BadCase cases[] = {
+      {"          reply_id: 0x800\n", "can.buses[0].drives[0].reply_id"},
+      {"          reply_id: 5\n", "can.buses[0].drives[0].reply_id"},
+      {"          vendor_reply: maybe\n", "can.buses[0].drives[0].vendor_reply"},
+      {"          mit_ranges: {t: [15, -15]}\n", "can.buses[0].drives[0].mit_ranges.t"},
+      {"          mit_ranges: {t: [.nan, 15]}\n", "can.buses[0].drives[0].mit_ranges.t[0]"},
+      {"          mit_ranges: {q: [0, 1]}\n", "can.buses[0].drives[0].mit_ranges.q"},
+      {"          protocol: canopen\n", "can.buses[0].drives[0].protocol"},
+      {"          colour: red\n", "can.buses[0].drives[0].colour: unknown key"},
+      {"          mapping: three\n", "can.buses[0].drives[0].mapping"},
+      {"          reply_id: 0x102\n", "can.buses[0].drives[1].reply_id: used twice"},
+  };
+  for (const BadCase& c : cases) {
+    const ConfigResult r = load_can_config_text(full_config(c.extra));
+    EXPECT_FALSE(r.ok) << c.extra;
+    EXPECT_NE(r.error.find(c.field), std::string::npos) << "expected '" << c.field << "' in: " << r.error;
+  }
+}
+
+TEST(CanConfig, StructuralErrors) {
+  std::string dup = full_config("");
+  dup.replace(dup.find("id: 2\n"), 6, "id: 1\n");
+  EXPECT_NE(load_can_config_text(dup).error.find("can.buses[0].drives[1].id: 1 used twice"), std::string::npos);
+
+  std::string missing = full_config("");
+  missing.replace(missing.find("joint: 18\n"), 10, "joint: 17\n");
+  const ConfigResult r = load_can_config_text(missing);
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("can.buses[6].drives[1].joint"), std::string::npos) << r.error;
+
+  EXPECT_NE(load_can_config_text("can: {layout: classic9}").error.find("can.layout"), std::string::npos);
+  EXPECT_NE(load_can_config_text("can: {}").error.find("can: needs `layout` or `buses`"), std::string::npos);
+  EXPECT_NE(load_can_config_text("robot: 1").error.find("can: missing"), std::string::npos);
+  EXPECT_NE(load_can_config_text("can: [1, 2").error.find("YAML"), std::string::npos);
+  EXPECT_NE(load_can_config_text("can: {layout: classic7, timing: {tick_us: -1}}").error.find("can.timing.tick_us"),
+            std::string::npos);
+  EXPECT_NE(load_can_config_text("can: {layout: classic7, max_bus_load: 1.5}").error.find("can.max_bus_load"),
+            std::string::npos);
+  EXPECT_NE(load_can_config_file("/nonexistent/can.yaml").error.find("cannot open"), std::string::npos);
+}
+
+TEST(CanConfig, ExampleFilesLoad) {
+  for (const char* name : {"mit_classic7.yaml", "cia402_classic7.yaml", "mit_fd5.yaml"}) {
+    const ConfigResult r = load_can_config_file(std::string(SPRINGBOK_SOURCE_DIR) + "/tests/hil/config/" + name);
+    EXPECT_TRUE(r.ok) << name << ": " << r.error;
+  }
+}
+
+}  // namespace
+}  // namespace springbok::can

@@ -1,0 +1,180 @@
+// MIT mode codec against CAN.md section 1.6 (worked example), byte by byte.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "alloc_trap.hpp"
+#include "springbok/can/mit.hpp"
+
+namespace springbok::can::mit {
+namespace {
+
+std::array<std::uint8_t, 8> bytes8(const Frame& f) {
+  std::array<std::uint8_t, 8> b{};
+  for (int i = 0; i < 8; ++i) b[i] = f.data[i];
+  return b;
+}
+
+Frame frame_of(std::uint32_t id, std::initializer_list<std::uint8_t> data) {
+  Frame f;
+  f.id = id;
+  f.len = static_cast<std::uint8_t>(data.size());
+  int i = 0;
+  for (std::uint8_t b : data) f.data[i++] = b;
+  return f;
+}
+
+TEST(MitCodec, WorkedExampleFieldsTruncatedLikeTheFirmware) {
+  const Ranges r;  // Mini Cheetah defaults
+  EXPECT_EQ(float_to_uint_truncated(1.0f, -12.5f, 12.5f, 16), 35388u);
+  EXPECT_EQ(float_to_uint_truncated(-2.0f, -65.f, 65.f, 12), 1984u);
+  EXPECT_EQ(float_to_uint_truncated(50.f, 0.f, 500.f, 12), 409u);
+  EXPECT_EQ(float_to_uint_truncated(1.0f, 0.f, 5.f, 12), 819u);
+  EXPECT_EQ(float_to_uint_truncated(3.0f, -18.f, 18.f, 12), 2388u);
+  (void)r;
+}
+
+TEST(MitCodec, WorkedExampleDriveDecodesTheTruncatedFrame) {
+  const Frame f = frame_of(0x003, {0x8A, 0x3C, 0x7C, 0x01, 0x99, 0x33, 0x39, 0x54});
+  EXPECT_EQ(classify(f), Special::none);
+  Command c;
+  ASSERT_EQ(decode_command(f, Ranges{}, c), FrameStatus::ok);
+  EXPECT_NEAR(c.p_rad, 0.999657, 1e-6);
+  EXPECT_NEAR(c.v_rad_s, -2.015873, 1e-6);
+  EXPECT_NEAR(c.kp, 49.938950, 1e-6);
+  EXPECT_NEAR(c.kd, 1.000000, 1e-6);
+  EXPECT_NEAR(c.t_nm, 2.993406, 1e-6);
+}
+
+TEST(MitCodec, WorkedExampleHostCommandRoundsToNearest) {
+  Frame f;
+  ASSERT_EQ(encode_command(3, Command{1.0, -2.0, 50.0, 1.0, 3.0}, Ranges{}, f), FrameStatus::ok);
+  EXPECT_EQ(f.id, 0x003u);
+  EXPECT_EQ(f.len, 8);
+  EXPECT_FALSE(f.fd);
+  const std::array<std::uint8_t, 8> expected{0x8A, 0x3D, 0x7C, 0x11, 0x9A, 0x33, 0x39, 0x55};
+  EXPECT_EQ(bytes8(f), expected);
+}
+
+TEST(MitCodec, WorkedExampleReplyEncodedAndDecoded) {
+  Frame f;
+  Reply in;
+  in.drive_id = 3;
+  in.p_rad = 0.5;
+  in.v_rad_s = 1.25;
+  in.t_nm = -2.0;
+  encode_reply(0x103, in, Ranges{}, false, f);
+  EXPECT_EQ(f.id, 0x103u);
+  ASSERT_EQ(f.len, 6);
+  const std::array<std::uint8_t, 6> expected{0x03, 0x85, 0x1E, 0x82, 0x67, 0x1C};
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(f.data[i], expected[i]) << "byte " << i;
+
+  Reply out;
+  ASSERT_EQ(decode_reply(f, Ranges{}, out), FrameStatus::ok);
+  EXPECT_EQ(out.drive_id, 3);
+  EXPECT_NEAR(out.p_rad, 0.499924, 1e-6);
+  // CAN.md's 1.222221 was computed in float; the double decode is the exact closed form.
+  EXPECT_NEAR(out.v_rad_s, 1.222221, 2e-6);
+  EXPECT_NEAR(out.v_rad_s, 2086.0 * 130.0 / 4095.0 - 65.0, 1e-12);
+  EXPECT_NEAR(out.t_nm, -2.000000, 1e-6);
+  EXPECT_FALSE(out.has_vendor_bytes);
+}
+
+TEST(MitCodec, ClampsOutOfRangeInsteadOfWrapping) {
+  Frame f;
+  // t far below T_MIN must become 0 (full negative), never wrap to the positive end.
+  ASSERT_EQ(encode_command(1, Command{-100.0, 1000.0, -5.0, 99.0, -200.0}, Ranges{}, f), FrameStatus::ok);
+  Command c;
+  ASSERT_EQ(decode_command(f, Ranges{}, c), FrameStatus::ok);
+  EXPECT_DOUBLE_EQ(c.p_rad, -12.5);
+  EXPECT_DOUBLE_EQ(c.v_rad_s, 65.0);
+  EXPECT_DOUBLE_EQ(c.kp, 0.0);
+  EXPECT_DOUBLE_EQ(c.kd, 5.0);
+  EXPECT_DOUBLE_EQ(c.t_nm, -18.0);
+}
+
+TEST(MitCodec, RejectsNonFiniteAndLeavesTheFrameAlone) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  Frame f = frame_of(0x7, {1, 2, 3});
+  const Frame before = f;
+  EXPECT_EQ(encode_command(1, Command{nan, 0, 0, 0, 0}, Ranges{}, f), FrameStatus::bad_value);
+  EXPECT_EQ(encode_command(1, Command{0, 0, 0, 0, inf}, Ranges{}, f), FrameStatus::bad_value);
+  EXPECT_EQ(encode_command(1, Command{0, 0, nan, 0, 0}, Ranges{}, f), FrameStatus::bad_value);
+  EXPECT_EQ(f.id, before.id);
+  EXPECT_EQ(f.len, before.len);
+}
+
+TEST(MitCodec, RoundTripErrorIsAtMostHalfAnLsb) {
+  // Oracle: rounding to nearest on a uniform grid errs by at most LSB / 2.
+  Ranges r;
+  r.t_min_nm = -150.0;
+  r.t_max_nm = 150.0;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double lsb_p = 25.0 / 65535.0, lsb_v = 130.0 / 4095.0, lsb_kp = 500.0 / 4095.0, lsb_kd = 5.0 / 4095.0,
+               lsb_t = 300.0 / 4095.0;
+  for (int k = 0; k < 2000; ++k) {
+    const Command in{-12.5 + 25.0 * u(rng), -65.0 + 130.0 * u(rng), 500.0 * u(rng), 5.0 * u(rng), -150.0 + 300.0 * u(rng)};
+    Frame f;
+    ASSERT_EQ(encode_command(9, in, r, f), FrameStatus::ok);
+    Command out;
+    ASSERT_EQ(decode_command(f, r, out), FrameStatus::ok);
+    EXPECT_LE(std::abs(out.p_rad - in.p_rad), lsb_p / 2 + 1e-12);
+    EXPECT_LE(std::abs(out.v_rad_s - in.v_rad_s), lsb_v / 2 + 1e-12);
+    EXPECT_LE(std::abs(out.kp - in.kp), lsb_kp / 2 + 1e-12);
+    EXPECT_LE(std::abs(out.kd - in.kd), lsb_kd / 2 + 1e-12);
+    EXPECT_LE(std::abs(out.t_nm - in.t_nm), lsb_t / 2 + 1e-12);
+  }
+}
+
+TEST(MitCodec, SpecialFrames) {
+  Frame f;
+  encode_special(5, Special::enter_motor_mode, f);
+  EXPECT_EQ(f.id, 5u);
+  const std::array<std::uint8_t, 8> enter{0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFC};
+  EXPECT_EQ(bytes8(f), enter);
+  EXPECT_EQ(classify(f), Special::enter_motor_mode);
+  encode_special(5, Special::exit_motor_mode, f);
+  EXPECT_EQ(f.data[7], 0xFD);
+  EXPECT_EQ(classify(f), Special::exit_motor_mode);
+  encode_special(5, Special::set_zero, f);
+  EXPECT_EQ(f.data[7], 0xFE);
+  EXPECT_EQ(classify(f), Special::set_zero);
+  // All-FF with another last byte is an ordinary (extreme) command.
+  EXPECT_EQ(classify(frame_of(5, {0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFB})), Special::none);
+}
+
+TEST(MitCodec, DecodersRejectBadFrames) {
+  Reply rep;
+  Command cmd;
+  EXPECT_EQ(decode_reply(frame_of(0x103, {3, 0, 0, 0, 0}), Ranges{}, rep), FrameStatus::wrong_dlc);
+  EXPECT_EQ(decode_reply(frame_of(0x103, {3, 0, 0, 0, 0, 0, 0}), Ranges{}, rep), FrameStatus::wrong_dlc);
+  EXPECT_EQ(decode_reply(frame_of(0x103, {}), Ranges{}, rep), FrameStatus::wrong_dlc);
+  EXPECT_EQ(decode_command(frame_of(0x3, {1, 2, 3, 4, 5, 6}), Ranges{}, cmd), FrameStatus::wrong_dlc);
+  Frame err = frame_of(0x40, {0, 0, 0, 0, 0, 0});
+  err.error = true;
+  EXPECT_EQ(decode_reply(err, Ranges{}, rep), FrameStatus::error_frame);
+  // The CubeMars 8-byte variant carries temperature and an error code.
+  ASSERT_EQ(decode_reply(frame_of(0x103, {3, 0x85, 0x1E, 0x82, 0x67, 0x1C, 40, 7}), Ranges{}, rep), FrameStatus::ok);
+  EXPECT_TRUE(rep.has_vendor_bytes);
+  EXPECT_EQ(rep.temperature, 40);
+  EXPECT_EQ(rep.error_code, 7);
+}
+
+TEST(MitCodec, EncodeAndDecodeDoNotAllocate) {
+  Frame f;
+  Reply r;
+  const std::size_t n = test::count_allocations([&] {
+    for (int k = 0; k < 100; ++k) {
+      (void)encode_command(3, Command{1.0, -2.0, 50.0, 1.0, 3.0 + k}, Ranges{}, f);
+      (void)decode_reply(f, Ranges{}, r);
+    }
+  });
+  EXPECT_EQ(n, 0u);
+}
+
+}  // namespace
+}  // namespace springbok::can::mit

@@ -1,0 +1,169 @@
+// The drive side of both protocols (CAN.md section 5), as the emulator runs it:
+// an MIT-mode drive and a CiA 402 drive, each moving a per-joint model, each
+// with a scriptable list of injected faults. No I/O: frames in, frames out.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "springbok/can/config.hpp"
+#include "springbok/can/frame.hpp"
+
+namespace springbok::emu {
+
+// One joint: J qdd = tau - b qd, velocity capped at the joint's limit, hard
+// stops at the position limits. Stepped once per command (MIT) or SYNC (CiA 402).
+struct JointModel {
+  double q_rad = 0.0;
+  double qd_rad_s = 0.0;
+  double tau_nm = 0.0;
+  double inertia_kgm2 = 0.05;
+  double viscous_nms_per_rad = 0.5;
+  double v_max_rad_s = 1.0;
+  bool bounded = false;
+  double lower_rad = 0.0, upper_rad = 0.0;
+  void step(double tau_cmd_nm, double dt_s) noexcept;
+};
+JointModel make_joint_model(int joint, double q0_rad);
+
+enum class FaultKind : std::uint8_t {
+  drop,           // no reply for `count` ticks
+  delay,          // replies held back `param` ticks, for `count` ticks
+  duplicate,      // each reply sent twice, for `count` ticks
+  corrupt,        // position bytes inverted, for `count` ticks
+  silent,         // never replies again
+  emcy,           // CiA 402: EMCY `param` (default 0x2310) + Fault state; MIT (vendor reply): error code `param`
+  bus_off,        // an error frame with CAN_ERR_BUSOFF on the drive's bus
+  error_passive,  // an error frame CAN_ERR_CRTL / TX passive on the drive's bus
+  wrong_dlc,      // the reply one byte short, for `count` ticks
+  unexpected_id,  // MIT: byte 0 = `param`; CiA 402: TPDO1 with node id `param`; for `count` ticks
+};
+const char* to_string(FaultKind k) noexcept;
+
+struct Fault {
+  FaultKind kind = FaultKind::drop;
+  int drive_id = 0;
+  std::uint64_t at_tick = 1;  // the drive's cyclic tick (commands in motor mode / SYNCs while Operational)
+  std::uint64_t count = 1;
+  std::uint32_t param = 0;
+};
+
+struct FaultResult {
+  bool ok = false;
+  std::vector<Fault> faults;
+  std::string error;
+};
+// A YAML list under `faults:` of {kind, drive, at, count, param}; errors name the entry.
+FaultResult load_faults_file(const std::string& path);
+FaultResult load_faults_text(const std::string& text);
+
+class Drive {
+ public:
+  Drive(const can::DriveConfig& cfg, bool fd_bus, JointModel model, std::vector<Fault> faults);
+  virtual ~Drive() = default;
+  // A frame seen on the bus; replies (and injected error frames) go to `out`.
+  virtual void on_frame(const can::Frame& f, std::int64_t now_ns, std::vector<can::Frame>& out) = 0;
+  // Time passes (heartbeats, CAN_TIMEOUT).
+  virtual void on_time(std::int64_t now_ns, std::vector<can::Frame>& out) = 0;
+
+  const can::DriveConfig& config() const noexcept { return cfg_; }
+  const JointModel& model() const noexcept { return model_; }
+  std::uint64_t tick() const noexcept { return tick_; }
+  std::uint64_t frames_in() const noexcept { return frames_in_; }
+  std::uint64_t replies_out() const noexcept { return replies_out_; }
+  bool enabled() const noexcept { return enabled_; }
+
+ protected:
+  // Starts a cyclic tick: releases delayed replies, fires one-shot events.
+  void begin_tick(std::vector<can::Frame>& out);
+  // Sends a cyclic reply through the active faults.
+  void emit_cyclic(can::Frame f, std::vector<can::Frame>& out);
+  void emit(const can::Frame& f, std::vector<can::Frame>& out);
+  virtual void on_fault_event(const Fault& fault, std::vector<can::Frame>& out) = 0;
+  virtual void corrupt(can::Frame& f) const = 0;
+  bool active(const Fault& flt) const noexcept;
+
+  can::DriveConfig cfg_;
+  bool fd_bus_ = false;
+  JointModel model_;
+  std::vector<Fault> faults_;
+  std::uint64_t tick_ = 0;
+  std::uint64_t frames_in_ = 0, replies_out_ = 0;
+  bool enabled_ = false;
+  std::vector<std::pair<std::uint64_t, can::Frame>> delayed_;
+};
+
+// MIT mode, bgkatz motorcontrol behaviour: one reply per received frame, the state
+// at reception, truncating float_to_uint; stored command; special frames; CAN_TIMEOUT.
+class MitDrive final : public Drive {
+ public:
+  MitDrive(const can::DriveConfig& cfg, bool fd_bus, JointModel model, std::vector<Fault> faults,
+           std::uint32_t can_timeout_ms);
+  void on_frame(const can::Frame& f, std::int64_t now_ns, std::vector<can::Frame>& out) override;
+  void on_time(std::int64_t now_ns, std::vector<can::Frame>& out) override;
+  std::uint64_t zero_frames() const noexcept { return zero_frames_; }
+
+ private:
+  void on_fault_event(const Fault& fault, std::vector<can::Frame>& out) override;
+  void corrupt(can::Frame& f) const override;
+  can::Frame reply() const;
+  std::uint32_t can_timeout_ms_;
+  std::int64_t last_rx_ns_ = 0;
+  double p_des_ = 0, v_des_ = 0, kp_ = 0, kd_ = 0, t_ff_ = 0;  // the stored command
+  std::uint8_t error_code_ = 0;
+  std::uint64_t zero_frames_ = 0;
+};
+
+// CiA 402 subset: NMT, heartbeat, SDO (expedited + aborts), PDO mapping by SDO,
+// SYNC-driven TPDOs, the state machine, CST, EMCY.
+class Cia402Drive final : public Drive {
+ public:
+  Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns);
+  void on_frame(const can::Frame& f, std::int64_t now_ns, std::vector<can::Frame>& out) override;
+  void on_time(std::int64_t now_ns, std::vector<can::Frame>& out) override;
+  // Sends the boot-up frame (power-on).
+  void boot(std::int64_t now_ns, std::vector<can::Frame>& out);
+  std::uint16_t status_word() const noexcept;
+  std::uint8_t nmt_state() const noexcept { return nmt_; }
+
+ private:
+  struct Pdo {
+    std::uint32_t cob_id = 0;
+    std::uint8_t transmission = 255;
+    std::uint8_t count = 0;
+    std::array<std::uint32_t, 8> entries{};
+  };
+  void reset_communication();
+  void on_sync(std::vector<can::Frame>& out);
+  void handle_sdo(const can::Frame& f, std::vector<can::Frame>& out);
+  // SDO access to the object dictionary: returns 0 or an abort code.
+  std::uint32_t read_object(std::uint16_t index, std::uint8_t sub, std::uint32_t& value, std::uint8_t& size) const;
+  std::uint32_t write_object(std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size);
+  std::uint32_t object_value(std::uint32_t mapping_entry) const;
+  void step_state_machine();
+  void on_fault_event(const Fault& fault, std::vector<can::Frame>& out) override;
+  void corrupt(can::Frame& f) const override;
+
+  enum class St : std::uint8_t { not_ready, switch_on_disabled, ready, switched_on, enabled, quick_stop, fault };
+  std::uint8_t nmt_ = 0x00;
+  St state_ = St::switch_on_disabled;
+  std::uint16_t controlword_ = 0, applied_controlword_ = 0;
+  std::int16_t target_torque_ = 0, applied_target_torque_ = 0;
+  std::uint16_t heartbeat_ms_ = 0;
+  std::int64_t next_heartbeat_ns_ = 0;
+  std::int8_t mode_ = 0;
+  std::uint16_t max_torque_ = 1000;
+  std::uint16_t error_code_ = 0;
+  std::uint8_t error_register_ = 0;
+  std::int16_t abort_connection_ = 1;
+  std::uint8_t error_behaviour_ = 1;
+  std::uint32_t cycle_period_us_ = 0;
+  std::uint8_t ip_value_ = 1;
+  std::int8_t ip_index_ = -3;
+  std::array<Pdo, 4> rpdo_{}, tpdo_{};
+};
+
+}  // namespace springbok::emu

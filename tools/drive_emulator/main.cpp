@@ -1,0 +1,175 @@
+// drive_emulator: answers on the configured CAN buses as the configured drives
+// would (MIT mode or CiA 402, drive side, byte-exact), motion from a per-joint
+// model, faults injected from a script. Runs until SIGINT/SIGTERM or --duration-s.
+//
+//   drive_emulator --config can.yaml [--faults faults.yaml] [--pose stance|zero]
+//   drive_emulator --config can.yaml --print-layout      (no CAN needed)
+#include <signal.h>
+
+#include <Eigen/Geometry>  // model.hpp uses Eigen::Quaterniond without including it
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "springbok/can/bus_load.hpp"
+#include "springbok/can/config_yaml.hpp"
+#include "springbok/can/socketcan.hpp"
+#include "springbok/drive_emulator/drives.hpp"
+#include "springbok/model/model.hpp"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+void on_signal(int) { g_stop = true; }
+
+double initial_position(int joint, const std::string& pose) {
+  if (pose == "zero" || joint >= springbok::kFirstArmJoint) return 0.0;
+  // Stance (robot/PARAMS.md): front legs (0, 0.7, -1.4), hind legs (0, -0.7, 1.4).
+  const int leg = joint / 3, k = joint % 3;
+  const double front[3] = {0.0, 0.7, -1.4};
+  const double sign = leg < 2 ? 1.0 : -1.0;
+  return sign * front[k];
+}
+
+void print_layout(const springbok::can::CanConfig& c) {
+  using namespace springbok::can;
+  std::printf("%-6s %-8s %-3s %-7s %6s %8s %9s %7s\n", "bus", "iface", "fd", "proto", "joints", "frames", "bus_us", "load");
+  for (const BusConfig& b : c.buses) {
+    const BusLoad l = worst_case_load(b, c.timing.tick_us);
+    std::string proto = to_string(b.drives.front().protocol);
+    for (const DriveConfig& d : b.drives) {
+      if (d.protocol != b.drives.front().protocol) proto = "mixed";
+    }
+    std::printf("%-6s %-8s %-3s %-7s %6zu %8d %9.1f %6.1f%%\n", b.name.c_str(), b.interface.c_str(), b.fd ? "yes" : "no",
+                proto.c_str(), b.drives.size(), l.frames_per_tick, l.bus_time_us, 100.0 * l.load);
+  }
+  const std::string err = check_bus_loads(c);
+  std::printf("%s\n", err.empty() ? "layout ok: every bus at or below the load limit" : ("layout refused: " + err).c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace springbok;
+  CLI::App app{"CAN drive emulator (MIT mode / CiA 402) for HIL over vcan"};
+  std::string config_path, faults_path, pose = "stance", ready_file;
+  double duration_s = 0.0;
+  std::uint32_t can_timeout_ms = 0;
+  bool layout_only = false;
+  app.add_option("--config", config_path, "YAML file with the `can:` section (the same the firmware reads)")->required();
+  app.add_option("--faults", faults_path, "YAML fault script (`faults:` list)");
+  app.add_option("--pose", pose, "initial joint positions")->check(CLI::IsMember({"stance", "zero"}));
+  app.add_option("--duration-s", duration_s, "stop after this many seconds (0 = until SIGTERM)")->check(CLI::NonNegativeNumber);
+  app.add_option("--can-timeout-ms", can_timeout_ms, "MIT CAN_TIMEOUT: zero the stored command after this silence (0 = off)");
+  app.add_option("--ready-file", ready_file, "written once the buses are open and the drives booted");
+  app.add_flag("--print-layout", layout_only, "print frames per tick and worst-case load per bus, then exit");
+  CLI11_PARSE(app, argc, argv);
+
+  const can::ConfigResult cfg = can::load_can_config_file(config_path);
+  if (!cfg.ok) {
+    std::fprintf(stderr, "drive_emulator: %s\n", cfg.error.c_str());
+    return 2;
+  }
+  if (layout_only) {
+    print_layout(cfg.config);
+    return can::check_bus_loads(cfg.config).empty() ? 0 : 1;
+  }
+  std::vector<emu::Fault> faults;
+  if (!faults_path.empty()) {
+    const emu::FaultResult fr = emu::load_faults_file(faults_path);
+    if (!fr.ok) {
+      std::fprintf(stderr, "drive_emulator: %s\n", fr.error.c_str());
+      return 2;
+    }
+    faults = fr.faults;
+  }
+
+  struct BusIo {
+    can::SocketCanBus socket;
+    std::vector<std::unique_ptr<emu::Drive>> drives;
+    std::uint64_t tx_failed = 0;
+  };
+  std::vector<BusIo> buses(cfg.config.buses.size());
+  const std::int64_t t0 = can::monotonic_ns();
+  for (std::size_t b = 0; b < buses.size(); ++b) {
+    const can::BusConfig& bc = cfg.config.buses[b];
+    if (const std::string err = buses[b].socket.open(bc.interface, bc.fd, {}, false); !err.empty()) {
+      std::fprintf(stderr, "drive_emulator: bus '%s': %s\n", bc.name.c_str(), err.c_str());
+      return 3;
+    }
+    for (const can::DriveConfig& d : bc.drives) {
+      std::vector<emu::Fault> mine;
+      for (const emu::Fault& f : faults) {
+        if (f.drive_id == d.drive_id) mine.push_back(f);
+      }
+      const emu::JointModel model = emu::make_joint_model(d.joint, initial_position(d.joint, pose));
+      if (d.protocol == can::Protocol::mit) {
+        buses[b].drives.push_back(std::make_unique<emu::MitDrive>(d, bc.fd, model, mine, can_timeout_ms));
+      } else {
+        buses[b].drives.push_back(std::make_unique<emu::Cia402Drive>(d, model, mine, t0));
+      }
+    }
+  }
+  for (const emu::Fault& f : faults) {
+    bool found = false;
+    for (const BusIo& io : buses) {
+      for (const auto& d : io.drives) found = found || d->config().drive_id == f.drive_id;
+    }
+    if (!found) {
+      std::fprintf(stderr, "drive_emulator: fault '%s' names drive %d, which is not configured\n", emu::to_string(f.kind),
+                   f.drive_id);
+      return 2;
+    }
+  }
+  ::signal(SIGINT, on_signal);
+  ::signal(SIGTERM, on_signal);
+
+  std::vector<can::Frame> out;
+  const auto flush = [&](BusIo& io) {
+    for (const can::Frame& f : out) {
+      if (io.socket.send(f) != can::TxStatus::ok) ++io.tx_failed;
+    }
+    out.clear();
+  };
+  for (BusIo& io : buses) {
+    for (auto& d : io.drives) {
+      if (auto* c = dynamic_cast<emu::Cia402Drive*>(d.get())) c->boot(t0, out);
+    }
+    flush(io);
+  }
+  if (!ready_file.empty()) std::ofstream(ready_file) << "ready\n";
+
+  std::vector<int> fds;
+  for (const BusIo& io : buses) fds.push_back(io.socket.native_handle());
+  const std::int64_t end_ns = duration_s > 0 ? t0 + static_cast<std::int64_t>(duration_s * 1e9) : INT64_MAX;
+  can::Frame f;
+  while (!g_stop && can::monotonic_ns() < end_ns) {
+    can::wait_readable(fds, 1000);
+    const std::int64_t now = can::monotonic_ns();
+    for (BusIo& io : buses) {
+      while (io.socket.receive(f) == can::RxStatus::frame) {
+        for (auto& d : io.drives) d->on_frame(f, now, out);
+        flush(io);
+      }
+      for (auto& d : io.drives) d->on_time(now, out);
+      flush(io);
+    }
+  }
+  for (std::size_t b = 0; b < buses.size(); ++b) {
+    for (const auto& d : buses[b].drives) {
+      std::printf("drive %d joint %s bus %s tick %llu frames_in %llu replies_out %llu enabled %d q_rad %.6f\n",
+                  d->config().drive_id, std::string(robot::kJoints[static_cast<std::size_t>(d->config().joint)].name).c_str(),
+                  cfg.config.buses[b].name.c_str(), static_cast<unsigned long long>(d->tick()),
+                  static_cast<unsigned long long>(d->frames_in()), static_cast<unsigned long long>(d->replies_out()),
+                  d->enabled() ? 1 : 0, d->model().q_rad);
+    }
+    std::printf("bus %s tx_failed %llu\n", cfg.config.buses[b].name.c_str(),
+                static_cast<unsigned long long>(buses[b].tx_failed));
+  }
+  return 0;
+}

@@ -1,0 +1,567 @@
+#include "springbok/drive_emulator/drives.hpp"
+
+#include <Eigen/Geometry>  // model.hpp uses Eigen::Quaterniond without including it
+
+#include <algorithm>
+#include <cmath>
+
+#include "springbok/can/cia402.hpp"
+#include "springbok/can/mit.hpp"
+#include "springbok/can/socketcan.hpp"
+#include "springbok/model/model.hpp"
+
+namespace springbok::emu {
+
+using can::Frame;
+namespace c4 = can::cia402;
+
+void JointModel::step(double tau_cmd_nm, double dt_s) noexcept {
+  tau_nm = tau_cmd_nm;
+  const double qdd = (tau_cmd_nm - viscous_nms_per_rad * qd_rad_s) / inertia_kgm2;
+  qd_rad_s = std::clamp(qd_rad_s + qdd * dt_s, -v_max_rad_s, v_max_rad_s);
+  q_rad += qd_rad_s * dt_s;
+  if (bounded && (q_rad < lower_rad || q_rad > upper_rad)) {
+    q_rad = std::clamp(q_rad, lower_rad, upper_rad);
+    qd_rad_s = 0.0;
+  }
+}
+
+JointModel make_joint_model(int joint, double q0_rad) {
+  const auto& lim = robot::kJoints[static_cast<std::size_t>(joint)].limits;
+  JointModel m;
+  m.q_rad = q0_rad;
+  m.v_max_rad_s = 0.9 * lim.velocity_rad_s;  // below the host's plausibility bound
+  m.bounded = lim.bounded;
+  m.lower_rad = lim.lower_rad;
+  m.upper_rad = lim.upper_rad;
+  return m;
+}
+
+const char* to_string(FaultKind k) noexcept {
+  switch (k) {
+    case FaultKind::drop: return "drop";
+    case FaultKind::delay: return "delay";
+    case FaultKind::duplicate: return "duplicate";
+    case FaultKind::corrupt: return "corrupt";
+    case FaultKind::silent: return "silent";
+    case FaultKind::emcy: return "emcy";
+    case FaultKind::bus_off: return "bus_off";
+    case FaultKind::error_passive: return "error_passive";
+    case FaultKind::wrong_dlc: return "wrong_dlc";
+    case FaultKind::unexpected_id: return "unexpected_id";
+  }
+  return "?";
+}
+
+// ---- Drive: fault injection common to both protocols ---------------------------------------------
+Drive::Drive(const can::DriveConfig& cfg, bool fd_bus, JointModel model, std::vector<Fault> faults)
+    : cfg_(cfg), fd_bus_(fd_bus), model_(model), faults_(std::move(faults)) {}
+
+bool Drive::active(const Fault& flt) const noexcept {
+  if (tick_ < flt.at_tick) return false;
+  return flt.kind == FaultKind::silent || tick_ < flt.at_tick + flt.count;
+}
+
+void Drive::emit(const Frame& f, std::vector<Frame>& out) {
+  Frame g = f;
+  if (fd_bus_ && !g.error) g.fd = true;
+  out.push_back(g);
+  ++replies_out_;
+}
+
+void Drive::begin_tick(std::vector<Frame>& out) {
+  ++tick_;
+  for (auto it = delayed_.begin(); it != delayed_.end();) {
+    if (it->first <= tick_) {
+      emit(it->second, out);
+      it = delayed_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  for (const Fault& flt : faults_) {
+    const bool event = flt.kind == FaultKind::emcy || flt.kind == FaultKind::bus_off || flt.kind == FaultKind::error_passive;
+    if (event && flt.at_tick == tick_) on_fault_event(flt, out);
+  }
+}
+
+void Drive::emit_cyclic(Frame f, std::vector<Frame>& out) {
+  int copies = 1;
+  for (const Fault& flt : faults_) {
+    if (!active(flt)) continue;
+    switch (flt.kind) {
+      case FaultKind::drop:
+      case FaultKind::silent: return;
+      case FaultKind::corrupt: corrupt(f); break;
+      case FaultKind::wrong_dlc: f.len = static_cast<std::uint8_t>(f.len - 1); break;
+      case FaultKind::unexpected_id:
+        if (cfg_.protocol == can::Protocol::mit) {
+          f.data[0] = static_cast<std::uint8_t>(flt.param);
+        } else {
+          f.id = (f.id & 0x780) | (flt.param & 0x7F);
+        }
+        break;
+      case FaultKind::duplicate: copies = 2; break;
+      case FaultKind::delay: delayed_.emplace_back(tick_ + std::max<std::uint32_t>(1, flt.param), f); return;
+      default: break;
+    }
+  }
+  for (int i = 0; i < copies; ++i) emit(f, out);
+}
+
+// ---- MIT mode ---------------------------------------------------------------------------------------
+MitDrive::MitDrive(const can::DriveConfig& cfg, bool fd_bus, JointModel model, std::vector<Fault> faults,
+                   std::uint32_t can_timeout_ms)
+    : Drive(cfg, fd_bus, model, std::move(faults)), can_timeout_ms_(can_timeout_ms) {}
+
+Frame MitDrive::reply() const {
+  can::mit::Reply r;
+  r.drive_id = cfg_.drive_id;
+  r.p_rad = model_.q_rad;
+  r.v_rad_s = model_.qd_rad_s;
+  r.t_nm = model_.tau_nm;
+  r.error_code = error_code_;
+  r.temperature = 40;
+  Frame f;
+  can::mit::encode_reply(cfg_.mit_reply_id, r, cfg_.mit_ranges, cfg_.mit_vendor_reply, f);
+  return f;
+}
+
+void MitDrive::corrupt(Frame& f) const {
+  f.data[1] = static_cast<std::uint8_t>(~f.data[1]);
+  f.data[2] = static_cast<std::uint8_t>(~f.data[2]);
+}
+
+void MitDrive::on_fault_event(const Fault& flt, std::vector<Frame>& out) {
+  Frame e;
+  switch (flt.kind) {
+    case FaultKind::emcy: error_code_ = static_cast<std::uint8_t>(flt.param == 0 ? 1 : flt.param); break;
+    case FaultKind::bus_off: can::make_bus_off_frame(e); emit(e, out); break;
+    case FaultKind::error_passive: can::make_error_passive_frame(e); emit(e, out); break;
+    default: break;
+  }
+}
+
+void MitDrive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Frame>& out) {
+  if (f.error || f.id != cfg_.drive_id || f.len != can::mit::kCommandLen) return;
+  ++frames_in_;
+  last_rx_ns_ = now_ns;
+  switch (can::mit::classify(f)) {
+    case can::mit::Special::enter_motor_mode: enabled_ = true; emit(reply(), out); return;
+    case can::mit::Special::exit_motor_mode: enabled_ = false; emit(reply(), out); return;
+    case can::mit::Special::set_zero: ++zero_frames_; model_.q_rad = 0.0; emit(reply(), out); return;
+    case can::mit::Special::none: break;
+  }
+  can::mit::Command c;
+  (void)can::mit::decode_command(f, cfg_.mit_ranges, c);
+  p_des_ = c.p_rad;
+  v_des_ = c.v_rad_s;
+  kp_ = c.kp;
+  kd_ = c.kd;
+  t_ff_ = c.t_nm;
+  if (!enabled_) {  // stored, answered, no motion
+    emit(reply(), out);
+    return;
+  }
+  begin_tick(out);
+  const double tau = std::clamp(kp_ * (p_des_ - model_.q_rad) + kd_ * (v_des_ - model_.qd_rad_s) + t_ff_,
+                                cfg_.mit_ranges.t_min_nm, cfg_.mit_ranges.t_max_nm);
+  model_.step(tau, 1e-3);
+  emit_cyclic(reply(), out);
+}
+
+void MitDrive::on_time(std::int64_t now_ns, std::vector<Frame>&) {
+  if (can_timeout_ms_ > 0 && enabled_ && now_ns - last_rx_ns_ > 1000000LL * can_timeout_ms_) {
+    p_des_ = v_des_ = kp_ = kd_ = t_ff_ = 0.0;  // CAN_TIMEOUT: a dead host means zero torque
+  }
+}
+
+// ---- CiA 402 ----------------------------------------------------------------------------------------
+Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns)
+    : Drive(cfg, false, model, std::move(faults)) {
+  reset_communication();
+  next_heartbeat_ns_ = now_ns;
+}
+
+void Cia402Drive::reset_communication() {
+  const std::uint8_t n = cfg_.drive_id;
+  heartbeat_ms_ = 0;
+  error_behaviour_ = 1;
+  cycle_period_us_ = 0;
+  // Vendor defaults: event-driven PDOs with the drive's own mapping (the host must re-map and disable).
+  for (int k = 0; k < 4; ++k) {
+    rpdo_[k] = Pdo{0x200u + 0x100u * k + n, 255, 0, {}};
+    tpdo_[k] = Pdo{0x180u + 0x100u * k + n, 255, 0, {}};
+  }
+  rpdo_[0].count = 1;
+  rpdo_[0].entries[0] = c4::mapping_entry(c4::object::controlword, 0, 16);
+  tpdo_[0].count = 1;
+  tpdo_[0].entries[0] = c4::mapping_entry(c4::object::statusword, 0, 16);
+}
+
+void Cia402Drive::boot(std::int64_t now_ns, std::vector<Frame>& out) {
+  nmt_ = 0x7F;
+  Frame f;
+  c4::encode_heartbeat(cfg_.drive_id, c4::NmtState::boot_up, f);
+  emit(f, out);
+  next_heartbeat_ns_ = now_ns + 1000000LL * std::max<int>(heartbeat_ms_, 1);
+}
+
+std::uint16_t Cia402Drive::status_word() const noexcept {
+  switch (state_) {
+    case St::not_ready: return 0x0000;
+    case St::switch_on_disabled: return 0x0250;
+    case St::ready: return 0x0231;
+    case St::switched_on: return 0x0233;
+    case St::enabled: return 0x0237;
+    case St::quick_stop: return 0x0217;
+    case St::fault: return 0x0218;
+  }
+  return 0;
+}
+
+void Cia402Drive::step_state_machine() {
+  const std::uint16_t cw = applied_controlword_;
+  switch (state_) {
+    case St::fault: break;  // handled with the edge below
+    case St::not_ready: state_ = St::switch_on_disabled; break;
+    case St::switch_on_disabled:
+      if ((cw & 0x87) == 0x06) state_ = St::ready;
+      break;
+    case St::ready:
+      if ((cw & 0x8F) == 0x07 || (cw & 0x8F) == 0x0F) state_ = St::switched_on;
+      else if ((cw & 0x02) == 0 || (cw & 0x86) == 0x02) state_ = St::switch_on_disabled;
+      break;
+    case St::switched_on:
+      if ((cw & 0x8F) == 0x0F) state_ = St::enabled;
+      else if ((cw & 0x87) == 0x06) state_ = St::ready;
+      else if ((cw & 0x02) == 0 || (cw & 0x86) == 0x02) state_ = St::switch_on_disabled;
+      break;
+    case St::enabled:
+      if ((cw & 0x8F) == 0x07) state_ = St::switched_on;
+      else if ((cw & 0x87) == 0x06) state_ = St::ready;
+      else if ((cw & 0x02) == 0) state_ = St::switch_on_disabled;
+      else if ((cw & 0x86) == 0x02) state_ = St::quick_stop;
+      break;
+    case St::quick_stop:
+      if ((cw & 0x8F) == 0x0F) state_ = St::enabled;
+      else if ((cw & 0x02) == 0) state_ = St::switch_on_disabled;
+      break;
+  }
+}
+
+void Cia402Drive::on_sync(std::vector<Frame>& out) {
+  if (nmt_ != 0x05) return;
+  // The RPDO received before this SYNC takes effect now (CAN.md 2.6).
+  const std::uint16_t previous = applied_controlword_;
+  applied_controlword_ = controlword_;
+  applied_target_torque_ = target_torque_;
+  if (state_ == St::fault) {
+    if ((applied_controlword_ & 0x80) != 0 && (previous & 0x80) == 0) {
+      state_ = St::switch_on_disabled;
+      error_code_ = 0;
+      error_register_ = 0;
+    }
+  } else {
+    step_state_machine();
+  }
+  enabled_ = state_ == St::enabled;
+  if (enabled_) {
+    begin_tick(out);
+    const std::int16_t permille = std::clamp<std::int16_t>(applied_target_torque_, static_cast<std::int16_t>(-max_torque_),
+                                                           static_cast<std::int16_t>(max_torque_));
+    model_.step(c4::permille_to_torque(permille, cfg_.rated_torque_nm, cfg_.gear_ratio), 1e-3);
+  } else {
+    model_.step(0.0, 1e-3);
+  }
+  // Synchronous TPDOs, packed from their mapping (little-endian).
+  for (int k = 0; k < 4; ++k) {
+    const Pdo& p = tpdo_[k];
+    if ((p.cob_id & c4::kPdoInvalid) != 0 || p.transmission == 0 || p.transmission > 240) continue;
+    Frame f;
+    f.id = p.cob_id & 0x7FF;
+    int bit = 0;
+    for (int e = 0; e < p.count; ++e) {
+      const int bits = static_cast<int>(p.entries[e] & 0xFF);
+      const std::uint32_t v = object_value(p.entries[e]);
+      for (int b = 0; b < bits / 8; ++b) f.data[(bit / 8) + b] = static_cast<std::uint8_t>((v >> (8 * b)) & 0xFF);
+      bit += bits;
+    }
+    f.len = static_cast<std::uint8_t>(bit / 8);
+    if (enabled_ || state_ == St::fault) {
+      emit_cyclic(f, out);
+    } else {
+      emit(f, out);
+    }
+  }
+}
+
+std::uint32_t Cia402Drive::object_value(std::uint32_t entry) const {
+  std::uint32_t v = 0;
+  std::uint8_t size = 0;
+  (void)read_object(static_cast<std::uint16_t>(entry >> 16), static_cast<std::uint8_t>((entry >> 8) & 0xFF), v, size);
+  return v;
+}
+
+std::uint32_t Cia402Drive::read_object(std::uint16_t index, std::uint8_t sub, std::uint32_t& value,
+                                       std::uint8_t& size) const {
+  using namespace c4::object;
+  const auto one = [&](std::uint32_t v, std::uint8_t s) -> std::uint32_t {
+    if (sub != 0) return c4::abort_code::no_subindex;
+    value = v;
+    size = s;
+    return 0;
+  };
+  const auto pdo_comm = [&](const Pdo& p) -> std::uint32_t {
+    if (sub == 0) { value = 2; size = 1; return 0; }
+    if (sub == 1) { value = p.cob_id; size = 4; return 0; }
+    if (sub == 2) { value = p.transmission; size = 1; return 0; }
+    return c4::abort_code::no_subindex;
+  };
+  const auto pdo_map = [&](const Pdo& p) -> std::uint32_t {
+    if (sub == 0) { value = p.count; size = 1; return 0; }
+    if (sub <= 8) { value = p.entries[sub - 1]; size = 4; return 0; }
+    return c4::abort_code::no_subindex;
+  };
+  const double q = model_.q_rad, qd = model_.qd_rad_s;
+  switch (index) {
+    case error_register: return one(error_register_, 1);
+    case cycle_period: return one(cycle_period_us_, 4);
+    case producer_heartbeat: return one(heartbeat_ms_, 2);
+    case error_behaviour:
+      if (sub > 1) return c4::abort_code::no_subindex;
+      value = sub == 0 ? 1u : error_behaviour_;
+      size = 1;
+      return 0;
+    case error_code: return one(error_code_, 2);
+    case abort_connection: return one(static_cast<std::uint16_t>(abort_connection_), 2);
+    case controlword: return one(controlword_, 2);
+    case statusword: return one(status_word(), 2);
+    case modes_of_operation: return one(static_cast<std::uint8_t>(mode_), 1);
+    case modes_display: return one(static_cast<std::uint8_t>(mode_), 1);
+    case position_actual: return one(static_cast<std::uint32_t>(static_cast<std::int32_t>(std::lround(q * cfg_.counts_per_rad))), 4);
+    case velocity_actual: return one(static_cast<std::uint32_t>(static_cast<std::int32_t>(std::lround(qd * cfg_.velocity_units_per_rad_s))), 4);
+    case target_torque: return one(static_cast<std::uint16_t>(target_torque_), 2);
+    case max_torque: return one(max_torque_, 2);
+    case rated_torque: return one(static_cast<std::uint32_t>(std::lround(cfg_.rated_torque_nm * 1000.0)), 4);
+    case torque_actual:
+      return one(static_cast<std::uint16_t>(c4::torque_to_permille(model_.tau_nm, cfg_.rated_torque_nm, cfg_.gear_ratio, 32767)), 2);
+    case interpolation_period:
+      if (sub == 0) { value = 2; size = 1; return 0; }
+      if (sub == 1) { value = ip_value_; size = 1; return 0; }
+      if (sub == 2) { value = static_cast<std::uint8_t>(ip_index_); size = 1; return 0; }
+      return c4::abort_code::no_subindex;
+    case supported_modes: return one(c4::kSupportedModeCstBit | (1u << 7) | (1u << 8), 4);
+    default: break;
+  }
+  if (index >= rpdo_comm && index < rpdo_comm + 4) return pdo_comm(rpdo_[index - rpdo_comm]);
+  if (index >= rpdo_map && index < rpdo_map + 4) return pdo_map(rpdo_[index - rpdo_map]);
+  if (index >= tpdo_comm && index < tpdo_comm + 4) return pdo_comm(tpdo_[index - tpdo_comm]);
+  if (index >= tpdo_map && index < tpdo_map + 4) return pdo_map(tpdo_[index - tpdo_map]);
+  return c4::abort_code::no_object;
+}
+
+std::uint32_t Cia402Drive::write_object(std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size) {
+  using namespace c4::object;
+  const auto need = [&](std::uint8_t want_sub, std::uint8_t want_size) -> std::uint32_t {
+    if (sub != want_sub) return c4::abort_code::no_subindex;
+    if (size != want_size) return c4::abort_code::length_mismatch;
+    return 0;
+  };
+  std::uint32_t err = 0;
+  switch (index) {
+    case error_register: case error_code: case statusword: case modes_display: case position_actual:
+    case velocity_actual: case rated_torque: case torque_actual: case supported_modes:
+      return c4::abort_code::read_only;
+    case cycle_period: if ((err = need(0, 4)) != 0) return err; cycle_period_us_ = value; return 0;
+    case producer_heartbeat: if ((err = need(0, 2)) != 0) return err; heartbeat_ms_ = static_cast<std::uint16_t>(value); return 0;
+    case error_behaviour: if ((err = need(1, 1)) != 0) return err; error_behaviour_ = static_cast<std::uint8_t>(value); return 0;
+    case abort_connection: if ((err = need(0, 2)) != 0) return err; abort_connection_ = static_cast<std::int16_t>(value); return 0;
+    case controlword: if ((err = need(0, 2)) != 0) return err; controlword_ = static_cast<std::uint16_t>(value); return 0;
+    case modes_of_operation:
+      if ((err = need(0, 1)) != 0) return err;
+      if (static_cast<std::int8_t>(value) != c4::kModeCst && static_cast<std::int8_t>(value) != 0) return c4::abort_code::value_out_of_range;
+      mode_ = static_cast<std::int8_t>(value);
+      return 0;
+    case target_torque: if ((err = need(0, 2)) != 0) return err; target_torque_ = static_cast<std::int16_t>(value); return 0;
+    case max_torque: if ((err = need(0, 2)) != 0) return err; max_torque_ = static_cast<std::uint16_t>(std::min<std::uint32_t>(value, 32767)); return 0;
+    case interpolation_period:
+      if (size != 1) return c4::abort_code::length_mismatch;
+      if (sub == 1) { ip_value_ = static_cast<std::uint8_t>(value); return 0; }
+      if (sub == 2) { ip_index_ = static_cast<std::int8_t>(value); return 0; }
+      return c4::abort_code::no_subindex;
+    default: break;
+  }
+  const bool is_rpdo = (index >= rpdo_comm && index < rpdo_comm + 4) || (index >= rpdo_map && index < rpdo_map + 4);
+  const bool is_comm = (index >= rpdo_comm && index < rpdo_comm + 4) || (index >= tpdo_comm && index < tpdo_comm + 4);
+  const bool is_map = (index >= rpdo_map && index < rpdo_map + 4) || (index >= tpdo_map && index < tpdo_map + 4);
+  if (!is_comm && !is_map) return c4::abort_code::no_object;
+  if (nmt_ == 0x05) return c4::abort_code::wrong_state;  // PDO parameters only in Pre-operational
+  Pdo& p = is_rpdo ? rpdo_[(index & 0xFF) % 4] : tpdo_[(index & 0xFF) % 4];
+  if (is_comm) {
+    if (sub == 1) {
+      if (size != 4) return c4::abort_code::length_mismatch;
+      p.cob_id = value;
+      return 0;
+    }
+    if (sub == 2) {
+      if (size != 1) return c4::abort_code::length_mismatch;
+      p.transmission = static_cast<std::uint8_t>(value);
+      return 0;
+    }
+    return c4::abort_code::no_subindex;
+  }
+  // Mapping: only while the PDO is invalid (CiA 301 mapping procedure).
+  if ((p.cob_id & c4::kPdoInvalid) == 0) return c4::abort_code::wrong_state;
+  if (sub == 0) {
+    if (size != 1) return c4::abort_code::length_mismatch;
+    if (value > 8) return c4::abort_code::value_out_of_range;
+    int bits = 0;
+    for (std::uint32_t e = 0; e < value; ++e) bits += static_cast<int>(p.entries[e] & 0xFF);
+    if (bits > 64) return c4::abort_code::pdo_length_exceeded;
+    p.count = static_cast<std::uint8_t>(value);
+    return 0;
+  }
+  if (sub > 8) return c4::abort_code::no_subindex;
+  if (size != 4) return c4::abort_code::length_mismatch;
+  if (p.count != 0) return c4::abort_code::wrong_state;
+  const auto obj = static_cast<std::uint16_t>(value >> 16);
+  const bool mappable = is_rpdo ? (obj == controlword || obj == target_torque)
+                                : (obj == statusword || obj == position_actual || obj == velocity_actual || obj == torque_actual);
+  if (!mappable) return c4::abort_code::not_mappable;
+  std::uint32_t v = 0;
+  std::uint8_t s = 0;
+  if (read_object(obj, static_cast<std::uint8_t>((value >> 8) & 0xFF), v, s) != 0 || (value & 0xFF) != 8u * s) {
+    return c4::abort_code::length_mismatch;
+  }
+  p.entries[sub - 1] = value;
+  return 0;
+}
+
+void Cia402Drive::handle_sdo(const Frame& f, std::vector<Frame>& out) {
+  c4::SdoRequest req;
+  c4::SdoResponse res;
+  const can::FrameStatus st = c4::decode_sdo_request(f, cfg_.drive_id, req);
+  if (st != can::FrameStatus::ok) {
+    if (f.len != 8) return;  // not an SDO we can answer
+    res.kind = c4::SdoResponse::Kind::abort;
+    res.index = static_cast<std::uint16_t>(f.data[1] | (f.data[2] << 8));
+    res.sub = f.data[3];
+    res.value = c4::abort_code::bad_command;
+  } else if (req.kind == c4::SdoRequest::Kind::abort) {
+    return;
+  } else {
+    res.index = req.index;
+    res.sub = req.sub;
+    std::uint32_t abort = 0;
+    if (req.kind == c4::SdoRequest::Kind::read) {
+      std::uint32_t v = 0;
+      std::uint8_t size = 0;
+      abort = read_object(req.index, req.sub, v, size);
+      res.kind = c4::SdoResponse::Kind::read_ok;
+      res.value = v;
+      res.size = size;
+    } else {
+      abort = write_object(req.index, req.sub, req.value, req.size);
+      res.kind = c4::SdoResponse::Kind::write_ok;
+    }
+    if (abort != 0) {
+      res.kind = c4::SdoResponse::Kind::abort;
+      res.value = abort;
+    }
+  }
+  Frame a;
+  c4::encode_sdo_response(cfg_.drive_id, res, a);
+  emit(a, out);
+}
+
+void Cia402Drive::on_fault_event(const Fault& flt, std::vector<Frame>& out) {
+  Frame e;
+  switch (flt.kind) {
+    case FaultKind::emcy:
+      error_code_ = static_cast<std::uint16_t>(flt.param == 0 ? 0x2310 : flt.param);
+      error_register_ = 0x03;  // generic + current
+      state_ = St::fault;
+      c4::encode_emcy(cfg_.drive_id, c4::Emcy{error_code_, error_register_, {}}, e);
+      emit(e, out);
+      break;
+    case FaultKind::bus_off: can::make_bus_off_frame(e); emit(e, out); break;
+    case FaultKind::error_passive: can::make_error_passive_frame(e); emit(e, out); break;
+    default: break;
+  }
+}
+
+void Cia402Drive::corrupt(Frame& f) const {
+  if ((f.id & 0x780) == c4::cob::tpdo1 && f.len >= 6) {
+    for (int i = 2; i < 6; ++i) f.data[i] = static_cast<std::uint8_t>(f.data[i] ^ 0x5A);
+  }
+}
+
+void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Frame>& out) {
+  if (f.error || nmt_ == 0x00) return;
+  const std::uint8_t n = cfg_.drive_id;
+  if (f.id == c4::cob::nmt) {
+    c4::NmtCommand cs{};
+    std::uint8_t node = 0;
+    if (c4::decode_nmt(f, cs, node) != can::FrameStatus::ok || (node != 0 && node != n)) return;
+    ++frames_in_;
+    switch (cs) {
+      case c4::NmtCommand::start: nmt_ = 0x05; break;
+      case c4::NmtCommand::stop: nmt_ = 0x04; break;
+      case c4::NmtCommand::enter_pre_operational: nmt_ = 0x7F; break;
+      case c4::NmtCommand::reset_node:
+        state_ = St::switch_on_disabled;
+        mode_ = 0;
+        [[fallthrough]];
+      case c4::NmtCommand::reset_communication:
+        reset_communication();
+        boot(now_ns, out);
+        break;
+    }
+    return;
+  }
+  if (f.id == c4::cob::sync) {
+    if (f.len != 0) return;
+    ++frames_in_;
+    on_sync(out);
+    return;
+  }
+  if (f.id == c4::cob::sdo_request + n) {
+    ++frames_in_;
+    if (nmt_ == 0x04) return;  // Stopped: no SDO
+    handle_sdo(f, out);
+    return;
+  }
+  for (int k = 0; k < 4; ++k) {
+    const Pdo& p = rpdo_[k];
+    if ((p.cob_id & c4::kPdoInvalid) != 0 || f.id != (p.cob_id & 0x7FF)) continue;
+    ++frames_in_;
+    if (nmt_ != 0x05) return;
+    int bit = 0;
+    int need_bits = 0;
+    for (int e = 0; e < p.count; ++e) need_bits += static_cast<int>(p.entries[e] & 0xFF);
+    if (f.len * 8 < need_bits) return;  // too short: ignored (a real drive would send EMCY 0x8210)
+    for (int e = 0; e < p.count; ++e) {
+      const int bits = static_cast<int>(p.entries[e] & 0xFF);
+      std::uint32_t v = 0;
+      for (int b = 0; b < bits / 8; ++b) v |= std::uint32_t{f.data[(bit / 8) + b]} << (8 * b);
+      bit += bits;
+      (void)write_object(static_cast<std::uint16_t>(p.entries[e] >> 16), static_cast<std::uint8_t>((p.entries[e] >> 8) & 0xFF),
+                         v, static_cast<std::uint8_t>(bits / 8));
+    }
+    return;
+  }
+}
+
+void Cia402Drive::on_time(std::int64_t now_ns, std::vector<Frame>& out) {
+  if (nmt_ == 0x00 || heartbeat_ms_ == 0 || now_ns < next_heartbeat_ns_) return;
+  for (const Fault& flt : faults_) {
+    if (flt.kind == FaultKind::silent && active(flt)) return;
+  }
+  Frame f;
+  c4::encode_heartbeat(cfg_.drive_id, static_cast<c4::NmtState>(nmt_), f);
+  emit(f, out);
+  next_heartbeat_ns_ = now_ns + 1000000LL * heartbeat_ms_;
+}
+
+}  // namespace springbok::emu
