@@ -1,0 +1,50 @@
+// The robot configuration (YAML): loop rate, real-time settings, safety
+// thresholds, gains, the operator socket and the log. Every field is required;
+// an unknown key, a missing one, a wrong type, a value out of range or a NaN
+// is an error that names the field (e.g. "rt.priority: out of range [1, 98]: 99").
+// The `can:` section belongs to the SocketCAN backend, which validates it.
+// Start-up code: allocates, never runs on the tick path.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>  // model.hpp names Eigen::Quaterniond but includes only Eigen/Core
+
+#include "springbok/model/model.hpp"
+#include "springbok/rt/realtime.hpp"
+#include "springbok/safety/supervisor.hpp"
+
+namespace springbok::app {
+
+struct JointGains {
+  VecNj kp_nm_per_rad = VecNj::Zero();
+  VecNj kd_nms_per_rad = VecNj::Zero();
+};
+
+struct AppConfig {
+  int rate_hz = 1000;
+  int warmup_ticks = 500;                // non-actuating ticks before the statistics reset
+  rt::RtConfig rt;
+  safety::SupervisorConfig safety;
+  JointGains stand_gains;                // stand-up and stand (joint PD to the stand posture)
+  double stand_up_duration_s = 3.0;
+  double stand_tolerance_rad = 0.05;     // stand-up is done when every leg joint is this close
+  VecNj stand_posture_rad = VecNj::Zero();
+  JointGains control_gains;              // control mode until the WBC lands (joint PD)
+  std::string operator_socket;
+  std::string log_path;                  // "-" = standard error
+  bool has_can_section = false;
+};
+
+struct ConfigResult {
+  bool ok = false;
+  AppConfig config;
+  std::vector<std::string> errors;  // one line per problem, naming the field
+};
+
+// Never throws.
+ConfigResult load_config_text(const std::string& yaml_text);
+ConfigResult load_config_file(const std::string& path);
+
+}  // namespace springbok::app

@@ -1,0 +1,94 @@
+// One tick of the firmware, the executive's body:
+//   HAL read -> operator mailbox -> supervisor checks -> controller
+//   -> supervisor (damping, clamping) -> HAL write
+// Fixed-size structs passed by reference; the controller is a template
+// parameter (no virtual call, no std::function); one virtual call per HAL
+// exchange. Mode and fault changes, verdicts and HAL errors go to the log ring.
+#pragma once
+
+#include "springbok/app/operator.hpp"
+#include "springbok/app/posture_control.hpp"
+#include "springbok/hal/hardware.hpp"
+#include "springbok/rt/executive.hpp"
+#include "springbok/safety/supervisor.hpp"
+
+namespace springbok::app {
+
+template <class Controller>
+class ControlLoop {
+ public:
+  ControlLoop(hal::Hardware& hardware, Controller& controller, safety::Supervisor& supervisor,
+              OperatorMailbox& mailbox, LoopStatus& status, rt::LogRing* log) noexcept
+      : hal_(hardware), controller_(controller), supervisor_(supervisor), mailbox_(mailbox), status_(status),
+        log_(log) {}
+
+  // rt: no alloc, no block
+  void tick(const rt::TickInfo& info) noexcept {
+    const safety::Mode mode_before = supervisor_.mode();
+    const safety::FaultMask faults_before = supervisor_.faults();
+
+    const hal::IoStatus io = hal_.read(meas_);
+    supervisor_.observe(meas_, io, info.overrun_streak, info.overruns_in_window);
+
+    OperatorRequest request;
+    if (mailbox_.take(request)) {
+      const safety::Verdict verdict = supervisor_.request(request.command);
+      mailbox_.replies.push(OperatorReply{request.id, verdict, supervisor_.mode(), supervisor_.faults()});
+      log(info, verdict == safety::Verdict::accepted ? rt::LogEvent::command_accepted
+                                                     : rt::LogEvent::command_rejected,
+          static_cast<std::int64_t>(request.command), static_cast<std::int64_t>(verdict));
+    }
+
+    safety::ControllerReport report;
+    const safety::Mode mode = supervisor_.mode();
+    if (mode == safety::Mode::stand_up || mode == safety::Mode::stand || mode == safety::Mode::control) {
+      ControlInput input;
+      input.mode = mode;
+      input.ticks_in_mode = supervisor_.ticks_in_mode();
+      input.dt_s = static_cast<double>(info.elapsed_ns) * 1e-9;
+      input.meas = &meas_;
+      report = controller_.compute(input, cmd_);
+    }
+    cmd_.sequence = info.index;
+    supervisor_.finish(meas_, report, cmd_);
+    const hal::IoStatus wio = hal_.write(cmd_);
+
+    if (io != hal::IoStatus::ok || wio != hal::IoStatus::ok) {
+      status_.hal_errors.fetch_add(1, std::memory_order_relaxed);
+    }
+    if (io != last_io_) {
+      log(info, rt::LogEvent::hal_io, static_cast<std::int64_t>(io), supervisor_.stale_ticks());
+      last_io_ = io;
+    }
+    if (supervisor_.faults() != faults_before) {
+      log(info, rt::LogEvent::fault_latched, supervisor_.faults() & ~faults_before, supervisor_.faults());
+    }
+    if (supervisor_.mode() != mode_before) {
+      log(info, rt::LogEvent::mode_change, static_cast<std::int64_t>(mode_before),
+          static_cast<std::int64_t>(supervisor_.mode()));
+    }
+    status_.mode.store(static_cast<std::uint8_t>(supervisor_.mode()), std::memory_order_relaxed);
+    status_.faults.store(supervisor_.faults(), std::memory_order_relaxed);
+    status_.stale_ticks.store(supervisor_.stale_ticks(), std::memory_order_relaxed);
+  }
+
+  const hal::Measurements& measurements() const noexcept { return meas_; }
+  const hal::JointCommands& commands() const noexcept { return cmd_; }
+
+ private:
+  void log(const rt::TickInfo& info, rt::LogEvent event, std::int64_t a, std::int64_t b) noexcept {
+    if (log_ != nullptr) log_->push(rt::LogRecord{info.index, info.wake_ns, event, a, b, 0.0});
+  }
+
+  hal::Hardware& hal_;
+  Controller& controller_;
+  safety::Supervisor& supervisor_;
+  OperatorMailbox& mailbox_;
+  LoopStatus& status_;
+  rt::LogRing* log_;
+  hal::Measurements meas_;
+  hal::JointCommands cmd_;
+  hal::IoStatus last_io_ = hal::IoStatus::ok;
+};
+
+}  // namespace springbok::app

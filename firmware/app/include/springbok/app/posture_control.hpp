@@ -1,0 +1,109 @@
+// The controllers of the enabled modes until the whole-body controller lands:
+// joint PD laws toward the stand posture (no model-based feed-forward).
+//
+//   stand_up: the desired posture moves from the pose at entry to the stand
+//             posture along a smoothstep in stand_up_duration_s; done when
+//             the ramp ended and every leg joint is within stand_tolerance_rad;
+//   stand:    hold the stand posture;
+//   control:  the plug-in control-mode controller (JointPdHold for now).
+#pragma once
+
+#include <algorithm>
+#include <concepts>
+
+#include "springbok/app/config.hpp"
+#include "springbok/hal/types.hpp"
+#include "springbok/safety/supervisor.hpp"
+
+namespace springbok::app {
+
+struct ControlInput {
+  safety::Mode mode = safety::Mode::idle;
+  std::uint64_t ticks_in_mode = 0;  // 0 on the first tick of a mode
+  double dt_s = 0.001;              // the tick period
+  const hal::Measurements* meas = nullptr;
+};
+
+// A controller of the control mode (the WBC, later).
+template <class C>
+concept ControlModeController = requires(C& c, const hal::Measurements& m, hal::JointCommands& cmd) {
+  { c.compute(m, cmd) } noexcept -> std::same_as<safety::ControllerReport>;
+};
+
+// rt: no alloc
+inline void joint_pd_command(const VecNj& q_des_rad, const VecNj& qd_des_rad_s, const JointGains& gains,
+                             hal::JointCommands& cmd) noexcept {
+  cmd.mode = hal::CommandMode::enabled;
+  cmd.q_des_rad = q_des_rad;
+  cmd.qd_des_rad_s = qd_des_rad_s;
+  cmd.kp_nm_per_rad = gains.kp_nm_per_rad;
+  cmd.kd_nms_per_rad = gains.kd_nms_per_rad;
+  cmd.tau_ff_nm.setZero();
+}
+
+// Control mode until the WBC lands: hold the stand posture with the control gains.
+class JointPdHold {
+ public:
+  explicit JointPdHold(const AppConfig& config) noexcept
+      : posture_rad_(config.stand_posture_rad), gains_(config.control_gains) {}
+  safety::ControllerReport compute(const hal::Measurements&, hal::JointCommands& cmd) noexcept {  // rt: no alloc
+    joint_pd_command(posture_rad_, VecNj::Zero(), gains_, cmd);
+    return {};
+  }
+
+ private:
+  VecNj posture_rad_;
+  JointGains gains_;
+};
+
+template <ControlModeController Control>
+class PostureModes {
+ public:
+  PostureModes(const AppConfig& config, Control& control) noexcept
+      : control_(control),
+        posture_rad_(config.stand_posture_rad),
+        gains_(config.stand_gains),
+        duration_s_(config.stand_up_duration_s),
+        tolerance_rad_(config.stand_tolerance_rad) {}
+
+  // rt: no alloc
+  safety::ControllerReport compute(const ControlInput& in, hal::JointCommands& cmd) noexcept {
+    const hal::Measurements& m = *in.meas;
+    switch (in.mode) {
+      case safety::Mode::stand_up: {
+        if (in.ticks_in_mode == 0) start_rad_ = m.q_rad;
+        const double t_s = static_cast<double>(in.ticks_in_mode) * in.dt_s;
+        const double s = std::clamp(t_s / duration_s_, 0.0, 1.0);
+        const double blend = s * s * (3.0 - 2.0 * s);                      // smoothstep
+        const double blend_rate = s < 1.0 ? 6.0 * s * (1.0 - s) / duration_s_ : 0.0;
+        const VecNj span = posture_rad_ - start_rad_;
+        joint_pd_command(start_rad_ + blend * span, blend_rate * span, gains_, cmd);
+        safety::ControllerReport report;
+        // Standing is the legs' posture; the arm holds its own under a PD without gravity compensation.
+        report.posture_reached =
+            s >= 1.0 &&
+            (m.q_rad - posture_rad_).head<kFirstArmJoint>().cwiseAbs().maxCoeff() <= tolerance_rad_;
+        return report;
+      }
+      case safety::Mode::stand:
+        joint_pd_command(posture_rad_, VecNj::Zero(), gains_, cmd);
+        return {};
+      case safety::Mode::control:
+        return control_.compute(m, cmd);
+      case safety::Mode::idle:
+      case safety::Mode::damping:
+        break;  // the supervisor writes these commands
+    }
+    return {};
+  }
+
+ private:
+  Control& control_;
+  VecNj posture_rad_;
+  VecNj start_rad_ = VecNj::Zero();
+  JointGains gains_;
+  double duration_s_;
+  double tolerance_rad_;
+};
+
+}  // namespace springbok::app

@@ -1,0 +1,53 @@
+// The simulated robot (sim_hal's Bullet world) as the HAL of the deployed
+// loop: each write applies the command and steps the world by one tick, so
+// the loop's clock drives the simulated time. configure() sets the robot
+// down with its lowest foot on the ground. Header-only: only executables and
+// tests that link springbok::sim_hal include it.
+#pragma once
+
+#include "springbok/hal/hardware.hpp"
+#include "springbok/sim_hal/bullet_robot.hpp"
+
+namespace springbok::app {
+
+class SteppedBulletRobot final : public hal::Hardware {
+ public:
+  explicit SteppedBulletRobot(const sim::SimConfig& config) : robot_(config) {}
+  std::string_view name() const noexcept override { return "bullet (simulated robot)"; }
+  hal::LifecycleResult configure() override {
+    hal::LifecycleResult result = robot_.configure();
+    if (!result.ok) return result;
+    VecNq q = robot_.config().initial_q;
+    q[2] -= robot_.lowest_foot_clearance_m() - 0.001;
+    robot_.set_state(q, VecNv::Zero());
+    return result;
+  }
+  hal::LifecycleResult activate() override { return robot_.activate(); }
+  hal::IoStatus read(hal::Measurements& out) noexcept override { return robot_.read(out); }  // rt: no alloc
+  hal::IoStatus write(const hal::JointCommands& cmd) noexcept override {                   // rt: no alloc
+    const hal::IoStatus status = robot_.write(cmd);
+    robot_.step();
+    return status;
+  }
+  void deactivate() noexcept override { robot_.deactivate(); }
+
+  sim::BulletRobot& robot() noexcept { return robot_; }
+
+ private:
+  sim::BulletRobot robot_;
+};
+
+// A crouch inside every joint limit, trunk level (configure() lowers it onto the feet).
+inline sim::SimConfig crouched_sim_config(int rate_hz) {
+  sim::SimConfig sim;
+  sim.step_s = 1.0 / rate_hz;
+  sim.initial_q[2] = 1.0;
+  for (int leg = 0; leg < kFeet; ++leg) {
+    const double side = leg < 2 ? 1.0 : -1.0;  // front knees bend backwards, hind forwards
+    sim.initial_q[7 + leg * kLegJoints + 1] = 1.0 * side;
+    sim.initial_q[7 + leg * kLegJoints + 2] = -2.0 * side;
+  }
+  return sim;
+}
+
+}  // namespace springbok::app

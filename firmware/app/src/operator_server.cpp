@@ -1,0 +1,170 @@
+#include "springbok/app/operator_server.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <vector>
+
+namespace springbok::app {
+namespace {
+
+struct Client {
+  int fd = -1;
+  std::string buffer;
+};
+
+void send_line(int fd, const std::string& text) {
+  const std::string line = text + "\n";
+  // Non-blocking, no SIGPIPE: a client that does not read loses its reply.
+  (void)::send(fd, line.data(), line.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+}
+
+}  // namespace
+
+OperatorServer::OperatorServer(OperatorMailbox& mailbox, const LoopStatus& status, const rt::PublishedStats& stats)
+    : mailbox_(mailbox), status_(status), stats_(stats) {}
+
+OperatorServer::~OperatorServer() {
+  stop();
+  if (listen_fd_ >= 0) {
+    ::close(listen_fd_);
+    ::unlink(path_.c_str());
+  }
+}
+
+std::string OperatorServer::open(const std::string& socket_path) {
+  sockaddr_un addr{};
+  if (socket_path.empty() || socket_path.size() >= sizeof addr.sun_path) {
+    return "operator.socket: path empty or longer than " + std::to_string(sizeof addr.sun_path - 1) + " bytes";
+  }
+  struct stat st{};
+  if (::lstat(socket_path.c_str(), &st) == 0) {
+    if (!S_ISSOCK(st.st_mode)) return "operator.socket: " + socket_path + " exists and is not a socket";
+    ::unlink(socket_path.c_str());  // stale socket of an earlier run
+  }
+  listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (listen_fd_ < 0) return std::string("operator socket: ") + std::strerror(errno);
+  addr.sun_family = AF_UNIX;
+  std::memcpy(addr.sun_path, socket_path.c_str(), socket_path.size() + 1);
+  if (::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0 ||
+      ::listen(listen_fd_, kMaxClients) != 0) {
+    const std::string why = std::strerror(errno);
+    ::close(listen_fd_);
+    listen_fd_ = -1;
+    return "operator.socket: " + socket_path + ": " + why;
+  }
+  ::chmod(socket_path.c_str(), 0660);
+  path_ = socket_path;
+  return {};
+}
+
+void OperatorServer::start() {
+  stop_.store(false);
+  thread_ = std::thread([this] { run(); });
+}
+
+void OperatorServer::stop() {
+  stop_.store(true);
+  if (thread_.joinable()) thread_.join();
+}
+
+std::string OperatorServer::status_line() const {
+  const auto mode = static_cast<safety::Mode>(status_.mode.load(std::memory_order_relaxed));
+  const safety::FaultMask faults = status_.faults.load(std::memory_order_relaxed);
+  char numbers[256];
+  std::snprintf(numbers, sizeof numbers,
+                " ticks=%llu overruns=%llu skipped=%llu max_wake_latency_us=%.1f max_compute_us=%.1f "
+                "stale_ticks=%u hal_errors=%llu",
+                static_cast<unsigned long long>(stats_.ticks.load()),
+                static_cast<unsigned long long>(stats_.overruns.load()),
+                static_cast<unsigned long long>(stats_.skipped_ticks.load()),
+                static_cast<double>(stats_.max_wake_latency_ns.load()) / 1e3,
+                static_cast<double>(stats_.max_compute_ns.load()) / 1e3, status_.stale_ticks.load(),
+                static_cast<unsigned long long>(status_.hal_errors.load()));
+  return std::string("ok status mode=") + safety::to_string(mode) + " faults=" + fault_list(faults) + numbers;
+}
+
+std::string OperatorServer::handle_line(std::string_view line) {
+  const ParsedLine parsed = parse_operator_line(line);
+  if (parsed.kind == ParsedLine::Kind::error) return parsed.error;
+  if (parsed.kind == ParsedLine::Kind::status) return status_line();
+
+  const char* name = safety::to_string(parsed.command);
+  const std::uint64_t id = next_id_++;
+  if (!mailbox_.requests.push(OperatorRequest{id, parsed.command})) {
+    return std::string("error: ") + name + ": mailbox full, command dropped";
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kReplyTimeoutMs);
+  OperatorReply reply;
+  while (std::chrono::steady_clock::now() < deadline) {
+    while (mailbox_.replies.pop(reply)) {
+      if (reply.id != id) continue;  // the late verdict of a request that timed out
+      const std::string state = std::string(" (mode=") + safety::to_string(reply.mode) +
+                                " faults=" + fault_list(reply.faults) + ")";
+      if (reply.verdict == safety::Verdict::accepted) return std::string("ok ") + name + state;
+      return std::string("error: ") + name + ": " + safety::to_string(reply.verdict) + state;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  mailbox_.first_valid_id.store(id + 1, std::memory_order_release);  // never apply it later
+  return std::string("error: ") + name + ": controller not responding, command dropped";
+}
+
+void OperatorServer::run() {
+  std::vector<Client> clients;
+  while (!stop_.load()) {
+    std::vector<pollfd> fds;
+    fds.push_back({listen_fd_, POLLIN, 0});
+    for (const Client& c : clients) fds.push_back({c.fd, POLLIN, 0});
+    if (::poll(fds.data(), fds.size(), 50) <= 0) continue;
+
+    if ((fds[0].revents & POLLIN) != 0) {
+      const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+      if (fd >= 0) {
+        if (static_cast<int>(clients.size()) >= kMaxClients) {
+          send_line(fd, "error: too many operator clients");
+          ::close(fd);
+        } else {
+          clients.push_back({fd, {}});
+        }
+      }
+    }
+    for (std::size_t i = 1; i < fds.size(); ++i) {
+      if (fds[i].revents == 0) continue;
+      Client& c = clients[i - 1];
+      char chunk[512];
+      const ssize_t n = ::recv(c.fd, chunk, sizeof chunk, MSG_DONTWAIT);
+      if (n <= 0) {
+        if (n == 0 || (errno != EAGAIN && errno != EINTR)) {
+          ::close(c.fd);
+          c.fd = -1;
+        }
+        continue;
+      }
+      c.buffer.append(chunk, static_cast<std::size_t>(n));
+      std::size_t newline;
+      while (c.fd >= 0 && (newline = c.buffer.find('\n')) != std::string::npos) {
+        const std::string line = c.buffer.substr(0, newline);
+        c.buffer.erase(0, newline + 1);
+        send_line(c.fd, handle_line(line));
+      }
+      if (c.fd >= 0 && c.buffer.size() > kMaxOperatorLine + 1) {
+        send_line(c.fd, "error: line too long (at most 255 bytes)");
+        ::close(c.fd);
+        c.fd = -1;
+      }
+    }
+    std::erase_if(clients, [](const Client& c) { return c.fd < 0; });
+  }
+  for (const Client& c : clients) ::close(c.fd);
+}
+
+}  // namespace springbok::app

@@ -1,0 +1,155 @@
+#include "springbok/app/runtime.hpp"
+
+#include <CLI/CLI.hpp>
+#include <signal.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <ctime>
+#include <memory>
+
+#include "springbok/app/control_loop.hpp"
+#include "springbok/app/operator_server.hpp"
+#include "springbok/app/posture_control.hpp"
+#include "springbok/rt/clock.hpp"
+#include "springbok/rt/executive.hpp"
+#include "springbok/rt/log.hpp"
+#include "springbok/rt/realtime.hpp"
+
+namespace springbok::app {
+
+CommandLine parse_command_line(int argc, char** argv, const char* program) {
+  CommandLine cli;
+  CLI::App app{std::string(program) + ": the springbok whole-body controller firmware"};
+  app.add_option("--config", cli.config_path, "robot configuration (YAML)")->required()->check(CLI::ExistingFile);
+  app.add_flag("--check-config", cli.check_config, "validate the configuration and exit");
+  app.add_flag("--require-rt", cli.run.require_rt,
+               "refuse to start without SCHED_FIFO, mlockall and a PREEMPT_RT kernel");
+  app.add_option("--duration", cli.run.duration_s, "stop after this many seconds (0: run until SIGTERM)")
+      ->check(CLI::Range(0.0, 1e7));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    cli.exit_now = true;
+    cli.exit_code = app.exit(e);
+  }
+  return cli;
+}
+
+namespace {
+
+using Modes = PostureModes<JointPdHold>;
+using Loop = ControlLoop<Modes>;
+using FirmwareExecutive = rt::Executive<rt::MonotonicClock, Loop>;
+
+void print_histogram(const char* name, const rt::DurationHistogram& h) {
+  std::printf("%s [us]: n=%llu p50=%.0f p99=%.0f p99.9=%.0f max=%.1f\n", name,
+              static_cast<unsigned long long>(h.count()), h.quantile_ns(0.5) / 1e3, h.quantile_ns(0.99) / 1e3,
+              h.quantile_ns(0.999) / 1e3, static_cast<double>(h.max_ns()) / 1e3);
+}
+
+}  // namespace
+
+int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOptions& options) {
+  rt::RtConfig rt_config = config.rt;
+  rt_config.require = rt_config.require || options.require_rt;
+  rt::RtReport report;
+  const rt::RtProcess process(rt_config, report);
+  if (!report.refusal.empty()) {
+    rt::print_report(report, stderr);
+    return 2;
+  }
+
+  // SIGINT/SIGTERM are taken by sigtimedwait in this thread only.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  std::FILE* log_file = config.log_path == "-" ? stderr : std::fopen(config.log_path.c_str(), "a");
+  if (log_file == nullptr) {
+    std::fprintf(stderr, "log.path: cannot open %s\n", config.log_path.c_str());
+    return 1;
+  }
+  const auto log_ring = std::make_unique<rt::LogRing>();
+  rt::LogDrainer drainer(*log_ring, log_file);
+
+  for (auto step : {&hal::Hardware::configure, &hal::Hardware::activate}) {
+    const hal::LifecycleResult r = (hardware.*step)();
+    if (!r.ok) {
+      std::fprintf(stderr, "hal %.*s: %s\n", static_cast<int>(hardware.name().size()), hardware.name().data(),
+                   r.message.c_str());
+      hardware.deactivate();
+      return 1;
+    }
+  }
+
+  safety::Supervisor supervisor(config.safety);
+  JointPdHold control(config);
+  Modes modes(config, control);
+  const auto mailbox = std::make_unique<OperatorMailbox>();
+  LoopStatus status;
+  Loop loop(hardware, modes, supervisor, *mailbox, status, log_ring.get());
+  rt::MonotonicClock clock;
+  const auto executive =
+      std::make_unique<FirmwareExecutive>(clock, loop, rt::kNsPerS / config.rate_hz, log_ring.get());
+
+  OperatorServer server(*mailbox, status, executive->published());
+  if (const std::string error = server.open(config.operator_socket); !error.empty()) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    hardware.deactivate();
+    return 1;
+  }
+  server.start();
+
+  std::atomic<bool> stop{false};
+  auto body = [&] {
+    executive->start();
+    executive->run_ticks(static_cast<std::uint64_t>(config.warmup_ticks));  // idle: drives get no torque
+    executive->reset_stats();
+    executive->run_until(stop);
+  };
+  rt::RtThread thread;
+  const bool started = thread.start(rt_config, body, report);
+  rt::print_report(report, stderr);
+  if (!started) {
+    server.stop();
+    hardware.deactivate();
+    return report.refusal.empty() ? 1 : 2;
+  }
+  std::fprintf(stderr, "springbok: running at %d Hz on %.*s; operator socket %s\n", config.rate_hz,
+               static_cast<int>(hardware.name().size()), hardware.name().data(), config.operator_socket.c_str());
+
+  timespec wait{};
+  wait.tv_nsec = 100'000'000;
+  const std::int64_t end_ns = options.duration_s > 0.0
+                                  ? clock.now_ns() + static_cast<std::int64_t>(options.duration_s * 1e9)
+                                  : INT64_MAX;
+  while (clock.now_ns() < end_ns) {
+    const int sig = sigtimedwait(&stop_signals, nullptr, &wait);
+    if (sig == SIGINT || sig == SIGTERM) {
+      std::fprintf(stderr, "springbok: signal %d, stopping\n", sig);
+      break;
+    }
+  }
+  stop.store(true);
+  thread.join();
+  hardware.deactivate();
+  server.stop();
+  drainer.stop();
+  if (log_file != stderr) std::fclose(log_file);
+
+  const rt::ExecutiveStats& s = executive->stats();
+  std::printf("ticks=%llu overruns=%llu skipped=%llu max_overrun_streak=%u mode=%s faults=%s\n",
+              static_cast<unsigned long long>(s.ticks), static_cast<unsigned long long>(s.overruns),
+              static_cast<unsigned long long>(s.skipped_ticks), s.max_overrun_streak,
+              safety::to_string(supervisor.mode()), fault_list(supervisor.faults()).c_str());
+  print_histogram("wake latency", s.wake_latency);
+  print_histogram("compute", s.compute);
+  std::printf("log records dropped=%llu\n", static_cast<unsigned long long>(log_ring->dropped()));
+  return 0;
+}
+
+}  // namespace springbok::app

@@ -1,0 +1,130 @@
+// The whole loop (HAL read -> controller -> safety -> HAL write) driven by
+// the executive on the stepped clock: mode sequence, faults -> damping in
+// the tick they are seen, and a whole tick under the allocation trap.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "alloc_trap.hpp"
+#include "loop_fixture.hpp"
+
+namespace springbok::app::test {
+namespace {
+
+using safety::Mode;
+using safety::OperatorCommand;
+using safety::Verdict;
+using Rig = LoopRig<KinematicTestHardware>;
+
+struct LoopTest : ::testing::Test {
+  rt::SteppedClock clock{0};
+  KinematicTestHardware hardware{clock};
+  std::unique_ptr<Rig> rig = std::make_unique<Rig>(clock, hardware);
+
+  void to_control() {
+    rig->executive->run_ticks(5);
+    ASSERT_EQ(rig->command(OperatorCommand::start), Verdict::accepted);
+    rig->executive->run_ticks(500);
+    ASSERT_EQ(rig->supervisor.mode(), Mode::stand);
+    ASSERT_EQ(rig->command(OperatorCommand::mode_control), Verdict::accepted);
+  }
+  bool wrote_damping() const {
+    const hal::JointCommands& c = hardware.last;
+    return c.mode == hal::CommandMode::enabled && c.kp_nm_per_rad.isZero() && c.kd_nms_per_rad.isZero();
+  }
+};
+
+TEST_F(LoopTest, ModeSequenceThroughTheLoop) {
+  rig->executive->run_ticks(5);
+  EXPECT_EQ(hardware.last.mode, hal::CommandMode::disabled);  // idle
+  ASSERT_EQ(rig->command(OperatorCommand::start), Verdict::accepted);
+  // stand_up lasts stand_up_duration_s = 0.5 s = 500 ticks at 1 kHz (the start tick is tick 0)
+  rig->executive->run_ticks(499);
+  EXPECT_EQ(rig->supervisor.mode(), Mode::stand_up);
+  rig->executive->run_ticks(1);
+  EXPECT_EQ(rig->supervisor.mode(), Mode::stand);
+  EXPECT_TRUE(hardware.state().q_rad.isApprox(rig->config.stand_posture_rad, 1e-12));
+  EXPECT_EQ(rig->command(OperatorCommand::mode_control), Verdict::accepted);
+  EXPECT_EQ(rig->supervisor.mode(), Mode::control);
+  EXPECT_EQ(hardware.last.kp_nm_per_rad, rig->config.control_gains.kp_nm_per_rad);
+  EXPECT_EQ(rig->command(OperatorCommand::mode_stand), Verdict::accepted);
+  EXPECT_EQ(rig->command(OperatorCommand::reset), Verdict::not_in_damping);
+  EXPECT_EQ(rig->command(OperatorCommand::stop), Verdict::accepted);
+  EXPECT_EQ(rig->supervisor.mode(), Mode::damping);
+  EXPECT_TRUE(wrote_damping());
+  EXPECT_EQ(rig->status.faults.load(), safety::fault::kOperatorStop);
+  EXPECT_EQ(rig->command(OperatorCommand::reset), Verdict::accepted);
+  EXPECT_EQ(rig->supervisor.mode(), Mode::idle);
+  EXPECT_EQ(hardware.last.mode, hal::CommandMode::disabled);
+  EXPECT_EQ(rig->status.mode.load(), static_cast<std::uint8_t>(Mode::idle));
+  EXPECT_EQ(rig->executive->stats().overruns, 0u);
+}
+
+TEST_F(LoopTest, OverrunStreakGoesToDampingInTheNextTick) {
+  to_control();
+  hardware.read_time_ns = 1'500'000;  // every tick now ends past its deadline
+  rig->executive->run_ticks(3);      // three overruns; each tick still sees a shorter streak
+  EXPECT_EQ(rig->supervisor.mode(), Mode::control);
+  EXPECT_EQ(rig->executive->stats().overruns, 3u);
+  rig->executive->run_ticks(1);  // the streak of 3 is known at this tick's start
+  EXPECT_EQ(rig->supervisor.mode(), Mode::damping);
+  EXPECT_EQ(rig->supervisor.faults(), safety::fault::kOverrunStreak);
+  EXPECT_TRUE(wrote_damping());
+  EXPECT_EQ(rig->executive->stats().skipped_ticks, 4u);  // each 1.5 ms read skipped one grid point
+}
+
+TEST_F(LoopTest, SilentHalTripsTheWatchdog) {
+  to_control();
+  hardware.silent = true;
+  rig->executive->run_ticks(rig->config.safety.hal_watchdog_ticks - 1);
+  EXPECT_EQ(rig->supervisor.mode(), Mode::control);
+  EXPECT_EQ(rig->status.stale_ticks.load(), rig->config.safety.hal_watchdog_ticks - 1);
+  rig->executive->run_ticks(1);
+  EXPECT_EQ(rig->supervisor.mode(), Mode::damping);
+  EXPECT_EQ(rig->supervisor.faults(), safety::fault::kHalWatchdog);
+  EXPECT_TRUE(wrote_damping());
+  // A reset is refused while the HAL stays silent, accepted once it is back.
+  EXPECT_EQ(rig->command(OperatorCommand::reset), Verdict::unsafe_measurement);
+  hardware.silent = false;
+  EXPECT_EQ(rig->command(OperatorCommand::reset), Verdict::accepted);
+}
+
+TEST_F(LoopTest, NonFiniteMeasurementDampsInTheSameTick) {
+  to_control();
+  hardware.state().qd_rad_s[4] = std::numeric_limits<double>::quiet_NaN();
+  rig->executive->run_ticks(1);
+  EXPECT_EQ(rig->supervisor.faults(), safety::fault::kNonFinite);
+  EXPECT_TRUE(wrote_damping());
+  EXPECT_EQ(hardware.last.tau_ff_nm[4], 0.0);
+}
+
+TEST_F(LoopTest, LogRingRecordsModeChangesAndVerdicts) {
+  to_control();
+  int mode_changes = 0, accepted = 0;
+  rt::LogRecord r;
+  while (rig->log.pop(r)) {
+    mode_changes += r.event == rt::LogEvent::mode_change;
+    accepted += r.event == rt::LogEvent::command_accepted;
+  }
+  EXPECT_EQ(mode_changes, 3);  // idle -> stand_up -> stand -> control
+  EXPECT_EQ(accepted, 2);
+  EXPECT_EQ(rig->log.dropped(), 0u);
+}
+
+TEST_F(LoopTest, WholeTicksAllocateNothing) {
+  rig->executive->run_ticks(5);
+  springbok::test::AllocationTrap trap;
+  rig->mailbox.requests.push(OperatorRequest{100, OperatorCommand::start});
+  rig->executive->run_ticks(600);  // stand_up -> stand
+  rig->mailbox.requests.push(OperatorRequest{101, OperatorCommand::mode_control});
+  rig->executive->run_ticks(100);
+  hardware.read_time_ns = 1'200'000;  // overruns, log records
+  rig->executive->run_ticks(5);
+  const std::size_t allocations = trap.disarm();
+  EXPECT_EQ(allocations, 0u);
+  EXPECT_EQ(rig->supervisor.mode(), Mode::damping);  // the overrun streak tripped inside the trap
+}
+
+}  // namespace
+}  // namespace springbok::app::test
