@@ -5,6 +5,8 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 namespace springbok::qp::dense {
 
@@ -29,49 +31,134 @@ inline double dot(const double* __restrict a, const double* __restrict b, int n)
 
 inline double squared_norm(const double* a, int n) noexcept { return dot(a, a, n); }
 
+// True when no entry is NaN or +-inf (exponent field all ones); branch-free so
+// that it vectorises.
+inline bool all_finite(const double* v, int count) noexcept {
+  std::uint64_t bad = 0;
+  for (int i = 0; i < count; ++i) {
+    std::uint64_t bits;
+    std::memcpy(&bits, v + i, sizeof bits);
+    bad |= (((bits >> 52) & 0x7ffu) + 1u) >> 11;
+  }
+  return bad == 0;
+}
+
 // y += alpha x
 inline void axpy(double alpha, const double* __restrict x, double* __restrict y, int n) noexcept {
   for (int i = 0; i < n; ++i) y[i] += alpha * x[i];
 }
 
-// In-place Cholesky A = L L' of the lower triangle of a (column-major, leading
-// dimension ld), right-looking. Writes 1/L_kk into inv_diag. Returns false when
-// a pivot is not above min_pivot (not positive definite, or NaN).
+// The kernels below work on whole aligned chunks of four doubles: every vector
+// is zero-padded to padded(n) entries and every loop starts at a multiple of
+// four, so a chunk is always loaded where it was stored (store-to-load
+// forwarding never stalls on a chunk shifted by one, which made the textbook
+// loops of shrinking length several times slower at n ~ 40).
+inline constexpr int padded(int n) noexcept { return (n + 3) & ~3; }
+inline constexpr int chunk_start(int i) noexcept { return i & ~3; }
+
+// Right-looking Cholesky of the lower triangle of a (column-major, leading
+// dimension ld >= padded(n), rows [n, padded(n)) zero), in panels of four
+// columns with one rank-4 update of the trailing columns per panel. On return
+// the strict lower triangle of a holds L; its diagonal and upper part are
+// scratch. Writes 1/L_kk into inv_diag. False when a pivot is not above
+// min_pivot (or is NaN).
 inline bool cholesky_lower(double* a, int ld, int n, double min_pivot, double* inv_diag) noexcept {
-  for (int k = 0; k < n; ++k) {
-    double* col_k = a + k * ld;
-    const double pivot = col_k[k];
-    if (!(pivot > min_pivot)) return false;
-    const double diag = std::sqrt(pivot);
-    const double inv = 1.0 / diag;
-    col_k[k] = diag;
-    inv_diag[k] = inv;
-    for (int i = k + 1; i < n; ++i) col_k[i] *= inv;
-    for (int j = k + 1; j < n; ++j) {
+  const int np = padded(n);
+  for (int k0 = 0; k0 < n; k0 += 4) {
+    const int k1 = k0 + 4 < n ? k0 + 4 : n;
+    for (int k = k0; k < k1; ++k) {  // the panel
+      double* col_k = a + k * ld;
+      const double pivot = col_k[k];
+      if (!(pivot > min_pivot)) return false;
+      const double inv = 1.0 / std::sqrt(pivot);
+      inv_diag[k] = inv;
+      for (int i = chunk_start(k + 1); i < np; ++i) col_k[i] *= inv;
+      for (int j = k + 1; j < k1; ++j) {
+        double* col_j = a + j * ld;
+        const double l_jk = col_k[j];
+        for (int i = chunk_start(j); i < np; ++i) col_j[i] -= col_k[i] * l_jk;
+      }
+    }
+    const double* c0 = a + k0 * ld;  // panel columns; missing ones (n not a multiple of 4) count as zero
+    const double* c1 = k0 + 1 < k1 ? c0 + ld : c0;
+    const double* c2 = k0 + 2 < k1 ? c0 + 2 * ld : c0;
+    const double* c3 = k0 + 3 < k1 ? c0 + 3 * ld : c0;
+    for (int j = k1; j < n; ++j) {
       double* col_j = a + j * ld;
-      const double l_jk = col_k[j];
-      for (int i = j; i < n; ++i) col_j[i] -= col_k[i] * l_jk;
+      const double l0 = c0[j], l1 = k0 + 1 < k1 ? c1[j] : 0.0, l2 = k0 + 2 < k1 ? c2[j] : 0.0,
+                   l3 = k0 + 3 < k1 ? c3[j] : 0.0;
+      for (int i = chunk_start(j); i < np; ++i) col_j[i] -= (c0[i] * l0 + c1[i] * l1) + (c2[i] * l2 + c3[i] * l3);
     }
   }
   return true;
 }
 
-// y <- L^-1 y (forward substitution, axpy form).
-inline void forward_solve(const double* l, int ld, const double* inv_diag, int n, double* __restrict y) noexcept {
+// From the factor left in a by cholesky_lower, with L = U D (U unit lower,
+// D = diag(L)): lower = strict lower part of U, upper = its transpose (strict
+// upper part of U'); both zero elsewhere up to padded(n).
+inline void split_factor(const double* a, int ld, int n, const double* inv_diag, double* lower, double* upper) noexcept {
+  const int np = padded(n);
   for (int k = 0; k < n; ++k) {
-    const double yk = y[k] * inv_diag[k];
-    y[k] = yk;
-    const double* __restrict col_k = l + k * ld;
-    for (int i = k + 1; i < n; ++i) y[i] -= col_k[i] * yk;
+    const double* src = a + k * ld;
+    double* lo = lower + k * ld;
+    for (int i = 0; i <= k; ++i) lo[i] = 0.0;
+    for (int i = k + 1; i < np; ++i) lo[i] = src[i] * inv_diag[k];
+  }
+  for (int k = 0; k < n; ++k) {
+    double* up = upper + k * ld;
+    for (int i = 0; i < k; ++i) up[i] = lower[i * ld + k];
+    for (int i = k; i < np; ++i) up[i] = 0.0;
   }
 }
 
-// y <- L^-T y (back substitution, dot form over the columns of L).
-inline void backward_solve_transposed(const double* l, int ld, const double* inv_diag, int n, double* y) noexcept {
-  for (int k = n - 1; k >= 0; --k) {
-    const double* col_k = l + k * ld;
-    y[k] = (y[k] - dot(col_k + k + 1, y + k + 1, n - k - 1)) * inv_diag[k];
+// y <- L^-1 y for cols vectors (stride ldy, padded) at once: unit forward
+// substitution with the strict lower part of U (each y[k] is final when reached,
+// so nothing is stored outside whole chunks), then y <- D^-1 y. The columns'
+// dependency chains are independent and overlap.
+inline void forward_solve(const double* lower, int ld, const double* inv_diag, int n, double* y, int ldy = 0,
+                          int cols = 1) noexcept {
+  const int np = padded(n);
+  for (int k = 0; k < n; ++k) {
+    const double* __restrict col = lower + k * ld;
+    const int start = chunk_start(k + 1);
+    for (int c = 0; c < cols; ++c) {
+      double* __restrict yc = y + c * ldy;
+      const double yk = yc[k];
+      for (int i = start; i < np; ++i) yc[i] -= col[i] * yk;
+    }
   }
+  for (int c = 0; c < cols; ++c) {
+    double* __restrict yc = y + c * ldy;
+    for (int i = 0; i < n; ++i) yc[i] *= inv_diag[i];
+  }
+}
+
+// y <- L^-T y = U^-T D^-1 y with upper = strict upper part of U' (zero-padded).
+inline void backward_solve_transposed(const double* upper, int ld, const double* inv_diag, int n,
+                                      double* __restrict y) noexcept {
+  for (int i = 0; i < n; ++i) y[i] *= inv_diag[i];
+  for (int k = n - 1; k > 0; --k) {
+    const double xk = y[k];
+    const double* __restrict col = upper + k * ld;
+    const int end = chunk_start(k) + 4;
+    for (int i = 0; i < end; ++i) y[i] -= col[i] * xk;
+  }
+}
+
+// sum_{i >= from} c[i]^2 over a padded vector: scalar head to the next chunk, then chunks.
+inline double tail_squared_norm(const double* c, int from, int np) noexcept {
+  const int aligned = chunk_start(from + 3);
+  double head = 0.0;
+  for (int i = from; i < aligned && i < np; ++i) head += c[i] * c[i];
+  return aligned < np ? head + squared_norm(c + aligned, np - aligned) : head;
+}
+
+// y <- (I - tau v v') y for a full padded reflector v (zero above row k, 1 at k).
+inline void apply_reflector(const double* v, double tau, int k, int np, double* y) noexcept {
+  if (tau == 0.0) return;
+  const int start = chunk_start(k);
+  const double w = tau * dot(v + start, y + start, np - start);
+  axpy(-w, v + start, y + start, np - start);
 }
 
 // Householder reflector P = I - tau v v' with v = [1; tail] so that P x = [beta; 0].
@@ -85,14 +172,6 @@ inline double make_householder(double* x, int len) noexcept {
   for (int i = 1; i < len; ++i) x[i] *= scale;
   x[0] = beta;
   return (beta - alpha) / beta;
-}
-
-// y <- (I - tau v v') y, v = [1; tail] of len entries.
-inline void apply_householder(const double* tail, double tau, int len, double* y) noexcept {
-  if (tau == 0.0) return;
-  const double w = tau * (y[0] + dot(tail, y + 1, len - 1));
-  y[0] -= w;
-  axpy(-w, tail, y + 1, len - 1);
 }
 
 // Givens rotation (c, s) with [c s; -s c] [a; b] = [r; 0]; returns r >= 0.

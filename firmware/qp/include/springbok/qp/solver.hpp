@@ -85,20 +85,17 @@ class Solver {
   Status classify() noexcept {
     const ProblemType& p = *p_;
     n_ = p.n;
+    np_ = dense::padded(std::max(0, std::min(p.n, N)));
     if (p.n < 1 || p.n > N || p.meq < 0 || p.meq > ME || p.mi < 0 || p.mi > MI) return Status::bad_input;
     meq_ = p.meq;
     mi_ = p.mi;
+    bool ok = dense::all_finite(p.gradient.data(), n_) && dense::all_finite(p.beq_values.data(), meq_);
     for (int j = 0; j < n_; ++j) {
-      for (int i = 0; i < n_; ++i)
-        if (!finite(p.hessian[idx(i, j, N)])) return Status::bad_input;
-      if (!finite(p.gradient[j])) return Status::bad_input;
-      for (int i = 0; i < meq_; ++i)
-        if (!finite(p.aeq[idx(i, j, ME)])) return Status::bad_input;
-      for (int i = 0; i < mi_; ++i)
-        if (!finite(p.ain[idx(i, j, MI)])) return Status::bad_input;
+      ok = ok && dense::all_finite(p.hessian.data() + idx(0, j, N), n_);
+      ok = ok && dense::all_finite(p.aeq.data() + idx(0, j, ME), meq_);
+      ok = ok && dense::all_finite(p.ain.data() + idx(0, j, MI), mi_);
     }
-    for (int i = 0; i < meq_; ++i)
-      if (!finite(p.beq_values[i])) return Status::bad_input;
+    if (!ok) return Status::bad_input;
     for (int i = 0; i < mi_; ++i)
       if (std::isnan(p.lower[i]) || std::isnan(p.upper[i])) return Status::bad_input;
 
@@ -134,6 +131,7 @@ class Solver {
   }
   double* lcol(int j) noexcept { return l_.data() + idx(0, j, kLd); }
   double* bcol(int j) noexcept { return b_.data() + idx(0, j, kLd); }
+  double* vcol(int j) noexcept { return v_.data() + idx(0, j, kLd); }
   double* q1col(int j) noexcept { return q1_.data() + idx(0, j, kLd); }
   double* rcol(int j) noexcept { return r_.data() + idx(0, j, kLd); }
   double* tvec(int row) noexcept { return t_.data() + idx(0, row, kLd); }
@@ -141,26 +139,27 @@ class Solver {
   // ---- step 1: Cholesky ----------------------------------------------------
   Status factor(const double* given_lower) noexcept {
     const ProblemType& p = *p_;
-    if (given_lower != nullptr) {
-      for (int j = 0; j < n_; ++j) {
-        const double diag = given_lower[idx(j, j, N)];
-        if (!(diag > 0.0) || !finite(diag)) return Status::bad_input;
-        inv_diag_[j] = 1.0 / diag;
-        for (int i = j; i < n_; ++i) {
-          const double v = given_lower[idx(i, j, N)];
-          if (!finite(v)) return Status::bad_input;
-          lcol(j)[i] = v;
-        }
-      }
-      return Status::optimal;
-    }
+    const double* source = given_lower != nullptr ? given_lower : p.hessian.data();
     double max_diag = 0.0;
     for (int j = 0; j < n_; ++j) {
-      max_diag = std::max(max_diag, std::abs(p.hessian[idx(j, j, N)]));
-      std::copy_n(p.hessian.data() + idx(j, j, N), n_ - j, lcol(j) + j);
+      max_diag = std::max(max_diag, std::abs(source[idx(j, j, N)]));
+      double* col = lcol(j);
+      std::fill(col + dense::chunk_start(j), col + np_, 0.0);
+      std::copy_n(source + idx(j, j, N), n_ - j, col + j);
     }
-    const double min_pivot = static_cast<double>(n_) * kEps * max_diag;
-    if (!dense::cholesky_lower(l_.data(), kLd, n_, min_pivot, inv_diag_.data())) return Status::not_positive_definite;
+    if (given_lower != nullptr) {
+      if (!dense::all_finite(l_.data(), kLd * n_)) return Status::bad_input;
+      for (int j = 0; j < n_; ++j) {
+        const double diag = lcol(j)[j];
+        if (!(diag > 0.0)) return Status::bad_input;
+        inv_diag_[j] = 1.0 / diag;
+      }
+    } else {
+      const double min_pivot = static_cast<double>(n_) * kEps * max_diag;
+      if (!dense::cholesky_lower(l_.data(), kLd, n_, min_pivot, inv_diag_.data()))
+        return Status::not_positive_definite;
+    }
+    dense::split_factor(l_.data(), kLd, n_, inv_diag_.data(), lo_.data(), up_.data());
     return Status::optimal;
   }
 
@@ -171,6 +170,7 @@ class Solver {
     for (int k = 0; k < meq_; ++k) {
       double* col = bcol(me_);
       for (int j = 0; j < n_; ++j) col[j] = p.aeq[idx(k, j, ME)];
+      std::fill(col + n_, col + np_, 0.0);
       eq_rhs_[me_] = p.beq_values[k];
       eq_src_[me_] = k;
       ++me_;
@@ -179,12 +179,13 @@ class Solver {
       if (kind_[i] != RowKind::equal) continue;
       double* col = bcol(me_);
       for (int j = 0; j < n_; ++j) col[j] = p.ain[idx(i, j, MI)];
+      std::fill(col + n_, col + np_, 0.0);
       eq_rhs_[me_] = p.lower[i];
       eq_src_[me_] = -1 - i;
       ++me_;
     }
+    dense::forward_solve(lo_.data(), kLd, inv_diag_.data(), n_, bcol(0), kLd, me_);
     for (int k = 0; k < me_; ++k) {
-      dense::forward_solve(l_.data(), kLd, inv_diag_.data(), n_, bcol(k));
       eq_norm2_[k] = dense::squared_norm(bcol(k), n_);
       eq_left2_[k] = eq_norm2_[k];
     }
@@ -211,13 +212,16 @@ class Solver {
         std::swap(eq_norm2_[k], eq_norm2_[best]);
         std::swap(eq_left2_[k], eq_left2_[best]);
       }
-      double* vk = bcol(k) + k;
-      const int len = n_ - k;
-      tau_[k] = dense::make_householder(vk, len);
+      double* bk = bcol(k);
+      tau_[k] = dense::make_householder(bk + k, n_ - k);
+      double* vk = vcol(k);  // the full padded reflector: zeros above k, 1 at k
+      std::fill(vk, vk + np_, 0.0);
+      vk[k] = 1.0;
+      std::copy(bk + k + 1, bk + n_, vk + k + 1);
       for (int j = k + 1; j < me_; ++j) {
-        double* cj = bcol(j) + k;
-        dense::apply_householder(vk + 1, tau_[k], len, cj);
-        eq_left2_[j] = dense::squared_norm(cj + 1, len - 1);
+        double* cj = bcol(j);
+        dense::apply_reflector(vk, tau_[k], k, np_, cj);
+        eq_left2_[j] = dense::tail_squared_norm(cj, k + 1, np_);
       }
       ++rank_;
     }
@@ -239,17 +243,18 @@ class Solver {
     }
     // c = Q' L^-1 g; the unconstrained reduced minimiser is w0 = -c[r:].
     std::copy_n(p.gradient.data(), n_, c_.data());
-    dense::forward_solve(l_.data(), kLd, inv_diag_.data(), n_, c_.data());
+    std::fill(c_.data() + n_, c_.data() + np_, 0.0);
+    dense::forward_solve(lo_.data(), kLd, inv_diag_.data(), n_, c_.data());
     apply_qt(c_.data());
     for (int i = 0; i < m_; ++i) w_[i] = -c_[rank_ + i];
     return Status::optimal;
   }
 
   void apply_qt(double* y) noexcept {
-    for (int k = 0; k < rank_; ++k) dense::apply_householder(bcol(k) + k + 1, tau_[k], n_ - k, y + k);
+    for (int k = 0; k < rank_; ++k) dense::apply_reflector(vcol(k), tau_[k], k, np_, y);
   }
   void apply_q(double* y) noexcept {
-    for (int k = rank_ - 1; k >= 0; --k) dense::apply_householder(bcol(k) + k + 1, tau_[k], n_ - k, y + k);
+    for (int k = rank_ - 1; k >= 0; --k) dense::apply_reflector(vcol(k), tau_[k], k, np_, y);
   }
 
   Status prepare(const Hint& hint) noexcept {
@@ -266,7 +271,8 @@ class Solver {
     if (!have_t_[row]) {
       const double* a = p_->ain.data() + idx(row, 0, MI);
       for (int j = 0; j < n_; ++j) t[j] = a[idx(0, j, MI)];
-      dense::forward_solve(l_.data(), kLd, inv_diag_.data(), n_, t);
+      std::fill(t + n_, t + np_, 0.0);
+      dense::forward_solve(lo_.data(), kLd, inv_diag_.data(), n_, t);
       apply_qt(t);
       have_t_[row] = true;
     }
@@ -274,7 +280,7 @@ class Solver {
   }
 
   // Reduced constraint of row `row` on side sigma (+1 lower, -1 upper): np'w >= rhs.
-  // Writes np into np_ and |L^-1 a| (the scale for dependence tests: np itself is
+  // Writes np into np_vec_ and |L^-1 a| (the scale for dependence tests: np itself is
   // only rounding noise when the row lies in the span of the equalities) into
   // full_norm_; returns rhs.
   double reduced_row(int row, int sigma) noexcept {
@@ -283,13 +289,13 @@ class Solver {
     const double h = dense::dot(t, v1_.data(), rank_);
     const double* at = t + rank_;
     const double s = static_cast<double>(sigma);
-    for (int i = 0; i < m_; ++i) np_[i] = s * at[i];
+    for (int i = 0; i < m_; ++i) np_vec_[i] = s * at[i];
     return sigma > 0 ? p_->lower[row] - h : h - p_->upper[row];
   }
 
   // z = np - Q1 Q1'np (twice), d = Q1'np.
   void project() noexcept {
-    std::copy_n(np_.data(), m_, z_.data());
+    std::copy_n(np_vec_.data(), m_, z_.data());
     for (int pass = 0; pass < 2; ++pass) {
       for (int j = 0; j < q_; ++j) {
         const double coef = dense::dot(q1col(j), z_.data(), m_);
@@ -365,8 +371,9 @@ class Solver {
   void compute_x() noexcept {
     std::copy_n(v1_.data(), rank_, x_.data());
     std::copy_n(w_.data(), m_, x_.data() + rank_);
+    std::fill(x_.data() + n_, x_.data() + np_, 0.0);
     apply_q(x_.data());
-    dense::backward_solve_transposed(l_.data(), kLd, inv_diag_.data(), n_, x_.data());
+    dense::backward_solve_transposed(up_.data(), kLd, inv_diag_.data(), n_, x_.data());
     x_norm_ = std::sqrt(dense::squared_norm(x_.data(), n_));
   }
 
@@ -469,7 +476,7 @@ class Solver {
       if (p < 0) return Status::optimal;
       const double rhs = reduced_row(p, sigma);
       const double np_norm = full_norm_;
-      double slack = dense::dot(np_.data(), w_.data(), m_) - rhs;  // < 0 when violated
+      double slack = dense::dot(np_vec_.data(), w_.data(), m_) - rhs;  // < 0 when violated
       double u_plus = 0.0;
       for (;;) {
         if (!count_iteration()) return Status::maxiter;
@@ -613,20 +620,23 @@ class Solver {
 
   Options options_;
   const ProblemType* p_ = nullptr;
-  int n_ = 0, meq_ = 0, mi_ = 0;
+  int n_ = 0, np_ = 0, meq_ = 0, mi_ = 0;  // np_: n padded to whole chunks of four
   int me_ = 0, rank_ = 0, m_ = 0, q_ = 0;
   int iterations_ = 0, max_iterations_ = 0, epoch_ = 0;
   double x_norm_ = 0.0, full_norm_ = 0.0;
 
   // factor of H
-  alignas(64) Buf<double, kLd * N> l_{};
+  alignas(64) Buf<double, kLd * N> l_{};   // Cholesky scratch
+  alignas(64) Buf<double, kLd * N> lo_{};  // L = U D: strict lower part of U, zero-padded
+  alignas(64) Buf<double, kLd * N> up_{};  // strict upper part of U', zero-padded
   Buf<double, N> inv_diag_{};
   // equality block: Householder QR of L^-1 E' (column-major, leading dim kLd)
   alignas(64) Buf<double, kLd * kMaxEqRows> b_{};
+  alignas(64) Buf<double, kLd * N> v_{};  // Householder vectors, full and padded
   Buf<double, kMaxEqRows> tau_{}, eq_rhs_{}, eq_norm2_{}, eq_left2_{}, eq_res_{};
   Buf<int, kMaxEqRows> eq_src_{};
   // reduced problem
-  alignas(64) Buf<double, N> v1_{}, c_{}, w_{}, x_{}, y_{}, np_{}, z_{}, d_{}, e_{}, rdir_{}, beta_{};
+  alignas(64) Buf<double, kLd> v1_{}, c_{}, w_{}, x_{}, y_{}, np_vec_{}, z_{}, d_{}, e_{}, rdir_{}, beta_{};
   alignas(64) Buf<double, kLd * N> q1_{};
   alignas(64) Buf<double, kLd * N> r_{};
   Buf<double, N> u_{}, act_rhs_{}, act_norm_{}, act_res_{};
