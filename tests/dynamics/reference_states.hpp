@@ -1,0 +1,58 @@
+// The reference states (../shared/robot/reference/state_*.txt, globbed at run
+// time) and helpers to compare springbok's results with their blocks.
+#pragma once
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "state_file.hpp"
+
+namespace springbok::test {
+
+// Every state_*.txt in the shared reference folder, plus those in
+// $SPRINGBOK_REFERENCE_DIR when set (e.g. a held-out set), sorted.
+inline std::vector<std::string> reference_state_files() {
+  std::vector<std::string> dirs{std::string(SPRINGBOK_SHARED_DIR) + "/robot/reference"};
+  if (const char* extra = std::getenv("SPRINGBOK_REFERENCE_DIR")) dirs.emplace_back(extra);
+  std::vector<std::string> files;
+  for (const auto& dir : dirs) {
+    if (!std::filesystem::is_directory(dir)) continue;
+    for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+      const std::string name = entry.path().filename().string();
+      if (name.rfind("state_", 0) == 0 && entry.path().extension() == ".txt")
+        files.push_back(entry.path().string());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+inline Eigen::MatrixXd to_matrix(const state_file::Block& b) {
+  Eigen::MatrixXd m(b.rows, b.cols);
+  for (int r = 0; r < b.rows; ++r)
+    for (int c = 0; c < b.cols; ++c) m(r, c) = b.values[static_cast<std::size_t>(r * b.cols + c)];
+  return m;
+}
+
+// FORMAT.md's tolerance rule: absolute for kinematic blocks and M, relative to
+// max(1, |reference|) for the generalized forces and accelerations.
+inline bool relative_block(const std::string& name) {
+  return name == "tau" || name == "h" || name == "g" || name == "vdot_aba";
+}
+
+// Largest error of `mine` against `ref` under the block's rule.
+inline double block_error(const std::string& name, const Eigen::MatrixXd& mine,
+                          const Eigen::MatrixXd& ref) {
+  const Eigen::MatrixXd diff = (mine - ref).cwiseAbs();
+  if (!relative_block(name)) return diff.maxCoeff();
+  return diff.cwiseQuotient(ref.cwiseAbs().cwiseMax(1.0)).maxCoeff();
+}
+
+inline constexpr double kReferenceTolerance = 1e-9;
+
+}  // namespace springbok::test

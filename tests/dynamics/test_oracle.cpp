@@ -1,0 +1,83 @@
+// springbok::dyn against the reference states (RBDL oracle, FORMAT.md): every
+// block of every state_*.txt, each computed through the public API, both by the
+// single algorithms and by the one-pass compute_tick.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <map>
+#include <memory>
+
+#include "reference_states.hpp"
+#include "springbok/dynamics/dynamics.hpp"
+
+namespace {
+using namespace springbok;
+using springbok::test::block_error;
+using springbok::test::kReferenceTolerance;
+using springbok::test::to_matrix;
+
+class Oracle : public ::testing::Test {
+ protected:
+  void expect_block(const state_file::StateFile& file, const std::string& name,
+                    const Eigen::MatrixXd& mine, const std::string& how) {
+    const auto& ref = file.require(name, static_cast<int>(mine.rows()), static_cast<int>(mine.cols()));
+    const double err = block_error(name, mine, to_matrix(ref));
+    EXPECT_LE(err, kReferenceTolerance) << file.source << " block " << name << " (" << how << ")";
+    double& worst = max_error_[name];
+    worst = std::max(worst, err);
+  }
+
+  void TearDown() override {
+    for (const auto& [name, err] : max_error_) std::printf("  max error %-12s %.3g\n", name.c_str(), err);
+  }
+
+  std::map<std::string, double> max_error_;
+};
+
+TEST_F(Oracle, EveryBlockOfEveryReferenceState) {
+  const auto files = springbok::test::reference_state_files();
+  ASSERT_GE(files.size(), 1u) << "no state_*.txt under " << SPRINGBOK_SHARED_DIR;
+  const dyn::Model model;
+  auto data = std::make_unique<dyn::Data>();
+  const char* feet[kFeet] = {"lf_foot", "rf_foot", "lh_foot", "rh_foot"};
+  for (const auto& path : files) {
+    const auto file = state_file::read(path);
+    const auto in = state_file::dynamics_input(file);
+
+    expect_block(file, "tau", dyn::rnea(model, *data, in.q, in.v, in.vdot).transpose(), "rnea");
+    expect_block(file, "M", dyn::crba(model, *data, in.q), "crba");
+    expect_block(file, "h", dyn::nonlinear_effects(model, *data, in.q, in.v).transpose(), "nonlinear_effects");
+    expect_block(file, "g", dyn::gravity(model, *data, in.q).transpose(), "gravity");
+    expect_block(file, "vdot_aba", dyn::aba(model, *data, in.q, in.v, in.tau_aba).transpose(), "aba");
+    dyn::point_jacobians(model, *data, in.q);
+    dyn::point_jacobians_dot_times_v(model, *data, in.q, in.v);
+    for (int f = 0; f < kFeet; ++f) {
+      const std::string name = feet[f];
+      expect_block(file, "p_" + name, data->frames[kFootFrames[f]].translation.transpose(), "forward_kinematics");
+      expect_block(file, "J_" + name, data->J_feet[f], "point_jacobians");
+      expect_block(file, "dJv_" + name, data->dJv_feet[f].transpose(), "point_jacobians_dot_times_v");
+    }
+    expect_block(file, "p_ee", data->frames[kEeFrame].translation.transpose(), "forward_kinematics");
+    expect_block(file, "R_ee", data->frames[kEeFrame].rotation, "forward_kinematics");
+    expect_block(file, "J_ee", data->J_ee, "point_jacobians");
+    expect_block(file, "dJv_ee", data->dJv_ee.transpose(), "point_jacobians_dot_times_v");
+
+    // The one-pass tick, on a fresh workspace, must give the same blocks.
+    auto tick = std::make_unique<dyn::Data>();
+    dyn::compute_tick(model, *tick, in.q, in.v);
+    expect_block(file, "M", tick->M, "compute_tick");
+    expect_block(file, "h", tick->nle.transpose(), "compute_tick");
+    for (int f = 0; f < kFeet; ++f) {
+      const std::string name = feet[f];
+      expect_block(file, "p_" + name, tick->frames[kFootFrames[f]].translation.transpose(), "compute_tick");
+      expect_block(file, "J_" + name, tick->J_feet[f], "compute_tick");
+      expect_block(file, "dJv_" + name, tick->dJv_feet[f].transpose(), "compute_tick");
+    }
+    expect_block(file, "p_ee", tick->frames[kEeFrame].translation.transpose(), "compute_tick");
+    expect_block(file, "R_ee", tick->frames[kEeFrame].rotation, "compute_tick");
+    expect_block(file, "J_ee", tick->J_ee, "compute_tick");
+    expect_block(file, "dJv_ee", tick->dJv_ee.transpose(), "compute_tick");
+  }
+}
+
+}  // namespace
