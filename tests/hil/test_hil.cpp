@@ -353,7 +353,7 @@ TEST(Hil, RoundTripTime) {
     const std::int64_t t0 = monotonic_ns();
     ASSERT_EQ(bus.send(cmd), TxStatus::ok);
     bool got = false;
-    while (!got && monotonic_ns() - t0 < 100000000LL) {
+    while (!got && monotonic_ns() - t0 < 2000000000LL) {
       wait_readable(std::span<const int>(&fd, 1), 10000);
       got = bus.receive(rx) == RxStatus::frame;
     }
