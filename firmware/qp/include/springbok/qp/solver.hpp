@@ -52,7 +52,15 @@ class Solver {
     result.objective = std::numeric_limits<double>::quiet_NaN();
     iterations_ = 0;
     Status status = prepare(hint);
-    if (status == Status::optimal) status = run(hint.active_set);
+    if (status == Status::optimal) {
+      status = run(hint.active_set);
+      // A warm start is only a guess: an infeasible or capped run from it is
+      // re-checked from the cold start (same factorization).
+      if (hint.active_set != nullptr && (status == Status::infeasible || status == Status::maxiter)) {
+        iterations_ = 0;
+        status = run(nullptr);
+      }
+    }
     if (status == Status::optimal || status == Status::maxiter) {
       if (!finish(result)) status = Status::bad_input;  // non-finite result from finite (huge) data
     }
@@ -246,7 +254,7 @@ class Solver {
     std::fill(c_.data() + n_, c_.data() + np_, 0.0);
     dense::forward_solve(lo_.data(), kLd, inv_diag_.data(), n_, c_.data());
     apply_qt(c_.data());
-    for (int i = 0; i < m_; ++i) w_[i] = -c_[rank_ + i];
+    c_norm_ = std::sqrt(dense::squared_norm(c_.data(), n_));
     return Status::optimal;
   }
 
@@ -467,6 +475,11 @@ class Solver {
   Status run(const ActiveSet<MI>* warm) noexcept {
     q_ = 0;
     epoch_ = 0;
+    for (int i = 0; i < m_; ++i) w_[i] = -c_[rank_ + i];
+    for (int i = 0; i < mi_; ++i) {
+      active_side_[i] = 0;
+      skipped_epoch_[i] = -1;
+    }
     max_iterations_ = options_.max_iterations > 0 ? options_.max_iterations : 10 * (n_ + mi_) + 50;
     if (warm != nullptr && warm->size > 0) warm_start(*warm);
     for (;;) {
@@ -488,7 +501,7 @@ class Solver {
         double t1 = kInf;
         int k = -1;
         for (int j = 0; j < q_; ++j) {
-          if (rdir_[j] * act_norm_[j] > 1e-12 * np_norm) {
+          if (rdir_[j] * act_norm_[j] > 1e-10 * np_norm) {
             const double ratio = u_[j] / rdir_[j];
             if (ratio < t1) {
               t1 = ratio;
@@ -497,19 +510,19 @@ class Solver {
           }
         }
         const bool dependent = q_ >= m_ || !(z_norm > dependence_tol() * np_norm);
+        // A row dependent on the active rows whose violation is at the rounding level
+        // of the reduced coordinates (a degenerate vertex; the path from the
+        // unconstrained minimiser c sets that level) is skipped until the active set
+        // changes: exchanges driven by it would only amplify rounding.
+        const double path = std::max(v_norm(), c_norm_);
+        if (dependent && k < 0 && u_plus == 0.0 && -slack <= 1e-11 * (full_norm_ * path + std::abs(rhs))) {
+          skipped_epoch_[p] = epoch_;
+          --iterations_;  // no step taken
+          break;
+        }
         const double t2 = dependent ? kInf : std::max(0.0, -slack / zz);
         const double t = std::min(t1, t2);
-        if (!(t < kInf)) {
-          // Dependent on the active rows with no multiplier to trade: infeasible, unless
-          // the violation is at the rounding level of the reduced coordinates (a
-          // degenerate vertex); then skip the row until the active set changes.
-          if (u_plus == 0.0 && -slack <= 1e-9 * (full_norm_ * v_norm() + std::abs(rhs))) {
-            skipped_epoch_[p] = epoch_;
-            --iterations_;  // no step taken
-            break;
-          }
-          return Status::infeasible;
-        }
+        if (!(t < kInf)) return Status::infeasible;  // dependent, no multiplier to trade
         for (int j = 0; j < q_; ++j) u_[j] = std::max(0.0, u_[j] - t * rdir_[j]);
         u_plus += t;
         if (!dependent) {
@@ -623,7 +636,7 @@ class Solver {
   int n_ = 0, np_ = 0, meq_ = 0, mi_ = 0;  // np_: n padded to whole chunks of four
   int me_ = 0, rank_ = 0, m_ = 0, q_ = 0;
   int iterations_ = 0, max_iterations_ = 0, epoch_ = 0;
-  double x_norm_ = 0.0, full_norm_ = 0.0;
+  double x_norm_ = 0.0, full_norm_ = 0.0, c_norm_ = 0.0;
 
   // factor of H
   alignas(64) Buf<double, kLd * N> l_{};   // Cholesky scratch
