@@ -5,6 +5,7 @@
 #include <array>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "springbok/model/hyq_gen3.hpp"
 #include "springbok/model/model_types.hpp"
