@@ -2,13 +2,14 @@
 // socket) with the simulated robot (sim_hal's Bullet world) as its HAL, in
 // real time. The SocketCAN build is `springbok`.
 #include <memory>
+#include <string>
 
 #include "../sim/stepped_bullet_robot.hpp"
 #include "springbok/app/runtime.hpp"
 
 int main(int argc, char** argv) {
   using namespace springbok;
-  return app::firmware_main(argc, argv, "springbok-on-sim", [](const app::AppConfig& config) {
+  return app::firmware_main(argc, argv, "springbok-on-sim", [](const app::AppConfig& config, const std::string&) {
     return std::make_unique<app::SteppedBulletRobot>(app::crouched_sim_config(config.rate_hz));
   });
 }

@@ -5,6 +5,7 @@
 // main() that builds its backend and calls run_firmware().
 #pragma once
 
+#include <cstdio>
 #include <string>
 
 #include "springbok/app/config.hpp"
@@ -22,7 +23,9 @@ struct RunOptions {
 int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOptions& options);
 
 // The command line shared by the executables: --config, --check-config,
-// --require-rt, --duration. Returns the exit code; `make_hardware` builds the backend.
+// --require-rt, --duration. Returns the exit code. `make_hardware(config,
+// config_path)` builds the backend without touching any device (nullptr after
+// printing the error); --check-config therefore also checks the backend's part.
 template <class MakeHardware>
 int firmware_main(int argc, char** argv, const char* program, MakeHardware&& make_hardware);
 
@@ -44,12 +47,12 @@ int firmware_main(int argc, char** argv, const char* program, MakeHardware&& mak
     for (const auto& e : loaded.errors) std::fprintf(stderr, "%s: config error: %s\n", program, e.c_str());
     return 1;
   }
+  auto hardware = make_hardware(loaded.config, cli.config_path);
+  if (!hardware) return 1;
   if (cli.check_config) {
     std::printf("%s: config OK: %s\n", program, cli.config_path.c_str());
     return 0;
   }
-  auto hardware = make_hardware(loaded.config);
-  if (!hardware) return 1;
   return run_firmware(*hardware, loaded.config, cli.run);
 }
 
