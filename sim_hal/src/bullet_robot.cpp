@@ -81,6 +81,26 @@ btTransform to_bt(const Eigen::Isometry3d& iso) { return btTransform(to_bt(Mat3(
 
 bool all_finite(const auto& m) { return m.allFinite(); }
 
+// Bullet's joint limit, but its two solver rows exist only while the joint is
+// near a limit: far from both it cannot reach one within the step, and the
+// rows (each an articulated-body pass in the solver) were most of the cost.
+class NearJointLimit final : public btMultiBodyJointLimitConstraint {
+ public:
+  NearJointLimit(btMultiBody* body, int link, double lower_rad, double upper_rad)
+      : btMultiBodyJointLimitConstraint(body, link, lower_rad, upper_rad) {}
+
+  void createConstraintRows(btMultiBodyConstraintArray& rows, btMultiBodyJacobianData& data,
+                            const btContactSolverInfo& info) override {
+    const double q = m_bodyA->getJointPos(m_linkA);
+    const double margin_rad = kLimitMargin_rad + 2.0 * std::abs(m_bodyA->getJointVel(m_linkA)) * info.m_timeStep;
+    if (q - m_lowerBound > margin_rad && m_upperBound - q > margin_rad) return;
+    btMultiBodyJointLimitConstraint::createConstraintRows(rows, data, info);
+  }
+
+ private:
+  static constexpr double kLimitMargin_rad = 0.02;
+};
+
 const model::Inertia& body_inertia(int body) {
   return body == 0 ? robot::kBaseInertia : robot::kJoints[body - 1].inertia;
 }
@@ -123,7 +143,7 @@ struct BulletRobot::Impl {
   std::unique_ptr<btMultiBody> body;
   std::vector<std::unique_ptr<btCollisionShape>> shapes;
   std::array<std::unique_ptr<btMultiBodyLinkCollider>, kNb> colliders;
-  std::vector<std::unique_ptr<btMultiBodyJointLimitConstraint>> limits;
+  std::vector<std::unique_ptr<NearJointLimit>> limits;
   std::unique_ptr<btStaticPlaneShape> ground_shape;
   std::unique_ptr<btCollisionObject> ground;
   btAlignedObjectArray<btQuaternion> scratch_rotations;
@@ -248,8 +268,7 @@ std::string BulletRobot::Impl::build() {
   for (int j = 0; j < kNj; ++j) {
     const auto& limits_j = robot::kJoints[j].limits;
     if (!limits_j.bounded) continue;
-    auto limit = std::make_unique<btMultiBodyJointLimitConstraint>(body.get(), j, limits_j.lower_rad,
-                                                                   limits_j.upper_rad);
+    auto limit = std::make_unique<NearJointLimit>(body.get(), j, limits_j.lower_rad, limits_j.upper_rad);
     limit->setMaxAppliedImpulse(kMaxAppliedImpulse);
     world->addMultiBodyConstraint(limit.get());
     limits.push_back(std::move(limit));

@@ -1,0 +1,59 @@
+// Running springbok-sim from a test: a scratch directory, the exit code and stderr, summary fields.
+#pragma once
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace springbok::test {
+namespace fs = std::filesystem;
+
+inline const std::string kBin = std::string(SPRINGBOK_BIN_DIR) + "/springbok-sim";
+inline const std::string kScenarios = std::string(SPRINGBOK_SOURCE_DIR) + "/tools/scenarios/";
+
+inline fs::path scratch(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("springbok_sim_cli_" + std::to_string(getpid())) / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+inline std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+struct CliResult {
+  int exit_code = -1;
+  std::string err;
+};
+
+inline CliResult run(const std::string& scenario, const fs::path& out) {
+  const fs::path err = out.parent_path() / (out.filename().string() + ".stderr");
+  const std::string cmd = "'" + kBin + "' '" + scenario + "' --out '" + out.string() + "' >/dev/null 2>'" + err.string() + "'";
+  const int status = std::system(cmd.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(err)};
+}
+
+inline double json_number(const std::string& json, const std::string& key) {
+  const auto at = json.find("\"" + key + "\":");
+  if (at == std::string::npos) return std::nan("");
+  return std::strtod(json.c_str() + at + key.size() + 3, nullptr);
+}
+
+inline bool json_true(const std::string& json, const std::string& key) {
+  return json.find("\"" + key + "\": true") != std::string::npos;
+}
+
+}  // namespace springbok::test

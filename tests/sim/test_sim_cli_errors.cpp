@@ -1,0 +1,70 @@
+// springbok-sim on broken scenario files: a clear error naming the file and
+// the field, a non-zero exit, and no output.
+#include <gtest/gtest.h>
+
+#include "cli_test_util.hpp"
+
+namespace {
+using namespace springbok::test;
+
+// ---- broken scenarios: each names its field, exits non-zero, writes nothing ----
+
+struct Broken {
+  const char* name;
+  const char* yaml;
+  const char* expected;  // in the error message
+};
+
+const Broken kBroken[] = {
+    {"unknown_key", "duration_s: 1\ncontroller: {type: stand}\nbogus: 3\n", "bogus: unknown key"},
+    {"missing_duration", "controller: {type: stand}\n", "duration_s: missing"},
+    {"missing_controller", "duration_s: 1\n", "controller: missing"},
+    {"wrong_type", "duration_s: fast\ncontroller: {type: stand}\n", "duration_s: must be a number"},
+    {"nan", "duration_s: .nan\ncontroller: {type: stand}\n", "duration_s: must be finite"},
+    {"out_of_range", "duration_s: 1\nsim: {ground_friction: -1}\ncontroller: {type: stand}\n",
+     "sim.ground_friction: must be in"},
+    {"nested_unknown", "duration_s: 1\nsim: {imu: {sede: 3}}\ncontroller: {type: stand}\n", "sim.imu.sede: unknown key"},
+    {"bad_vector", "duration_s: 1\ninitial: {base_position_m: [0, 1]}\ncontroller: {type: stand}\n",
+     "initial.base_position_m: must be a list of 3 numbers"},
+    {"joint_limit", "duration_s: 1\ninitial: {joint_positions_rad: [0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0]}\n"
+                    "controller: {type: stand}\n",
+     "initial.joint_positions_rad[2]: lf_kfe_joint"},
+    {"unknown_controller", "duration_s: 1\ncontroller: {type: magic}\n", "controller.type: unknown controller 'magic'"},
+    {"bad_param", "duration_s: 1\ncontroller: {type: stand, params: {kp_leg_nm_per_rad: -5}}\n",
+     "controller.params.kp_leg_nm_per_rad: must be in"},
+    {"unknown_frame", "duration_s: 1\ncontroller: {type: stand}\nexternal_wrenches:\n"
+                      "  - {frame: hand, axis: [1, 0, 0], profile: step, amplitude: 50}\n",
+     "external_wrenches[0].frame: unknown frame 'hand'"},
+    {"chirp_needs_frequency", "duration_s: 1\ncontroller: {type: stand}\nexternal_wrenches:\n"
+                              "  - {frame: arm_end_effector_link, axis: [1, 0, 0], profile: chirp, amplitude: 20,"
+                              " duration_s: 1, start_frequency_hz: 0}\n",
+     "external_wrenches[0].end_frequency_hz: missing"},
+    {"zero_axis", "duration_s: 1\ncontroller: {type: stand}\nexternal_wrenches:\n"
+                  "  - {frame: trunk, axis: [0, 0, 0], profile: step, amplitude: 5}\n",
+     "external_wrenches[0].axis: must not be zero"},
+    {"not_yaml", "duration_s: [1\n", "yaml"},
+};
+
+TEST(SimCli, BrokenScenariosNameTheField) {
+  for (const Broken& b : kBroken) {
+    const fs::path dir = scratch(std::string("broken_") + b.name);
+    const fs::path file = dir / "scenario.yaml";
+    std::ofstream(file) << b.yaml;
+    const CliResult r = run(file.string(), dir / "out");
+    EXPECT_EQ(r.exit_code, 2) << b.name;
+    EXPECT_NE(r.err.find(b.expected), std::string::npos) << b.name << ": " << r.err;
+    EXPECT_NE(r.err.find(file.string()), std::string::npos) << b.name << ": the message names the file: " << r.err;
+    EXPECT_FALSE(fs::exists(dir / "out" / "summary.json")) << b.name;
+  }
+}
+
+TEST(SimCli, MissingFileAndMissingArguments) {
+  const fs::path dir = scratch("missing");
+  const CliResult r = run((dir / "nope.yaml").string(), dir / "out");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("nope.yaml"), std::string::npos) << r.err;
+  const int status = std::system(("'" + kBin + "' >/dev/null 2>&1").c_str());
+  EXPECT_NE(WEXITSTATUS(status), 0);
+}
+
+}  // namespace

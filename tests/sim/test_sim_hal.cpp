@@ -1,0 +1,141 @@
+// The Bullet backend as a HAL: lifecycle, allocation-free read/write, a
+// broken command is refused, IMU readings (at rest: gravity; seeded noise).
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "alloc_trap.hpp"
+#include "springbok/sim_hal/bullet_robot.hpp"
+
+namespace {
+using namespace springbok;
+
+sim::SimConfig resting_fixed_base() {
+  sim::SimConfig c;
+  c.fixed_base = true;
+  c.ground = false;
+  c.initial_q[2] = 1.0;
+  return c;
+}
+
+TEST(SimHal, LifecycleOrderIsEnforced) {
+  sim::BulletRobot robot(resting_fixed_base());
+  hal::Measurements m;
+  hal::JointCommands c;
+  EXPECT_EQ(robot.read(m), hal::IoStatus::error);
+  EXPECT_FALSE(robot.activate().ok);
+  ASSERT_TRUE(robot.configure().ok);
+  EXPECT_FALSE(robot.configure().ok);
+  EXPECT_EQ(robot.write(c), hal::IoStatus::error);  // drives not powered yet
+  EXPECT_EQ(robot.read(m), hal::IoStatus::ok);
+  EXPECT_EQ(m.drives[0].state, hal::DriveState::ready);
+  ASSERT_TRUE(robot.activate().ok);
+  EXPECT_EQ(robot.read(m), hal::IoStatus::ok);
+  EXPECT_EQ(m.drives[18].state, hal::DriveState::enabled);
+  robot.deactivate();
+  robot.deactivate();
+  EXPECT_EQ(robot.write(c), hal::IoStatus::error);
+}
+
+TEST(SimHal, BadConfigurationIsRefusedWithTheField) {
+  sim::SimConfig c = resting_fixed_base();
+  c.ground_friction = std::nan("");
+  sim::BulletRobot robot(c);
+  const auto r = robot.configure();
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("ground_friction"), std::string::npos) << r.message;
+}
+
+TEST(SimHal, ReadAndWriteDoNotAllocate) {
+  sim::BulletRobot robot(resting_fixed_base());
+  ASSERT_TRUE(robot.configure().ok);
+  ASSERT_TRUE(robot.activate().ok);
+  hal::Measurements m;
+  hal::JointCommands c;
+  c.mode = hal::CommandMode::enabled;
+  robot.step();
+  hal::IoStatus read_status{}, write_status{};
+  const std::size_t n = test::count_allocations([&] {
+    read_status = robot.read(m);
+    write_status = robot.write(c);
+  });
+  EXPECT_EQ(n, 0u);
+  EXPECT_EQ(read_status, hal::IoStatus::ok);
+  EXPECT_EQ(write_status, hal::IoStatus::ok);
+}
+
+TEST(SimHal, ANonFiniteCommandIsRefusedAndTheDrivesGoLimp) {
+  sim::BulletRobot robot(resting_fixed_base());
+  ASSERT_TRUE(robot.configure().ok);
+  ASSERT_TRUE(robot.activate().ok);
+  hal::JointCommands c;
+  c.mode = hal::CommandMode::enabled;
+  c.tau_ff_nm.setConstant(5.0);
+  ASSERT_EQ(robot.write(c), hal::IoStatus::ok);
+  robot.step();
+  EXPECT_DOUBLE_EQ(robot.ground_truth().tau_applied_nm[3], 5.0);
+  c.tau_ff_nm[7] = std::nan("");
+  EXPECT_EQ(robot.write(c), hal::IoStatus::error);
+  robot.step();
+  EXPECT_EQ(robot.ground_truth().tau_applied_nm, VecNj::Zero());
+}
+
+TEST(SimHal, TorquesSaturateAtTheModelEffortLimit) {
+  sim::BulletRobot robot(resting_fixed_base());
+  ASSERT_TRUE(robot.configure().ok);
+  ASSERT_TRUE(robot.activate().ok);
+  hal::JointCommands c;
+  c.mode = hal::CommandMode::enabled;
+  c.tau_ff_nm.setConstant(-1000.0);
+  ASSERT_EQ(robot.write(c), hal::IoStatus::ok);
+  robot.step();
+  hal::Measurements m;
+  ASSERT_EQ(robot.read(m), hal::IoStatus::ok);
+  for (int j = 0; j < kNj; ++j) EXPECT_DOUBLE_EQ(m.tau_nm[j], -robot::kJoints[j].limits.effort_nm);
+}
+
+TEST(SimHal, ImuAtRestReadsGravityAsSpecificForceInItsFrame) {
+  sim::BulletRobot robot(resting_fixed_base());
+  ASSERT_TRUE(robot.configure().ok);
+  robot.step();
+  robot.step();
+  hal::Measurements m;
+  ASSERT_EQ(robot.read(m), hal::IoStatus::ok);
+  ASSERT_TRUE(m.imu.valid);
+  const auto& imu = robot::kFrames[kImuFrame];
+  const Mat3 r_imu = robot.frame_placement(sim::FrameRef{imu.body, imu.placement}).linear();
+  EXPECT_LT((m.imu.linear_accel_m_s2 - r_imu.transpose() * Vec3(0, 0, kGravity_m_s2)).norm(), 1e-9);
+  EXPECT_LT(m.imu.angular_rate_rad_s.norm(), 1e-12);
+  EXPECT_LT((m.imu.orientation.toRotationMatrix() - r_imu).norm(), 1e-12);
+  EXPECT_EQ(m.imu.stamp_ns, 2'000'000);
+}
+
+TEST(SimHal, ImuNoiseIsSeededWithTheConfiguredSpread) {
+  const auto samples = [](std::uint64_t seed) {
+    sim::SimConfig c = resting_fixed_base();
+    c.imu.gyro_noise_rad_s = 0.01;
+    c.imu.gyro_bias_rad_s = 0.1;
+    c.imu.seed = seed;
+    sim::BulletRobot robot(c);
+    EXPECT_TRUE(robot.configure().ok);
+    std::vector<double> x;
+    hal::Measurements m;
+    for (int k = 0; k < 2000; ++k) {
+      robot.step();
+      robot.read(m);
+      x.push_back(m.imu.angular_rate_rad_s.x());
+    }
+    return x;
+  };
+  const auto a = samples(5), b = samples(5), c = samples(6);
+  EXPECT_EQ(a, b);
+  EXPECT_NE(a, c);
+  double mean = 0.0;
+  for (double v : a) mean += v / a.size();
+  double var = 0.0;
+  for (double v : a) var += (v - mean) * (v - mean) / (a.size() - 1);
+  EXPECT_NEAR(std::sqrt(var), 0.01, 0.001);  // white noise spread
+  EXPECT_GT(std::abs(mean), 1e-3);           // a constant bias drawn once (std 0.1)
+}
+
+}  // namespace
