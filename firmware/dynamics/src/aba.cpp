@@ -21,7 +21,8 @@ Mat6 to_matrix(const SpatialInertia& in) noexcept {
 
 Vec6 motion_subspace(const Data& data, int joint) noexcept {
   Vec6 s;
-  s << data.joint_moment_arm[joint], data.joint_axis[joint];
+  s.head<3>() = data.joint_moment_arm[joint];
+  s.tail<3>() = data.joint_axis[joint];
   return s;
 }
 
@@ -39,14 +40,15 @@ const VecNv& aba(const Model& model, Data& data, const VecNq& q, const VecNv& v,
     Vec3 mom_lin, mom_ang;
     inertia_times(data.inertia[b], data.vel_lin[b], data.vel_ang[b], mom_lin, mom_ang);
     const Vec3& w = data.vel_ang[b];
-    data.art_bias[b] << w.cross(mom_lin), data.vel_lin[b].cross(mom_lin) + w.cross(mom_ang);
+    data.art_bias[b].head<3>() = w.cross(mom_lin);
+    data.art_bias[b].tail<3>() = data.vel_lin[b].cross(mom_lin) + w.cross(mom_ang);
   }
   for (int i = 0; i < kNj; ++i) {
     const int b = body_of(i);
     const double qd = v[kBase + i];
     const Vec3& w = data.vel_ang[b];
-    data.aba_c[i] << qd * (w.cross(data.joint_moment_arm[i]) + data.vel_lin[b].cross(data.joint_axis[i])),
-        qd * w.cross(data.joint_axis[i]);
+    data.aba_c[i].head<3>() = qd * (w.cross(data.joint_moment_arm[i]) + data.vel_lin[b].cross(data.joint_axis[i]));
+    data.aba_c[i].tail<3>() = qd * w.cross(data.joint_axis[i]);
   }
   // Pass 2: leaves to root.
   for (int i = kNj - 1; i >= 0; --i) {
@@ -64,8 +66,8 @@ const VecNv& aba(const Model& model, Data& data, const VecNq& q, const VecNv& v,
   const Mat3& r0 = data.body_rotation[0];
   const Vec3 minus_g = -model.gravity_world_m_s2;
   Vec6 rhs;
-  rhs << r0 * tau.segment<3>(0), r0 * tau.segment<3>(3);
-  rhs -= data.art_bias[0];
+  rhs.head<3>() = r0 * tau.segment<3>(0) - data.art_bias[0].head<3>();
+  rhs.tail<3>() = r0 * tau.segment<3>(3) - data.art_bias[0].tail<3>();
   const Vec6 a0 = data.art_inertia[0].llt().solve(rhs);
   data.acc_lin[0] = a0.head<3>();
   data.acc_ang[0] = a0.tail<3>();
@@ -74,9 +76,9 @@ const VecNv& aba(const Model& model, Data& data, const VecNq& q, const VecNv& v,
   // Pass 3: root to leaves.
   for (int i = 0; i < kNj; ++i) {
     const int b = body_of(i), p = parent_body(i);
-    Vec6 a;
-    a << data.acc_lin[p], data.acc_ang[p];
-    a += data.aba_c[i];
+    Vec6 a = data.aba_c[i];
+    a.head<3>() += data.acc_lin[p];
+    a.tail<3>() += data.acc_ang[p];
     const double qdd = (data.aba_tau[i] - data.aba_u[i].dot(a)) / data.aba_d[i];
     data.ddq[kBase + i] = qdd;
     data.acc_lin[b] = a.head<3>() + qdd * data.joint_moment_arm[i];
