@@ -1,0 +1,179 @@
+// The paper's whole-body controller (Risiglione et al., SPEC section 3): the
+// robot renders a double mass-spring-damper template when its hand is pushed.
+//
+// One tick:
+//  1. dynamics at (q, v): M, h, foot and EE Jacobians and Jdot*v;
+//  2. the desired base wrench W_b^d (eq. 4-5) from the template gains and a
+//     rotational PD; the base task  diag(M_b, I_b) qdd_b = W_b^d;
+//  3. the arm task (eq. 8): the template's EE acceleration through the damped,
+//     dynamically consistent pseudo-inverse of the arm Jacobian, plus a
+//     null-space posture task;
+//  4. one QP (eq. 6) over xi = [udot (25); 3 per foot] where a foot's three
+//     variables are its ground force when in stance and its swing-task slack
+//     when in swing, so the sizes never change, only which rows are live:
+//       equalities   floating-base dynamics (6), stance feet do not accelerate (3 each)
+//       inequalities swing task with slack (6 per swing foot), friction pyramid and
+//                    normal-force bounds (5 per stance foot), joint-acceleration
+//                    bounds (eq. 17, 19), torque limits (19);
+//  5. torques by eq. 19. If the QP fails the tick still returns safe torques
+//     (stance gravity compensation plus joint damping) and counts the failure.
+//
+// Frames: world quantities are in world axes; the base twist v[0:6] is in the
+// trunk frame (CONVENTIONS.md). The template's displacements are of the trunk
+// origin and of the EE origin from their desired (initial) positions.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "springbok/dynamics/dynamics.hpp"
+#include "springbok/model/model.hpp"
+#include "springbok/qp/qp.hpp"
+#include "springbok/wbc/impedance_template.hpp"
+
+namespace springbok::wbc {
+
+inline constexpr int kArmDofs = kArmJoints;
+inline constexpr int kArmCol = 6 + kFirstArmJoint;       // first arm column of v
+inline constexpr int kFootVars = 3;                      // force (stance) or slack (swing)
+inline constexpr int kQpVars = kNv + kFootVars * kFeet;  // 37
+inline constexpr int kQpEq = 6 + 3 * kFeet;              // 18
+inline constexpr int kQpIn = 6 * kFeet + 2 * kNj;        // 62 (all feet in swing)
+using WbcSolver = qp::Solver<kQpVars, kQpEq, kQpIn>;
+using VecArm = Vec<kArmDofs>;
+
+struct WbcParams {
+  TemplateParams template_params;
+
+  // Rotational PD of the base (eq. 5) and the desired rotational inertia I_b.
+  Vec3 kr_nm_per_rad{800.0, 800.0, 800.0};
+  Vec3 dr_nms_per_rad{80.0, 80.0, 80.0};
+  // Diagonal of I_b [kg m^2]; a non-positive entry means "the robot's composite
+  // rotational inertia at the reference pose" (the default).
+  Vec3 base_rot_inertia_kgm2{0.0, 0.0, 0.0};
+
+  // Arm null-space posture task qdd_p = K_p (q_a^d - q_a) - D_p qd_a, and its posture.
+  double posture_kp_per_s2 = 100.0;
+  double posture_kd_per_s = 20.0;
+  VecArm arm_posture_rad = VecArm::Zero();  // overwritten by set_reference() unless pinned
+  bool pin_arm_posture = false;
+
+  // Damped pseudo-inverse: lambda^2 = lambda_0^2 (1 - w / w_0)^2 below w_0.
+  double pinv_lambda0 = 0.05;
+  double manipulability_threshold = 0.02;
+
+  // QP weights.
+  double weight_base_force = 1.0;    // on (M_b a_b - F_b^d) [1/N^2]
+  double weight_base_torque = 1.0;   // on (I_b w_b' - T_b^d) [1/(N m)^2]
+  double weight_arm = 100.0;         // on (qdd_a - qdd_a^d)
+  double reg_acceleration = 1e-4;    // on udot
+  double reg_force = 1e-6;           // on ground forces
+  double reg_slack = 1e3;            // on swing slack
+
+  // Contacts (flat ground, normal +z).
+  double friction_mu = 0.6;          // pyramid inscribed in this cone
+  double normal_force_min_n = 5.0;
+  double normal_force_max_n = 1500.0;
+
+  // Joint-acceleration bounds that stop at a limit within this horizon (eq. 17).
+  double joint_limit_horizon_s = 0.2;
+  double torque_limit_scale = 1.0;   // fraction of the URDF effort the QP may use
+
+  // Swing foot Cartesian PD (relative to the base, base axes).
+  Vec3 swing_kp_per_s2{400.0, 400.0, 400.0};
+  Vec3 swing_kd_per_s{40.0, 40.0, 40.0};
+
+  // Fallback when the QP fails: joint damping [N m s/rad].
+  double fallback_damping_nms_per_rad = 5.0;
+};
+
+// Desired swing-foot motion, foot position relative to the trunk origin, trunk axes.
+struct SwingTarget {
+  Vec3 position_m = Vec3::Zero();
+  Vec3 velocity_m_s = Vec3::Zero();
+  Vec3 acceleration_m_s2 = Vec3::Zero();
+};
+
+struct WbcInput {
+  VecNq q = VecNq::Zero();
+  VecNv v = VecNv::Zero();
+  std::array<bool, kFeet> stance{true, true, true, true};
+  std::array<SwingTarget, kFeet> swing{};
+  // The wrist F/T measurement (external wrench on the EE, sensor axes, about its origin).
+  Vec3 wrist_force_n = Vec3::Zero();
+  Vec3 wrist_torque_nm = Vec3::Zero();
+};
+
+// Desired (initial) poses the template's displacements are measured from.
+struct WbcReference {
+  Vec3 base_position_m = Vec3::Zero();
+  Mat3 base_rotation = Mat3::Identity();
+  Vec3 ee_position_m = Vec3::Zero();
+};
+
+struct WbcOutput {
+  VecNj tau_nm = VecNj::Zero();
+  VecNv udot = VecNv::Zero();
+  std::array<Vec3, kFeet> foot_force_n{};     // world axes; zero in swing
+  qp::Status qp_status = qp::Status::bad_input;
+  int qp_iterations = 0;
+  bool fallback = false;                       // true when the QP failed this tick
+  // What the tasks asked for, for logs and plots.
+  Vec6 base_wrench_desired = Vec6::Zero();     // [F_b^d; T_b^d], world
+  Vec3 ee_acceleration_desired = Vec3::Zero(); // world
+  VecArm arm_qdd_desired = VecArm::Zero();
+  double manipulability = 0.0;
+  Vec3 external_force_world_n = Vec3::Zero();  // F_e
+  Vec3 base_displacement_m = Vec3::Zero();     // x_b
+  Vec3 ee_displacement_m = Vec3::Zero();       // x_e
+};
+
+class WholeBodyController {
+ public:
+  // Start-up: allocates the dynamics workspace and the QP once.
+  explicit WholeBodyController(const WbcParams& params);
+  ~WholeBodyController();
+  WholeBodyController(const WholeBodyController&) = delete;
+  WholeBodyController& operator=(const WholeBodyController&) = delete;
+
+  // Holds the pose at q as the desired one (base, EE, arm posture) and sets
+  // I_b if it is automatic. Not real-time.
+  void set_reference(const VecNq& q);
+  const WbcReference& reference() const noexcept { return reference_; }
+  const WbcParams& params() const noexcept { return params_; }
+  Vec3 base_rotational_inertia_kgm2() const noexcept { return base_inertia_diag_; }
+
+  // rt: no alloc, no block. Never throws; on a QP failure `out.fallback` is set.
+  const WbcOutput& tick(const WbcInput& in) noexcept;
+
+  std::uint64_t qp_failures() const noexcept { return qp_failures_; }
+  const WbcOutput& output() const noexcept { return out_; }
+
+ private:
+  void base_task(const WbcInput& in, Vec6& base_acc_desired) noexcept;
+  void arm_task(const WbcInput& in, const Vec6& base_acc_desired) noexcept;
+  void build_qp(const WbcInput& in) noexcept;
+  void torques_from_solution(const WbcInput& in) noexcept;
+  void fallback_torques(const WbcInput& in) noexcept;
+
+  WbcParams params_;
+  WbcReference reference_;
+  Vec3 base_inertia_diag_ = Vec3::Ones();
+  dyn::Model model_;
+  std::unique_ptr<dyn::Data> data_;
+  std::unique_ptr<WbcSolver> solver_;
+  std::unique_ptr<WbcSolver::ProblemType> problem_;
+  std::unique_ptr<WbcSolver::ResultType> result_;
+  std::unique_ptr<qp::ActiveSet<kQpIn>> warm_start_;
+  std::array<bool, kFeet> last_stance_{true, true, true, true};
+  bool have_warm_start_ = false;
+  Vec6 wrench_ee_world_ = Vec6::Zero();
+  WbcOutput out_;
+  std::uint64_t qp_failures_ = 0;
+};
+
+}  // namespace springbok::wbc

@@ -1,0 +1,152 @@
+// The whole-body controller, one tick at a time, against physics: the
+// torques and forces it returns must satisfy the robot's equations of motion,
+// Newton's law for the whole robot, the friction pyramid and the torque limits.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "alloc_trap.hpp"
+#include "springbok/wbc/stand_controller.hpp"
+#include "springbok/wbc/whole_body_controller.hpp"
+
+namespace {
+using namespace springbok;
+using wbc::WbcInput;
+using wbc::WbcParams;
+using wbc::WholeBodyController;
+
+constexpr double kStanceHeight_m = 0.61233 + kFootRadius_m;
+
+// The arm bent forward so that it is far from singular.
+wbc::VecArm arm_pose() {
+  wbc::VecArm a;
+  a << 0.0, 0.6, 0.0, 1.9, 0.0, 0.9, 0.0;
+  return a;
+}
+
+VecNq standing_q() {
+  VecNq q = VecNq::Zero();
+  q[2] = kStanceHeight_m;
+  q[6] = 1.0;  // identity quaternion (x y z w)
+  q.segment<kNj>(7) = wbc::nominal_stance();
+  q.segment<wbc::kArmDofs>(7 + kFirstArmJoint) = arm_pose();
+  return q;
+}
+
+struct Fixture : ::testing::Test {
+  WbcParams params;
+  std::unique_ptr<WholeBodyController> wbc;
+  dyn::Model model;
+  std::unique_ptr<dyn::Data> data = std::make_unique<dyn::Data>();
+  WbcInput in;
+
+  void SetUp() override {
+    in.q = standing_q();
+    wbc = std::make_unique<WholeBodyController>(params);
+    wbc->set_reference(in.q);
+    dyn::compute_tick(model, *data, in.q, in.v);
+  }
+
+  // Generalized force balance: M udot + h = S^T tau + J_st^T F + J_e^T W_e.
+  VecNv dynamics_residual(const wbc::WbcOutput& out, const Vec6& wrench_world) const {
+    VecNv gen = VecNv::Zero();
+    gen.tail<kNj>() = out.tau_nm;
+    for (int f = 0; f < kFeet; ++f) gen += data->J_feet[f].transpose() * out.foot_force_n[f];
+    gen += data->J_ee.transpose() * wrench_world;
+    return data->M * out.udot + data->nle - gen;
+  }
+};
+
+TEST_F(Fixture, StandingStillIsAnEquilibrium) {
+  const auto& out = wbc->tick(in);
+  ASSERT_EQ(out.qp_status, qp::Status::optimal);
+  EXPECT_FALSE(out.fallback);
+  EXPECT_LT(out.udot.cwiseAbs().maxCoeff(), 1e-3);
+  double fz = 0;
+  for (const auto& f : out.foot_force_n) fz += f.z();
+  EXPECT_NEAR(fz, total_mass_kg() * kGravity_m_s2, 1.0);
+  EXPECT_LT(dynamics_residual(out, Vec6::Zero()).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+TEST_F(Fixture, PushOnTheHandObeysNewtonForTheWholeRobot) {
+  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(50.0, 0.0, 0.0);  // 50 N along world x
+  const auto& out = wbc->tick(in);
+  ASSERT_EQ(out.qp_status, qp::Status::optimal);
+  EXPECT_NEAR(out.external_force_world_n.x(), 50.0, 1e-9);
+  Vec6 wrench;
+  wrench << 50.0, 0.0, 0.0, 0.0, 0.0, 0.0;
+  // 1. Every row of the equations of motion (base rows: physical consistency; joint rows: eq. 19).
+  EXPECT_LT(dynamics_residual(out, wrench).cwiseAbs().maxCoeff(), 1e-6);
+  // 2. Newton for the whole robot: sum of external forces = m a_com (v = 0, so a_com = J_com udot).
+  dyn::jacobian_center_of_mass(model, *data, in.q);
+  Vec3 total = Vec3(50.0, 0.0, 0.0) + Vec3(0.0, 0.0, -total_mass_kg() * kGravity_m_s2);
+  for (const auto& f : out.foot_force_n) total += f;
+  EXPECT_LT((total - total_mass_kg() * (data->J_com * out.udot)).norm(), 1e-6);
+  // 3. At rest, the template asks the base for nothing and the hand for F/M_e.
+  EXPECT_NEAR(out.ee_acceleration_desired.x(), 50.0 / params.template_params.mass_ee_kg.x(), 1e-9);
+  const Vec3 ee_acc = data->J_ee.topRows<3>() * out.udot + data->dJv_ee.head<3>();
+  EXPECT_NEAR(ee_acc.x(), out.ee_acceleration_desired.x(), 0.05 * out.ee_acceleration_desired.x());
+  const Mat3 rot = Mat3::Identity();
+  EXPECT_LT((rot * out.udot.head<3>()).norm(), 0.05);
+  // 4. Friction pyramid, unilateral contact, torque limits.
+  const double mu = params.friction_mu / std::sqrt(2.0);
+  for (const auto& f : out.foot_force_n) {
+    EXPECT_GE(f.z(), params.normal_force_min_n - 1e-6);
+    EXPECT_LE(std::abs(f.x()), mu * f.z() + 1e-6);
+    EXPECT_LE(std::abs(f.y()), mu * f.z() + 1e-6);
+  }
+  for (int j = 0; j < kNj; ++j) EXPECT_LE(std::abs(out.tau_nm[j]), robot::kJoints[j].limits.effort_nm);
+}
+
+TEST_F(Fixture, SwingFootCarriesNoForceAndTracksItsTarget) {
+  in.stance = {true, false, false, true};  // trot pair LF + RH on the ground
+  for (int f : {1, 2}) {
+    const Vec3 r = data->frames[kFootFrames[f]].translation - in.q.head<3>();
+    in.swing[f].position_m = r + Vec3(0.0, 0.0, 0.05);  // lift 5 cm
+  }
+  const auto& out = wbc->tick(in);
+  ASSERT_EQ(out.qp_status, qp::Status::optimal);
+  EXPECT_EQ(out.foot_force_n[1].norm(), 0.0);
+  EXPECT_EQ(out.foot_force_n[2].norm(), 0.0);
+  EXPECT_LT(dynamics_residual(out, Vec6::Zero()).cwiseAbs().maxCoeff(), 1e-6);
+  // The swing feet accelerate upwards (relative to the trunk) towards their targets.
+  for (int f : {1, 2}) {
+    const Vec3 acc = data->J_feet[f] * out.udot + data->dJv_feet[f];
+    EXPECT_GT(acc.z() - out.udot[2], 1.0) << "foot " << f;
+  }
+}
+
+TEST_F(Fixture, QpFailureGivesSafeTorquesAndIsCounted) {
+  WbcParams bad = params;
+  bad.normal_force_min_n = 2000.0;  // above the maximum: no feasible contact force
+  WholeBodyController failing(bad);
+  failing.set_reference(in.q);
+  const auto& out = failing.tick(in);
+  EXPECT_NE(out.qp_status, qp::Status::optimal);
+  EXPECT_TRUE(out.fallback);
+  EXPECT_EQ(failing.qp_failures(), 1u);
+  for (int j = 0; j < kNj; ++j) {
+    EXPECT_TRUE(std::isfinite(out.tau_nm[j]));
+    EXPECT_LE(std::abs(out.tau_nm[j]), robot::kJoints[j].limits.effort_nm);
+  }
+  // The fallback still carries the weight: its torques equal the stance gravity compensation.
+  wbc::StanceForces forces;
+  wbc::stance_gravity_compensation(model, *data, in.q, forces);
+  EXPECT_LT((out.tau_nm - forces.tau_gravity_nm).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+TEST_F(Fixture, TicksDoNotAllocate) {
+  wbc->tick(in);  // warm up
+  in.wrist_force_n = Vec3(10.0, -5.0, 3.0);
+  std::size_t n = 0;
+  {
+    test::AllocationTrap trap;
+    for (int i = 0; i < 20; ++i) {
+      in.stance = {true, i % 2 == 0, true, i % 3 != 0};
+      wbc->tick(in);
+    }
+    n = trap.disarm();
+  }
+  EXPECT_EQ(n, 0u);
+}
+}  // namespace
