@@ -7,6 +7,16 @@ namespace springbok::can::cia402 {
 
 namespace {
 
+// The bytes an expedited SDO of `size` (1..4) bytes carries.
+constexpr std::uint32_t expedited_mask(unsigned size) noexcept {
+  return size >= 4 ? 0xFFFFFFFFu : ((1u << (8 * size)) - 1u);
+}
+
+// The size an expedited SDO command specifier announces (bits 2-3: 4 - size).
+constexpr std::uint8_t expedited_size(std::uint8_t command) noexcept {
+  return static_cast<std::uint8_t>(4 - ((command >> 2) & 0x3));
+}
+
 void put_u16(Frame& f, int at, std::uint16_t v) noexcept {
   f.data[at] = static_cast<std::uint8_t>(v & 0xFF);
   f.data[at + 1] = static_cast<std::uint8_t>(v >> 8);
@@ -96,8 +106,7 @@ void encode_sdo_request(std::uint8_t node, const SdoRequest& r, Frame& out) noex
     case SdoRequest::Kind::write: {
       const std::uint8_t size = std::clamp<std::uint8_t>(r.size, 1, 4);
       out.data[0] = static_cast<std::uint8_t>(0x20 | ((4 - size) << 2) | 0x3);
-      const std::uint32_t mask = size == 4 ? 0xFFFFFFFFu : ((1u << (8 * size)) - 1u);
-      put_u32(out, 4, r.value & mask);
+      put_u32(out, 4, r.value & expedited_mask(size));
       break;
     }
     case SdoRequest::Kind::abort: out.data[0] = 0x80; put_u32(out, 4, r.value); break;
@@ -121,9 +130,8 @@ FrameStatus decode_sdo_request(const Frame& f, std::uint8_t node, SdoRequest& ou
     out.size = 4;
   } else if ((cs & 0xF3) == 0x23) {
     out.kind = SdoRequest::Kind::write;
-    out.size = static_cast<std::uint8_t>(4 - ((cs >> 2) & 0x3));
-    const std::uint32_t mask = out.size == 4 ? 0xFFFFFFFFu : ((1u << (8 * out.size)) - 1u);
-    out.value = get_u32(f, 4) & mask;
+    out.size = expedited_size(cs);
+    out.value = get_u32(f, 4) & expedited_mask(out.size);
   } else {
     return FrameStatus::bad_command;
   }
@@ -141,8 +149,7 @@ void encode_sdo_response(std::uint8_t node, const SdoResponse& r, Frame& out) no
       } else {
         const std::uint8_t size = std::clamp<std::uint8_t>(r.size, 1, 4);
         out.data[0] = static_cast<std::uint8_t>(0x40 | ((4 - size) << 2) | 0x3);
-        const std::uint32_t mask = size == 4 ? 0xFFFFFFFFu : ((1u << (8 * size)) - 1u);
-        put_u32(out, 4, r.value & mask);
+        put_u32(out, 4, r.value & expedited_mask(size));
       }
       break;
     }
@@ -171,9 +178,8 @@ FrameStatus decode_sdo_response(const Frame& f, std::uint8_t node, SdoResponse& 
     out.size = 0;
   } else if ((cs & 0xF3) == 0x43) {
     out.kind = SdoResponse::Kind::read_ok;
-    out.size = static_cast<std::uint8_t>(4 - ((cs >> 2) & 0x3));
-    const std::uint32_t mask = out.size == 4 ? 0xFFFFFFFFu : ((1u << (8 * out.size)) - 1u);
-    out.value = get_u32(f, 4) & mask;
+    out.size = expedited_size(cs);
+    out.value = get_u32(f, 4) & expedited_mask(out.size);
   } else {
     return FrameStatus::bad_command;  // includes 0x41 (segmented): not in this subset
   }
