@@ -4,6 +4,7 @@
 #include <cmath>
 #include <complex>
 
+#include <Eigen/LU>
 #include <gtest/gtest.h>
 
 #include "alloc_trap.hpp"

@@ -14,8 +14,6 @@
 #include <complex>
 
 #include <Eigen/Core>
-#include <Eigen/Eigenvalues>
-#include <unsupported/Eigen/MatrixFunctions>
 
 namespace springbok::wbc {
 
@@ -35,24 +33,10 @@ struct AxisSystem {
   Eigen::Vector4d b;
 };
 
-inline AxisSystem axis_system(const TemplateParams& p, int axis) {
-  const double mb = p.mass_base_kg[axis], me = p.mass_ee_kg[axis];
-  const double kb = p.stiffness_base_n_per_m[axis], ke = p.stiffness_ee_n_per_m[axis];
-  const double db = p.damping_base_ns_per_m[axis], de = p.damping_ee_ns_per_m[axis];
-  AxisSystem s;
-  s.a << 0, 0, 1, 0,                          //
-      0, 0, 0, 1,                             //
-      -(kb + ke) / mb, ke / mb, -(db + de) / mb, de / mb,  //
-      ke / me, -ke / me, de / me, -de / me;
-  s.b << 0, 0, 0, 1.0 / me;
-  return s;
-}
+AxisSystem axis_system(const TemplateParams& p, int axis);
 
 // The 4 poles of one axis [1/s].
-inline std::array<std::complex<double>, 4> template_poles(const TemplateParams& p, int axis) {
-  const Eigen::Vector4cd ev = Eigen::EigenSolver<Eigen::Matrix4d>(axis_system(p, axis).a).eigenvalues();
-  return {ev[0], ev[1], ev[2], ev[3]};
-}
+std::array<std::complex<double>, 4> template_poles(const TemplateParams& p, int axis);
 
 // Steady-state displacements under a constant force F: x_b = F / K_b, x_e = F / K_b + F / K_e.
 inline Eigen::Vector3d steady_state_base_m(const TemplateParams& p, const Eigen::Vector3d& force_n) {
@@ -66,18 +50,7 @@ inline Eigen::Vector3d steady_state_ee_m(const TemplateParams& p, const Eigen::V
 class TemplateReference {
  public:
   // Start-up: discretises the three axes for step dt_s (matrix exponential).
-  TemplateReference(const TemplateParams& params, double dt_s) : params_(params) {
-    for (int axis = 0; axis < 3; ++axis) {
-      const AxisSystem sys = axis_system(params, axis);
-      Eigen::Matrix<double, 5, 5> aug = Eigen::Matrix<double, 5, 5>::Zero();
-      aug.topLeftCorner<4, 4>() = sys.a * dt_s;
-      aug.topRightCorner<4, 1>() = sys.b * dt_s;
-      const Eigen::Matrix<double, 5, 5> e = aug.exp();
-      ad_[axis] = e.topLeftCorner<4, 4>();
-      bd_[axis] = e.topRightCorner<4, 1>();
-    }
-    reset();
-  }
+  TemplateReference(const TemplateParams& params, double dt_s);
 
   void reset() noexcept {
     for (auto& s : state_) s.setZero();
