@@ -14,20 +14,16 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include "controller.hpp"
 #include "scenario.hpp"
+#include "wbc_adapter.hpp"
 #include "springbok/sim_hal/bullet_robot.hpp"
 #include "springbok/wbc/stand_controller.hpp"
 
 namespace {
 using namespace springbok;
 
-// The controllers a scenario can select (controller.type); each validates its params.
-class Controller {
- public:
-  virtual ~Controller() = default;
-  // rt: no alloc
-  virtual void tick(const hal::Measurements& m, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept = 0;
-};
+using simtool::Controller;
 
 class StandAdapter final : public Controller {
  public:
@@ -74,8 +70,9 @@ std::unique_ptr<Controller> make_controller(const simtool::Scenario& s) {
   const simtool::Fields params(s.controller_params, "controller.params");
   if (s.controller_type == "stand") return std::make_unique<StandAdapter>(params);
   if (s.controller_type == "damping") return std::make_unique<DampingAdapter>(params);
+  if (s.controller_type == "wbc") return std::make_unique<simtool::WbcAdapter>(s);
   throw simtool::ScenarioError("controller.type: unknown controller '" + s.controller_type +
-                               "' (known: stand, damping)");
+                               "' (known: stand, damping, wbc)");
 }
 
 constexpr const char* kFootNames[kFeet] = {"lf", "rf", "lh", "rh"};
@@ -87,7 +84,7 @@ std::string csv_header() {
   h += ",ground_fz_n";
   for (const auto& j : robot::kJoints) h += fmt::format(",tau_{}", j.name);
   for (const auto& j : robot::kJoints) h += fmt::format(",q_{}", j.name);
-  return h + "\n";
+  return h;
 }
 
 // One number into the row: 9 significant digits (std::to_chars: fast, locale-free, exact).
@@ -108,7 +105,6 @@ void append_row(std::string& out, const sim::GroundTruth& t) {
   put(out, t.ground_force_n.z());
   for (int j = 0; j < kNj; ++j) put(out, t.tau_applied_nm[j]);
   for (int j = 0; j < kNj; ++j) put(out, t.q[7 + j]);
-  out.push_back('\n');
 }
 
 int run(const std::string& scenario_path, const std::filesystem::path& out_dir) {
@@ -134,7 +130,7 @@ int run(const std::string& scenario_path, const std::filesystem::path& out_dir) 
   std::filesystem::create_directories(out_dir);
   std::FILE* log = std::fopen((out_dir / "log.csv").c_str(), "wb");
   if (log == nullptr) throw std::runtime_error("cannot write " + (out_dir / "log.csv").string());
-  const std::string header = csv_header();
+  const std::string header = csv_header() + controller->csv_columns() + "\n";
   std::fwrite(header.data(), 1, header.size(), log);
 
   const auto ticks = static_cast<std::int64_t>(std::llround(s.duration_s / s.sim.step_s));
@@ -160,6 +156,8 @@ int run(const std::string& scenario_path, const std::filesystem::path& out_dir) 
     const sim::GroundTruth& truth = hw.ground_truth();
     row.clear();
     append_row(row, truth);
+    controller->after_step(truth, row);
+    row.push_back('\n');
     std::fwrite(row.data(), 1, row.size(), log);
     if (!fell && (truth.q[2] < s.fall_height_m || truth.non_foot_ground_contact)) {
       fell = true;
@@ -193,6 +191,7 @@ int run(const std::string& scenario_path, const std::filesystem::path& out_dir) 
   json += fmt::format("  \"contact_fz_over_weight\": {},\n", ratio(fz_sum_n));
   json += fmt::format("  \"feet_fz_over_weight\": {},\n", ratio(feet_fz_sum_n));
   json += fmt::format("  \"final_base_position_m\": [{:.9g}, {:.9g}, {:.9g}],\n", q[0], q[1], q[2]);
+  json += controller->summary_fields();
   json += fmt::format("  \"write_errors\": {}\n", write_errors);
   json += "}\n";
   std::FILE* summary = std::fopen((out_dir / "summary.json").c_str(), "wb");

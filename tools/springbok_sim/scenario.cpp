@@ -209,7 +209,8 @@ Scenario load_scenario(const std::string& path) {
     read_initial(Fields(root["initial"], "initial"), s);
     if (!top.has("controller")) fail("controller", "missing");
     const Fields controller(root["controller"], "controller");
-    controller.allow_only({"type", "params"});
+    controller.allow_only({"type", "params", "settle_s"});
+    s.controller_settle_s = controller.number("settle_s", 0.0, 0.0, 3600.0);
     if (!controller.has("type")) fail("controller.type", "missing");
     s.controller_type = as_string(controller.child("type"), "controller.type");
     s.controller_params = controller.child("params");

@@ -29,6 +29,7 @@ struct Scenario {
   double feet_clearance_m = 0.0;
   std::string controller_type;        // stand | damping | none
   YAML::Node controller_params;       // opaque here; the controller validates it
+  double controller_settle_s = 0.0;   // wbc: stand controller for this long first
   std::vector<NamedWrench> wrenches;
   double fall_height_m = 0.25;
 };

@@ -54,7 +54,8 @@ WbcParams read_wbc_params(const config::Fields& f) {
   p.reg_slack = w.number("reg_slack", p.reg_slack, 1e-6, 1e9);
 
   const config::Fields c = f.map("contact");
-  c.allow_only({"friction_mu", "normal_force_min", "normal_force_max"});
+  c.allow_only({"friction_mu", "normal_force_min", "normal_force_max", "foot_radius"});
+  p.foot_contact_radius_m = c.number("foot_radius", p.foot_contact_radius_m, 0.0, 0.5);
   p.friction_mu = c.number("friction_mu", p.friction_mu, kTiny, 5.0);
   p.normal_force_min_n = c.number("normal_force_min", p.normal_force_min_n, 0.0, 1e4);
   p.normal_force_max_n = c.number("normal_force_max", p.normal_force_max_n, 0.0, 1e5);

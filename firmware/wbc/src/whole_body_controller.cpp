@@ -73,7 +73,8 @@ void WholeBodyController::base_task(const WbcInput& in, Vec6& base_acc_desired) 
                      tp.stiffness_ee_n_per_m.cwiseProduct(x_be) + tp.damping_ee_ns_per_m.cwiseProduct(xd_be);
   const Vec3 e_r = log_so3(reference_.base_rotation * rot.transpose());
   const Vec3 torque = params_.kr_nm_per_rad.cwiseProduct(e_r) - params_.dr_nms_per_rad.cwiseProduct(omega_world);
-  out_.base_wrench_desired << force, torque;
+  out_.base_wrench_desired.head<3>() = force;  // (not <<: GCC 12 -march=native false array-bounds)
+  out_.base_wrench_desired.tail<3>() = torque;
   out_.base_displacement_m = x_b;
   out_.ee_displacement_m = x_e;
 
@@ -292,10 +293,28 @@ void WholeBodyController::fallback_torques(const WbcInput& in) noexcept {
   for (auto& f : out_.foot_force_n) f.setZero();
 }
 
+// The contact point c = p_f - r z (world z) of the lower leg: J_c = J_f + r [z]x J_w,
+// with J_w the lower leg's angular Jacobian (base columns R, the leg's joint axes).
+void WholeBodyController::feet_jacobians_at_contact_points(const WbcInput& in) noexcept {
+  const double r = params_.foot_contact_radius_m;
+  const Mat3 rot = rotation_of(in.q);
+  dyn::Data& d = *data_;
+  for (int f = 0; f < kFeet; ++f) {
+    auto shift = [&](int col, const Vec3& omega_col) {
+      d.J_feet[f](0, col) -= r * omega_col.y();  // [z]x w = (-w_y, w_x, 0)
+      d.J_feet[f](1, col) += r * omega_col.x();
+    };
+    for (int k = 0; k < 3; ++k) shift(3 + k, rot.col(k));
+    for (int k = 0; k < kLegJoints; ++k) shift(6 + leg_first_joint(f) + k, d.joint_axis[leg_first_joint(f) + k]);
+  }
+}
+
 const WbcOutput& WholeBodyController::tick(const WbcInput& in) noexcept {
   dyn::compute_tick(model_, *data_, in.q, in.v);
+  if (params_.foot_contact_radius_m > 0.0) feet_jacobians_at_contact_points(in);
   const Mat3 ee_rot = data_->frames[kWristFtFrame].rotation;
-  wrench_ee_world_ << ee_rot * in.wrist_force_n, ee_rot * in.wrist_torque_nm;
+  wrench_ee_world_.head<3>() = ee_rot * in.wrist_force_n;
+  wrench_ee_world_.tail<3>() = ee_rot * in.wrist_torque_nm;
   out_.external_force_world_n = wrench_ee_world_.head<3>();
 
   Vec6 base_acc_desired;

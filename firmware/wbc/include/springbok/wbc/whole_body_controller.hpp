@@ -78,6 +78,12 @@ struct WbcParams {
   double friction_mu = 0.6;          // pyramid inscribed in this cone
   double normal_force_min_n = 5.0;
   double normal_force_max_n = 1500.0;
+  // Radius of the sphere feet [m]. When positive, the foot Jacobians (forces,
+  // stance rows, torques) are taken at the ground contact point, this far below
+  // the foot frame (the sphere centre), instead of at the centre: a sphere that
+  // rolls without slipping is still at its contact point, and the horizontal
+  // ground forces act there. 0 keeps the frame origin.
+  double foot_contact_radius_m = 0.0;
 
   // Joint-acceleration bounds that stop at a limit within this horizon (eq. 17).
   double joint_limit_horizon_s = 0.2;
@@ -159,6 +165,7 @@ class WholeBodyController {
   void build_qp(const WbcInput& in) noexcept;
   void torques_from_solution(const WbcInput& in) noexcept;
   void fallback_torques(const WbcInput& in) noexcept;
+  void feet_jacobians_at_contact_points(const WbcInput& in) noexcept;
 
   WbcParams params_;
   WbcReference reference_;

@@ -1,0 +1,94 @@
+// springbok-sim with the whole-body controller (controller.type: wbc): a short
+// 50 N step at the hand must render the template (scores computed by the tool
+// against the exactly integrated template), a bad parameter is refused naming
+// its field, and tools/experiments/report.py turns a run into plots and a report.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <string>
+
+#include "cli_test_util.hpp"
+
+namespace springbok::test {
+namespace {
+
+// M_b 4 kg settles within a second of the push: 3 s of simulation suffices.
+std::string step_scenario(const std::string& base_mass) {
+  return "duration_s: 3.0\n"
+         "initial:\n"
+         "  joint_positions_rad: [0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0.6, 0, 1.9, 0, 0.9, 0]\n"
+         "  feet_clearance_m: 0.0\n"
+         "controller:\n"
+         "  type: wbc\n"
+         "  settle_s: 0.2\n"
+         "  params:\n"
+         "    template:\n"
+         "      base: {mass: " + base_mass + ", damping: 126.5, stiffness: 1000}\n"
+         "      ee: {mass: 4, damping: 90, stiffness: 500}\n"
+         "    contact: {foot_radius: 0.02175}\n"
+         "external_wrenches:\n"
+         "  - {frame: arm_end_effector_link, axis: [1, 0, 0], profile: step, amplitude: 50, start_s: 0.5}\n";
+}
+
+fs::path write_file(const fs::path& dir, const std::string& name, const std::string& text) {
+  std::ofstream(dir / name) << text;
+  return dir / name;
+}
+
+// The number at `key` inside the JSON object member `object`.
+double member(const std::string& json, const std::string& object, const std::string& key) {
+  const auto at = json.find("\"" + object + "\":");
+  return at == std::string::npos ? std::nan("") : json_number(json.substr(at), key);
+}
+
+TEST(SimWbc, StepRendersTheTemplate) {
+  const fs::path dir = scratch("wbc_step");
+  const fs::path out = dir / "base_step_mb4";
+  const CliResult r = run(write_file(dir, "step.yaml", step_scenario("4")).string(), out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string json = slurp(out / "summary.json");
+  EXPECT_FALSE(json_true(json, "fell"));
+  EXPECT_EQ(json_number(json, "qp_failures"), 0.0);
+  EXPECT_LE(json_number(json, "max_torque_ratio"), 1.0);
+  EXPECT_NE(json.find("\"joint_limit_hit\": null"), std::string::npos);
+  EXPECT_LE(member(json, "nrmse", "base_x"), 0.08);
+  EXPECT_LE(member(json, "nrmse", "ee_x"), 0.03);
+  EXPECT_LE(member(json, "steady_state_error", "base_x"), 0.01);
+  EXPECT_LE(member(json, "steady_state_error", "ee_x"), 0.01);
+  // Axes the template does not move along are not scored.
+  EXPECT_NE(json.find("\"base_y\": null"), std::string::npos);
+  EXPECT_GT(member(json, "tick_us", "median"), 0.0);
+  // The log carries the WBC's columns.
+  const std::string log = slurp(out / "log.csv");
+  for (const char* column : {",base_dx_m,", ",template_ee_x_m,", ",fe_x_n,", ",lf_fx_n,", ",qp_status,", ",tick_us"}) {
+    EXPECT_NE(log.find(column), std::string::npos) << column;
+  }
+
+  // The report from this one run: its plots and table; the other runs are listed as missing.
+  const std::string report_cmd = "/usr/bin/python3 '" + std::string(SPRINGBOK_SOURCE_DIR) +
+                                 "/tools/experiments/report.py' '" + dir.string() + "' >/dev/null 2>&1";
+  ASSERT_EQ(std::system(report_cmd.c_str()), 0);
+  const std::string report = slurp(dir / "report.md");
+  EXPECT_NE(report.find("| base_step_mb4 |"), std::string::npos);
+  EXPECT_NE(report.find("PASS base_step_mb4"), std::string::npos);
+  EXPECT_NE(report.find("MISS arm_step_me4: missing"), std::string::npos);
+  EXPECT_GT(fs::file_size(dir / "base_step_x.png"), 1000u);
+}
+
+TEST(SimWbc, NegativeMassIsRefusedNamingTheField) {
+  const fs::path dir = scratch("wbc_bad_mass");
+  const CliResult r = run(write_file(dir, "bad.yaml", step_scenario("-4")).string(), dir / "out");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("controller.params.template.base.mass"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out" / "log.csv"));
+}
+
+TEST(SimWbc, RunAllNeedsTwoArguments) {
+  const std::string cmd = "'" + std::string(SPRINGBOK_SOURCE_DIR) + "/tools/experiments/run_all' >/dev/null 2>&1";
+  const int status = std::system(cmd.c_str());
+  EXPECT_EQ(WIFEXITED(status) ? WEXITSTATUS(status) : -1, 2);
+}
+
+}  // namespace
+}  // namespace springbok::test

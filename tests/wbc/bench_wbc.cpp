@@ -1,0 +1,46 @@
+// One full whole-body controller tick (dynamics + tasks + QP + torques) at the
+// standing state with 50 N pushing the hand along world x, warm-started as in
+// closed loop. Run with repetitions to read median and p99, e.g.
+//   bench_wbc --benchmark_repetitions=20 --benchmark_report_aggregates_only=true
+// (per-iteration p99: the springbok-sim summary's tick_us over a closed-loop run).
+#include <benchmark/benchmark.h>
+
+#include <memory>
+
+#include "springbok/dynamics/dynamics.hpp"
+#include "springbok/wbc/stand_controller.hpp"
+#include "springbok/wbc/whole_body_controller.hpp"
+
+namespace {
+using namespace springbok;
+
+void BM_WbcTick(benchmark::State& state) {
+  VecNq q = VecNq::Zero();
+  q[2] = 0.6;
+  q[6] = 1.0;
+  q.segment<kNj>(7) = wbc::nominal_stance();
+  wbc::VecArm arm;
+  arm << 0.0, 0.6, 0.0, 1.9, 0.0, 0.9, 0.0;
+  q.segment<wbc::kArmDofs>(7 + kFirstArmJoint) = arm;
+  wbc::WbcParams params;
+  params.foot_contact_radius_m = kFootRadius_m;
+  auto controller = std::make_unique<wbc::WholeBodyController>(params);
+  controller->set_reference(q);
+  dyn::Model model;
+  auto data = std::make_unique<dyn::Data>();
+  dyn::forward_kinematics(model, *data, q);
+  wbc::WbcInput in;
+  in.q = q;
+  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(50.0, 0.0, 0.0);
+  controller->tick(in);  // warm start, as every tick after the first
+  for (auto _ : state) {
+    const wbc::WbcOutput& out = controller->tick(in);
+    benchmark::DoNotOptimize(out.tau_nm.data());
+  }
+  if (controller->qp_failures() != 0) state.SkipWithError("QP failed");
+}
+BENCHMARK(BM_WbcTick)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

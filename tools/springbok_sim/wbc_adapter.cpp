@@ -1,0 +1,274 @@
+#include "wbc_adapter.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
+
+#include "springbok/config/fields.hpp"
+#include "springbok/wbc/wbc_config.hpp"
+
+namespace springbok::simtool {
+namespace {
+
+constexpr const char* kAxisKeys[6] = {"base_x", "base_y", "base_z", "ee_x", "ee_y", "ee_z"};
+constexpr const char* kFootNames[kFeet] = {"lf", "rf", "lh", "rh"};
+// An axis is scored only if the template's peak-to-peak there exceeds this
+// fraction of the largest peak-to-peak over the six axes (else `null`).
+constexpr double kMovingAxisFraction = 0.05;
+
+void put(std::string& out, double value) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, value, std::chars_format::general, 9);
+  out.push_back(',');
+  out.append(buf, r.ptr);
+}
+
+std::string json_number_or_null(const std::optional<double>& v) {
+  return v && std::isfinite(*v) ? fmt::format("{:.6g}", *v) : std::string("null");
+}
+
+std::string json_axes(const std::array<std::optional<double>, 6>& values) {
+  std::string s = "{";
+  for (int a = 0; a < 6; ++a) s += fmt::format("{}\"{}\": {}", a ? ", " : "", kAxisKeys[a], json_number_or_null(values[a]));
+  return s + "}";
+}
+
+double chirp_phase_rad(const sim::ForceProfile& p, double t_s) {
+  const double tau = t_s - p.start_s;
+  return 2.0 * std::numbers::pi *
+         (p.start_frequency_hz * tau + (p.end_frequency_hz - p.start_frequency_hz) * tau * tau / (2.0 * p.duration_s));
+}
+
+// Amplitude of the component of y at the chirp's phase: least squares y ~ a sin(phi) + b cos(phi) + c.
+double fitted_amplitude(const std::vector<double>& y, const std::vector<double>& phase) {
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(y.size()), 3);
+  Eigen::VectorXd b(static_cast<Eigen::Index>(y.size()));
+  for (std::size_t i = 0; i < y.size(); ++i) {
+    a.row(static_cast<Eigen::Index>(i)) << std::sin(phase[i]), std::cos(phase[i]), 1.0;
+    b[static_cast<Eigen::Index>(i)] = y[i];
+  }
+  const Eigen::Vector3d x = a.colPivHouseholderQr().solve(b);
+  return std::hypot(x[0], x[1]);
+}
+
+double percentile(std::vector<double> v, double fraction) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const auto i = static_cast<std::size_t>(std::ceil(fraction * static_cast<double>(v.size()))) ;
+  return v[std::min(v.size() - 1, i == 0 ? 0 : i - 1)];
+}
+
+}  // namespace
+
+WbcAdapter::WbcAdapter(const Scenario& s)
+    : dt_s_(s.sim.step_s), settle_s_(s.controller_settle_s),
+      data_(std::make_unique<dyn::Data>()) {
+  try {
+    params_ = wbc::read_wbc_params(config::Fields(s.controller_params, "controller.params"));
+  } catch (const config::ConfigError& e) {
+    throw ScenarioError(e.what());
+  }
+  stand_ = std::make_unique<wbc::StandController>(wbc::StandGains{}, s.sim.initial_q.tail<kNj>());
+  wbc_ = std::make_unique<wbc::WholeBodyController>(params_);
+  template_ = std::make_unique<wbc::TemplateReference>(params_.template_params, dt_s_);
+  step_profile_ = !s.wrenches.empty();
+  for (const auto& w : s.wrenches) {
+    const auto shape = w.wrench.profile.shape;
+    if (shape != sim::ProfileShape::step && shape != sim::ProfileShape::constant) step_profile_ = false;
+    if (shape == sim::ProfileShape::chirp && !chirp_) {
+      chirp_ = w.wrench.profile;
+      chirp_axis_ = w.wrench.axis_world;
+    }
+  }
+  const auto ticks = static_cast<std::size_t>(std::llround(s.duration_s / dt_s_)) + 1;
+  samples_.reserve(ticks);
+  tick_us_all_.reserve(ticks);
+}
+
+WbcAdapter::~WbcAdapter() = default;
+
+void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept {
+  ticked_ = false;
+  if (!active_ && truth.time_s + 0.5 * dt_s_ < settle_s_) {
+    stand_->tick(truth.q, out);
+    return;
+  }
+  input_.q = truth.q;  // base pose and twist (trunk frame): ground truth until the estimator exists
+  input_.q.tail<kNj>() = m.q_rad;
+  input_.v = truth.v;
+  input_.v.tail<kNj>() = m.qd_rad_s;
+  input_.stance = {true, true, true, true};
+  input_.wrist_force_n = m.wrist.valid ? m.wrist.force_n : Vec3::Zero();
+  input_.wrist_torque_nm = m.wrist.valid ? m.wrist.torque_nm : Vec3::Zero();
+  if (!active_) {
+    wbc_->set_reference(input_.q);  // start-up, not real-time: the first WBC tick only
+    template_->reset();
+    active_ = true;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const wbc::WbcOutput& o = wbc_->tick(input_);
+  tick_us_ = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
+  ticked_ = true;
+  out.mode = hal::CommandMode::enabled;
+  out.tau_ff_nm = o.tau_nm;
+  out.kp_nm_per_rad.setZero();
+  out.kd_nms_per_rad.setZero();
+  out.qd_des_rad_s.setZero();
+  out.q_des_rad = m.q_rad;
+  template_->step(o.external_force_world_n);
+}
+
+std::string WbcAdapter::csv_columns() const {
+  std::string h = ",wbc_active";
+  for (const char* a : {"x", "y", "z"}) h += fmt::format(",base_d{}_m", a);
+  for (const char* a : {"x", "y", "z"}) h += fmt::format(",ee_d{}_m", a);
+  for (const char* a : {"x", "y", "z"}) h += fmt::format(",template_base_{}_m", a);
+  for (const char* a : {"x", "y", "z"}) h += fmt::format(",template_ee_{}_m", a);
+  for (const char* a : {"x", "y", "z"}) h += fmt::format(",fe_{}_n", a);
+  for (const char* f : kFootNames) {
+    for (const char* a : {"x", "y", "z"}) h += fmt::format(",{}_f{}_n", f, a);
+  }
+  h += ",qp_status,qp_iterations,qp_fallback,manipulability,tick_us";
+  return h;
+}
+
+void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
+  if (!ticked_) {
+    row += ",0";
+    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5; ++i) row += ",0";
+    return;
+  }
+  const wbc::WbcOutput& o = wbc_->output();
+  dyn::forward_kinematics(model_, *data_, truth.q);
+  const wbc::WbcReference& ref = wbc_->reference();
+  Sample s{};
+  s.time_s = truth.time_s;
+  const Vec3 base_d = truth.q.head<3>() - ref.base_position_m;
+  const Vec3 ee_d = data_->frames[kEeFrame].translation - ref.ee_position_m;
+  const Vec3 tb = template_->base_m(), te = template_->ee_m();
+  for (int a = 0; a < 3; ++a) {
+    s.measured[a] = base_d[a];
+    s.measured[3 + a] = ee_d[a];
+    s.reference[a] = tb[a];
+    s.reference[3 + a] = te[a];
+  }
+  s.force_world_n = o.external_force_world_n;
+  samples_.push_back(s);
+  tick_us_all_.push_back(tick_us_);
+  if (o.fallback) ++fallback_ticks_;
+  for (int j = 0; j < kNj; ++j) {
+    const auto& lim = robot::kJoints[j].limits;
+    max_torque_ratio_ = std::max(max_torque_ratio_, std::abs(truth.tau_applied_nm[j]) / lim.effort_nm);
+    const double q = truth.q[7 + j];
+    if (lim.bounded && !joint_limit_hit_ && (q <= lim.lower_rad + 1e-3 || q >= lim.upper_rad - 1e-3)) {
+      joint_limit_hit_ = true;
+      joint_limit_joint_ = robot::kJoints[j].name;
+    }
+  }
+
+  row += ",1";
+  for (double v : s.measured) put(row, v);
+  for (double v : s.reference) put(row, v);
+  for (int a = 0; a < 3; ++a) put(row, s.force_world_n[a]);
+  for (const Vec3& f : truth.foot_force_n) {
+    for (int a = 0; a < 3; ++a) put(row, f[a]);
+  }
+  row += ",";
+  row += qp::to_string(o.qp_status);
+  put(row, o.qp_iterations);
+  row += o.fallback ? ",1" : ",0";
+  put(row, o.manipulability);
+  put(row, tick_us_);
+}
+
+std::string WbcAdapter::summary_fields() const {
+  std::array<std::optional<double>, 6> nrmse{}, steady{}, peak{}, chirp_db{};
+  const std::size_t n = samples_.size();
+  std::array<double, 6> ptp{};
+  double ptp_max = 0.0;
+  for (int a = 0; a < 6 && n > 0; ++a) {
+    double lo = samples_[0].reference[a], hi = lo;
+    for (const auto& s : samples_) {
+      lo = std::min(lo, s.reference[a]);
+      hi = std::max(hi, s.reference[a]);
+    }
+    ptp[a] = hi - lo;
+    ptp_max = std::max(ptp_max, ptp[a]);
+  }
+  const auto last_second = static_cast<std::size_t>(std::llround(1.0 / dt_s_));
+  for (int a = 0; a < 6 && n > 0; ++a) {
+    double sq = 0.0, worst = 0.0;
+    for (const auto& s : samples_) {
+      const double e = s.measured[a] - s.reference[a];
+      sq += e * e;
+      worst = std::max(worst, std::abs(e));
+    }
+    peak[a] = worst;
+    if (ptp_max <= 1e-9 || ptp[a] < kMovingAxisFraction * ptp_max) continue;
+    nrmse[a] = std::sqrt(sq / static_cast<double>(n)) / ptp[a];
+    if (step_profile_ && n >= last_second) {
+      // The template's static displacement for the mean measured force of the last second.
+      Vec3 force = Vec3::Zero();
+      double measured = 0.0;
+      for (std::size_t i = n - last_second; i < n; ++i) {
+        force += samples_[i].force_world_n;
+        measured += samples_[i].measured[a];
+      }
+      force /= static_cast<double>(last_second);
+      measured /= static_cast<double>(last_second);
+      const auto& tp = params_.template_params;
+      const Vec3 fk = a < 3 ? wbc::steady_state_base_m(tp, force) : wbc::steady_state_ee_m(tp, force);
+      const double target = fk[a % 3];
+      if (std::abs(target) > 1e-9) steady[a] = std::abs(measured - target) / std::abs(target);
+    }
+    if (chirp_) {
+      // Short-time fits at the chirp's own phase: windows one local period long,
+      // centred every half period where the sweep is between 0.25 and 3 Hz.
+      const sim::ForceProfile& p = *chirp_;
+      const double rate = (p.end_frequency_hz - p.start_frequency_hz) / p.duration_s;
+      double worst_db = 0.0;
+      bool any = false;
+      for (double f = 0.25; f <= 3.0 + 1e-9;) {
+        if (rate <= 0.0) break;
+        const double tc = p.start_s + (f - p.start_frequency_hz) / rate;
+        const double half = 0.5 / f;
+        std::vector<double> ym, yt, ph;
+        for (const auto& s : samples_) {
+          if (s.time_s < tc - half || s.time_s > tc + half) continue;
+          ym.push_back(s.measured[a]);
+          yt.push_back(s.reference[a]);
+          ph.push_back(chirp_phase_rad(p, s.time_s));
+        }
+        if (ym.size() > 20 && tc - half >= p.start_s && tc + half <= p.start_s + p.duration_s) {
+          const double am = fitted_amplitude(ym, ph), at = fitted_amplitude(yt, ph);
+          if (at > 0.0 && am > 0.0) {
+            worst_db = std::max(worst_db, std::abs(20.0 * std::log10(am / at)));
+            any = true;
+          }
+        }
+        f += 0.5 * f * 0.5;  // next centre a quarter of the local frequency up (overlapping windows)
+      }
+      if (any) chirp_db[a] = worst_db;
+    }
+  }
+  std::string j;
+  j += fmt::format("  \"wbc_start_s\": {:.6f},\n", n > 0 ? samples_.front().time_s - dt_s_ : 0.0);
+  j += fmt::format("  \"nrmse\": {},\n", json_axes(nrmse));
+  j += fmt::format("  \"steady_state_error\": {},\n", json_axes(steady));
+  j += fmt::format("  \"peak_deviation\": {},\n", json_axes(peak));
+  j += fmt::format("  \"chirp_gain_db_error\": {},\n", chirp_ ? json_axes(chirp_db) : std::string("null"));
+  j += fmt::format("  \"qp_failures\": {},\n", wbc_->qp_failures());
+  j += fmt::format("  \"fallback_ticks\": {},\n", fallback_ticks_);
+  j += fmt::format("  \"max_torque_ratio\": {:.6g},\n", max_torque_ratio_);
+  j += fmt::format("  \"joint_limit_hit\": {},\n", joint_limit_hit_ ? "\"" + joint_limit_joint_ + "\"" : "null");
+  j += fmt::format("  \"tick_us\": {{\"median\": {:.3f}, \"p99\": {:.3f}, \"max\": {:.3f}}},\n",
+                   percentile(tick_us_all_, 0.5), percentile(tick_us_all_, 0.99), percentile(tick_us_all_, 1.0));
+  return j;
+}
+
+}  // namespace springbok::simtool
