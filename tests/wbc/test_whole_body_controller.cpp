@@ -41,6 +41,9 @@ struct Fixture : ::testing::Test {
   WbcInput in;
 
   void SetUp() override {
+    // These tests check the equations of motion with the foot-frame Jacobians of
+    // springbok::dyn, so the controller must use the same points (the sphere centres).
+    params.foot_contact_radius_m = 0.0;
     in.q = standing_q();
     wbc = std::make_unique<WholeBodyController>(params);
     wbc->set_reference(in.q);

@@ -82,8 +82,9 @@ struct WbcParams {
   // stance rows, torques) are taken at the ground contact point, this far below
   // the foot frame (the sphere centre), instead of at the centre: a sphere that
   // rolls without slipping is still at its contact point, and the horizontal
-  // ground forces act there. 0 keeps the frame origin.
-  double foot_contact_radius_m = 0.0;
+  // ground forces act there. 0 keeps the frame origin (the sphere centre), which
+  // leaves the base 4-8 % past its static displacement under a horizontal push.
+  double foot_contact_radius_m = kFootRadius_m;
 
   // Joint-acceleration bounds that stop at a limit within this horizon (eq. 17).
   double joint_limit_horizon_s = 0.2;
