@@ -5,19 +5,13 @@
 
 #include "springbok/can/cia402.hpp"
 
+#include "frame_util.hpp"
+
 namespace springbok::can::cia402 {
 namespace {
 
-std::vector<int> bytes(const Frame& f) { return std::vector<int>(f.data.begin(), f.data.begin() + f.len); }
-
-Frame frame_of(std::uint32_t id, std::initializer_list<std::uint8_t> data) {
-  Frame f;
-  f.id = id;
-  f.len = static_cast<std::uint8_t>(data.size());
-  int i = 0;
-  for (std::uint8_t b : data) f.data[i++] = b;
-  return f;
-}
+using frame_util::bytes;
+using frame_util::frame_of;
 
 TEST(Cia402Sdo, WorkedExampleWriteModesOfOperation) {
   Frame f;

@@ -12,22 +12,16 @@
 #include "springbok/can/mit.hpp"
 #include "springbok/drive_emulator/drives.hpp"
 
+#include "frame_util.hpp"
+
 namespace springbok::emu {
 namespace {
 
+using can::frame_util::bytes;
+using can::frame_util::frame_of;
+
 using can::Frame;
 namespace c4 = can::cia402;
-
-Frame frame_of(std::uint32_t id, std::initializer_list<std::uint8_t> data) {
-  Frame f;
-  f.id = id;
-  f.len = static_cast<std::uint8_t>(data.size());
-  int i = 0;
-  for (std::uint8_t b : data) f.data[i++] = b;
-  return f;
-}
-
-std::vector<int> bytes(const Frame& f) { return std::vector<int>(f.data.begin(), f.data.begin() + f.len); }
 
 TEST(DriveEmulator, MitDriveRepliesToEveryFrameWithTheWorkedExampleBytes) {
   can::DriveConfig cfg = can::default_drive(2, can::Protocol::mit);  // drive 3

@@ -8,22 +8,17 @@
 #include "alloc_trap.hpp"
 #include "springbok/can/mit.hpp"
 
+#include "frame_util.hpp"
+
 namespace springbok::can::mit {
 namespace {
+
+using frame_util::frame_of;
 
 std::array<std::uint8_t, 8> bytes8(const Frame& f) {
   std::array<std::uint8_t, 8> b{};
   for (int i = 0; i < 8; ++i) b[i] = f.data[i];
   return b;
-}
-
-Frame frame_of(std::uint32_t id, std::initializer_list<std::uint8_t> data) {
-  Frame f;
-  f.id = id;
-  f.len = static_cast<std::uint8_t>(data.size());
-  int i = 0;
-  for (std::uint8_t b : data) f.data[i++] = b;
-  return f;
 }
 
 TEST(MitCodec, WorkedExampleFieldsTruncatedLikeTheFirmware) {
