@@ -148,9 +148,7 @@ int main(int argc, char** argv) {
   for (const BusIo& io : buses) fds.push_back(io.socket.native_handle());
   const std::int64_t end_ns = duration_s > 0 ? t0 + static_cast<std::int64_t>(duration_s * 1e9) : INT64_MAX;
   can::Frame f;
-  while (!g_stop && can::monotonic_ns() < end_ns) {
-    can::wait_readable(fds, 1000);
-    const std::int64_t now = can::monotonic_ns();
+  const auto serve_pending = [&](std::int64_t now) {
     for (BusIo& io : buses) {
       while (io.socket.receive(f) == can::RxStatus::frame) {
         for (auto& d : io.drives) d->on_frame(f, now, out);
@@ -159,7 +157,14 @@ int main(int argc, char** argv) {
       for (auto& d : io.drives) d->on_time(now, out);
       flush(io);
     }
+  };
+  while (!g_stop && can::monotonic_ns() < end_ns) {
+    can::wait_readable(fds, 1000);
+    serve_pending(can::monotonic_ns());
   }
+  // A stop can arrive while a later bus is being served: frames already queued on an
+  // earlier bus (e.g. the firmware's shut-down frames) are still answered before the summary.
+  serve_pending(can::monotonic_ns());
   for (std::size_t b = 0; b < buses.size(); ++b) {
     for (const auto& d : buses[b].drives) {
       std::printf("drive %d joint %s bus %s tick %llu frames_in %llu replies_out %llu enabled %d q_rad %.6f\n",
