@@ -1,0 +1,184 @@
+#include "springbok/estimation/base_estimator.hpp"
+
+#include <cmath>
+
+#include "springbok/config/fields.hpp"
+
+namespace springbok::est {
+namespace {
+
+bool finite(const auto& m) noexcept { return m.allFinite(); }
+
+}  // namespace
+
+EstimatorParams read_estimator_params(const config::Fields& f) {
+  f.allow_only({"velocity_gain", "position_gain", "foot_radius", "ground_height", "use_accelerometer"});
+  EstimatorParams p;
+  p.velocity_gain_per_s = f.number("velocity_gain", p.velocity_gain_per_s, 1e-3, 1e3);
+  p.position_gain_per_s = f.number("position_gain", p.position_gain_per_s, 0.0, 1e3);
+  p.foot_radius_m = f.number("foot_radius", p.foot_radius_m, 0.0, 0.5);
+  p.ground_height_m = f.number("ground_height", p.ground_height_m, -1e3, 1e3);
+  p.use_accelerometer = f.boolean("use_accelerometer", p.use_accelerometer);
+  return p;
+}
+
+const char* to_string(EstimateStatus s) noexcept {
+  switch (s) {
+    case EstimateStatus::ok: return "ok";
+    case EstimateStatus::no_stance: return "no_stance";
+    case EstimateStatus::bad_input: return "bad_input";
+    case EstimateStatus::not_reset: return "not_reset";
+  }
+  return "?";
+}
+
+BaseEstimator::BaseEstimator(const EstimatorParams& params) noexcept : params_(params) {
+  q_identity_[6] = 1.0;  // quaternion w
+}
+
+Mat3 BaseEstimator::trunk_rotation(const Eigen::Quaterniond& world_from_imu) const noexcept {
+  return world_from_imu.normalized().toRotationMatrix() * model_.frame_placement[kImuFrame].rotation.transpose();
+}
+
+Vec3 BaseEstimator::trunk_angular_rate(const Vec3& imu_rate_rad_s) const noexcept {
+  return model_.frame_placement[kImuFrame].rotation * imu_rate_rad_s;
+}
+
+void BaseEstimator::kinematics(const VecNj& q_rad) noexcept {
+  q_identity_.tail<kNj>() = q_rad;
+  dyn::point_jacobians(model_, data_, q_identity_);  // also forward kinematics
+}
+
+Vec3 BaseEstimator::contact_point_b(int foot, const Mat3& rot_wb) const noexcept {
+  const Vec3 down_b = -rot_wb.row(2).transpose();  // world -z in trunk axes
+  return data_.frames[kFootFrames[foot]].translation + params_.foot_radius_m * down_b;
+}
+
+// rt: no alloc
+Vec3 BaseEstimator::shin_angular_velocity_b(int foot, const Vec3& omega_b, const VecNj& qd) const noexcept {
+  const int first = leg_first_joint(foot);
+  Vec3 omega = omega_b;
+  for (int k = 0; k < kLegJoints; ++k) omega += data_.joint_axis[first + k] * qd[first + k];
+  return omega;
+}
+
+// rt: no alloc
+Vec3 BaseEstimator::leg_odometry_velocity(int foot, const Mat3& rot_wb, const Vec3& omega_b,
+                                          const VecNj& qd) const noexcept {
+  // At the identity base pose the foot Jacobian's base columns are [I, -[p_f]x] and its
+  // joint columns give the centre's velocity in trunk axes.
+  const Mat3Nv& jac = data_.J_feet[foot];
+  const int first = leg_first_joint(foot);
+  Vec3 centre = jac.block<3, 3>(0, 3) * omega_b + jac.block<3, kLegJoints>(0, 6 + first) * qd.segment<kLegJoints>(first);
+  const Vec3 omega_shin = shin_angular_velocity_b(foot, omega_b, qd);
+  const Vec3 down_b = -rot_wb.row(2).transpose();
+  const Vec3 contact = centre + omega_shin.cross(params_.foot_radius_m * down_b);
+  return -contact;  // v_B + contact-point velocity relative to the trunk origin = 0
+}
+
+bool BaseEstimator::measurement_ok(const hal::Measurements& m) const noexcept {
+  return m.imu.valid && finite(m.imu.orientation.coeffs()) && m.imu.orientation.norm() > 0.5 &&
+         finite(m.imu.angular_rate_rad_s) && finite(m.imu.linear_accel_m_s2) && finite(m.q_rad) && finite(m.qd_rad_s);
+}
+
+void BaseEstimator::write_state(const hal::Measurements& m, const Mat3& rot_wb, const Vec3& omega_b) noexcept {
+  Quat quat(rot_wb);
+  quat.normalize();
+  if (quat.w() < 0.0) quat.coeffs() = -quat.coeffs();
+  out_.q.head<3>() = position_w_;
+  out_.q.segment<4>(3) = quat.coeffs();
+  out_.q.tail<kNj>() = m.q_rad;
+  out_.v.head<3>() = rot_wb.transpose() * velocity_w_;
+  out_.v.segment<3>(3) = omega_b;
+  out_.v.tail<kNj>() = m.qd_rad_s;
+}
+
+// rt: no alloc
+EstimateStatus BaseEstimator::reset(const hal::Measurements& m, const Stance& stance,
+                                    const Eigen::Vector2d& xy_m) noexcept {
+  int feet = 0;
+  for (bool s : stance) feet += s ? 1 : 0;
+  if (!measurement_ok(m) || feet == 0) return EstimateStatus::bad_input;
+  const Mat3 rot = trunk_rotation(m.imu.orientation);
+  kinematics(m.q_rad);
+  // The trunk origin above the mean contact point of the stance feet.
+  Vec3 mean_contact_w = Vec3::Zero();
+  for (int f = 0; f < kFeet; ++f) {
+    if (stance[f]) mean_contact_w += rot * contact_point_b(f, rot);
+  }
+  mean_contact_w /= feet;
+  position_w_ << xy_m.x(), xy_m.y(), params_.ground_height_m - mean_contact_w.z();
+  velocity_w_.setZero();
+  for (int f = 0; f < kFeet; ++f) {
+    out_.anchor_world_m[f] = position_w_ + rot * contact_point_b(f, rot);
+  }
+  stance_prev_ = stance;
+  reset_ = true;
+  write_state(m, rot, trunk_angular_rate(m.imu.angular_rate_rad_s));
+  out_.status = EstimateStatus::ok;
+  return out_.status;
+}
+
+// rt: no alloc, no block
+const BaseEstimate& BaseEstimator::update(const hal::Measurements& m, const Stance& stance, double dt_s) noexcept {
+  if (!reset_) {
+    out_.status = EstimateStatus::not_reset;
+    return out_;
+  }
+  if (!measurement_ok(m) || !(dt_s > 0.0 && dt_s < 1.0)) {
+    out_.status = EstimateStatus::bad_input;  // hold the last estimate
+    return out_;
+  }
+  const Mat3 rot = trunk_rotation(m.imu.orientation);
+  const Vec3 omega_b = trunk_angular_rate(m.imu.angular_rate_rad_s);
+  kinematics(m.q_rad);
+
+  // Prediction: the IMU's acceleration, moved from the IMU to the trunk origin
+  // (centripetal term; the angular-acceleration term is left to the correction).
+  if (params_.use_accelerometer) {
+    const dyn::Placement& imu = model_.frame_placement[kImuFrame];
+    const Vec3 accel_imu_w = rot * (imu.rotation * m.imu.linear_accel_m_s2) + model_.gravity_world_m_s2;
+    const Vec3 centripetal_w = rot * omega_b.cross(omega_b.cross(imu.translation));
+    velocity_w_ += dt_s * (accel_imu_w - centripetal_w);
+  }
+  // Correction: leg odometry over the stance feet.
+  int feet = 0;
+  Vec3 odometry_w = Vec3::Zero();
+  Vec3 anchored_w = Vec3::Zero();
+  for (int f = 0; f < kFeet; ++f) {
+    const Vec3 contact_w = rot * contact_point_b(f, rot);
+    if (!stance[f]) continue;
+    if (!stance_prev_[f]) {
+      out_.anchor_world_m[f] = position_w_ + contact_w;  // touch-down
+    } else {
+      // Rolling without slipping: the contact point on the ground follows the sphere's
+      // centre, d/dt anchor = w_shin x (r z).
+      const Vec3 omega_shin_w = rot * shin_angular_velocity_b(f, omega_b, m.qd_rad_s);
+      out_.anchor_world_m[f] += dt_s * omega_shin_w.cross(Vec3(0.0, 0.0, params_.foot_radius_m));
+    }
+    odometry_w += rot * leg_odometry_velocity(f, rot, omega_b, m.qd_rad_s);
+    anchored_w += out_.anchor_world_m[f] - contact_w;
+    ++feet;
+  }
+  stance_prev_ = stance;
+  if (feet > 0) {
+    odometry_w /= feet;
+    anchored_w /= feet;
+    if (params_.use_accelerometer) {
+      const double k = std::min(1.0, params_.velocity_gain_per_s * dt_s);
+      velocity_w_ += k * (odometry_w - velocity_w_);
+    } else {
+      velocity_w_ = odometry_w;
+    }
+    position_w_ += dt_s * velocity_w_;
+    position_w_ += std::min(1.0, params_.position_gain_per_s * dt_s) * (anchored_w - position_w_);
+    out_.status = EstimateStatus::ok;
+  } else {
+    position_w_ += dt_s * velocity_w_;
+    out_.status = EstimateStatus::no_stance;
+  }
+  write_state(m, rot, omega_b);
+  return out_;
+}
+
+}  // namespace springbok::est
