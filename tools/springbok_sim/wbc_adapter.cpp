@@ -69,7 +69,15 @@ WbcAdapter::WbcAdapter(const Scenario& s)
     : dt_s_(s.sim.step_s), settle_s_(s.controller_settle_s),
       data_(std::make_unique<dyn::Data>()) {
   try {
-    params_ = wbc::read_wbc_params(config::Fields(s.controller_params, "controller.params"));
+    // `estimator` belongs to this adapter, every other key to the WBC.
+    YAML::Node wbc_params = YAML::Clone(s.controller_params);
+    if (wbc_params.IsMap() && wbc_params["estimator"]) {
+      const est::EstimatorParams ep =
+          est::read_estimator_params(config::Fields(wbc_params["estimator"], "controller.params.estimator"));
+      estimator_ = std::make_unique<est::BaseEstimator>(ep);
+      wbc_params.remove("estimator");
+    }
+    params_ = wbc::read_wbc_params(config::Fields(wbc_params, "controller.params"));
   } catch (const config::ConfigError& e) {
     throw ScenarioError(e.what());
   }
@@ -94,15 +102,27 @@ WbcAdapter::~WbcAdapter() = default;
 
 void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept {
   ticked_ = false;
+  constexpr est::Stance kAllFeet{true, true, true, true};
+  if (estimator_) {  // runs from the first tick (the settle phase included) to converge
+    const bool first = estimator_->estimate().status == est::EstimateStatus::not_reset;
+    const est::EstimateStatus status = first ? estimator_->reset(m, kAllFeet, truth.q.head<2>())
+                                             : estimator_->update(m, kAllFeet, dt_s_).status;
+    estimator_ok_ = estimator_ok_ && status == est::EstimateStatus::ok;
+  }
   if (!active_ && truth.time_s + 0.5 * dt_s_ < settle_s_) {
-    stand_->tick(truth.q, out);
+    stand_->tick(estimator_ ? estimator_->estimate().q : truth.q, out);
     return;
   }
-  input_.q = truth.q;  // base pose and twist (trunk frame): ground truth until the estimator exists
-  input_.q.tail<kNj>() = m.q_rad;
-  input_.v = truth.v;
-  input_.v.tail<kNj>() = m.qd_rad_s;
-  input_.stance = {true, true, true, true};
+  if (estimator_) {
+    input_.q = estimator_->estimate().q;
+    input_.v = estimator_->estimate().v;
+  } else {
+    input_.q = truth.q;  // base pose and twist (trunk frame) from the ground truth
+    input_.q.tail<kNj>() = m.q_rad;
+    input_.v = truth.v;
+    input_.v.tail<kNj>() = m.qd_rad_s;
+  }
+  input_.stance = kAllFeet;
   input_.wrist_force_n = m.wrist.valid ? m.wrist.force_n : Vec3::Zero();
   input_.wrist_torque_nm = m.wrist.valid ? m.wrist.torque_nm : Vec3::Zero();
   if (!active_) {
@@ -110,6 +130,8 @@ void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth,
     template_->reset();
     active_ = true;
   }
+  truth_before_step_p_ = truth.q.head<3>();
+  truth_before_step_v_ = truth.v.head<3>();
   const auto t0 = std::chrono::steady_clock::now();
   const wbc::WbcOutput& o = wbc_->tick(input_);
   tick_us_ = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
@@ -159,6 +181,11 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   }
   s.force_world_n = o.external_force_world_n;
   samples_.push_back(s);
+  if (estimator_) {  // the estimate the WBC used this tick vs the truth of that tick (before the step)
+    estimator_velocity_sq_sum_ += (input_.v.head<3>() - truth_before_step_v_).squaredNorm();
+    estimator_position_max_m_ = std::max(estimator_position_max_m_, (input_.q.head<3>() - truth_before_step_p_).norm());
+    ++estimator_samples_;
+  }
   tick_us_all_.push_back(tick_us_);
   if (o.fallback) ++fallback_ticks_;
   for (int j = 0; j < kNj; ++j) {
@@ -266,6 +293,14 @@ std::string WbcAdapter::summary_fields() const {
   j += fmt::format("  \"fallback_ticks\": {},\n", fallback_ticks_);
   j += fmt::format("  \"max_torque_ratio\": {:.6g},\n", max_torque_ratio_);
   j += fmt::format("  \"joint_limit_hit\": {},\n", joint_limit_hit_ ? "\"" + joint_limit_joint_ + "\"" : "null");
+  if (estimator_) {
+    j += fmt::format("  \"estimator\": {{\"all_ok\": {}, \"velocity_rms_error_m_s\": {:.6g}, \"position_max_error_m\": {:.6g}}},\n",
+                     estimator_ok_ ? "true" : "false",
+                     estimator_samples_ ? std::sqrt(estimator_velocity_sq_sum_ / static_cast<double>(estimator_samples_)) : 0.0,
+                     estimator_position_max_m_);
+  } else {
+    j += "  \"estimator\": null,\n";
+  }
   j += fmt::format("  \"tick_us\": {{\"median\": {:.3f}, \"p99\": {:.3f}, \"max\": {:.3f}}},\n",
                    percentile(tick_us_all_, 0.5), percentile(tick_us_all_, 0.99), percentile(tick_us_all_, 1.0));
   return j;

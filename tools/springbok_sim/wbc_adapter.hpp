@@ -22,6 +22,7 @@
 #include "controller.hpp"
 #include "scenario.hpp"
 #include "springbok/dynamics/dynamics.hpp"
+#include "springbok/estimation/base_estimator.hpp"
 #include "springbok/wbc/impedance_template.hpp"
 #include "springbok/wbc/stand_controller.hpp"
 #include "springbok/wbc/whole_body_controller.hpp"
@@ -57,6 +58,12 @@ class WbcAdapter final : public Controller {
   std::unique_ptr<wbc::StandController> stand_;
   std::unique_ptr<wbc::WholeBodyController> wbc_;
   std::unique_ptr<wbc::TemplateReference> template_;
+  std::unique_ptr<est::BaseEstimator> estimator_;   // null: ground truth
+  bool estimator_ok_ = true;                        // every update since reset was ok
+  double estimator_velocity_sq_sum_ = 0.0;          // vs ground truth, WBC ticks
+  double estimator_position_max_m_ = 0.0;
+  std::uint64_t estimator_samples_ = 0;
+  Vec3 truth_before_step_p_ = Vec3::Zero(), truth_before_step_v_ = Vec3::Zero();
   dyn::Model model_;
   std::unique_ptr<dyn::Data> data_;
   wbc::WbcInput input_;
