@@ -1,6 +1,8 @@
 // bench_qp: Google Benchmark over the shared instance files (globbed at start-up).
 //   qp/cold/<size>/<name>  one cold solve per iteration
 //   qp/warm/<size>/<name>  one solve warm-started from the previous solve's active set
+//   qp/warm-factor/<size>/<name>  the same, also reusing the previous solve's factor of H
+//                                 (StartHint::reuse_factor)
 // Sizes: fw = Solver<64, 32, 160> (firmware limits), wbc = Solver<40, 12, 62> (the
 // controller's QP sized near its real dimensions; WBC-shaped instances only),
 // large = Solver<128, 128, 1024> (instances beyond the firmware limits).
@@ -33,8 +35,15 @@ void report(benchmark::State& state, std::vector<double>& us) {
   state.counters["p99_us"] = us[std::min(us.size() - 1, static_cast<std::size_t>(std::ceil(0.99 * static_cast<double>(us.size()))) - 1)];
 }
 
+enum class Mode { cold, warm, warm_factor };
+
+const char* mode_name(Mode mode) {
+  return mode == Mode::cold ? "cold" : mode == Mode::warm ? "warm" : "warm-factor";
+}
+
 template <int N, int ME, int MI>
-void bench_solve(benchmark::State& state, const Instance& in, bool warm) {
+void bench_solve(benchmark::State& state, const Instance& in, Mode mode) {
+  const bool warm = mode != Mode::cold;
   using S = springbok::qp::Solver<N, ME, MI>;
   auto solver = std::make_unique<S>();
   auto problem = std::make_unique<typename S::ProblemType>();
@@ -44,6 +53,7 @@ void bench_solve(benchmark::State& state, const Instance& in, bool warm) {
   solver->solve(*problem, *result);
   typename S::Hint hint;
   if (warm) hint.active_set = warm_set.get();
+  hint.reuse_factor = mode == Mode::warm_factor;
   std::vector<double> us;
   us.reserve(1 << 16);
   for (auto _ : state) {
@@ -95,18 +105,18 @@ int main(int argc, char** argv) {
   }
   for (const Instance& in : all) {
     const Instance* p = &in;
-    for (const bool warm : {false, true}) {
-      const std::string mode = warm ? "warm" : "cold";
+    for (const Mode m : {Mode::cold, Mode::warm, Mode::warm_factor}) {
+      const std::string mode = mode_name(m);
       if (in.n <= 64 && in.meq <= 32 && in.mi <= 160) {
         benchmark::RegisterBenchmark(("qp/" + mode + "/fw/" + in.name).c_str(),
-                                     [p, warm](benchmark::State& s) { bench_solve<64, 32, 160>(s, *p, warm); });
+                                     [p, m](benchmark::State& s) { bench_solve<64, 32, 160>(s, *p, m); });
       } else {
         benchmark::RegisterBenchmark(("qp/" + mode + "/large/" + in.name).c_str(),
-                                     [p, warm](benchmark::State& s) { bench_solve<128, 128, 1024>(s, *p, warm); });
+                                     [p, m](benchmark::State& s) { bench_solve<128, 128, 1024>(s, *p, m); });
       }
       if (in.family == "wbc" && in.n <= 40 && in.meq <= 12 && in.mi <= 62)
         benchmark::RegisterBenchmark(("qp/" + mode + "/wbc/" + in.name).c_str(),
-                                     [p, warm](benchmark::State& s) { bench_solve<40, 12, 62>(s, *p, warm); });
+                                     [p, m](benchmark::State& s) { bench_solve<40, 12, 62>(s, *p, m); });
     }
     if (in.family == "wbc")
       benchmark::RegisterBenchmark(("eigen_llt/" + in.name).c_str(), [p](benchmark::State& s) { bench_eigen_llt(s, *p); });

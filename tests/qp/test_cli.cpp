@@ -121,12 +121,17 @@ TEST_F(QpCli, SolvesWritesSolutionsAndReportsMalformedFiles) {
 }
 
 TEST_F(QpCli, BenchAddsMedianAndP99) {
-  for (const std::string flags : {"--bench 5", "--bench 5 --warm"}) {
+  std::string error;
+  const auto q = springbok::qpfile::read_instance(inst("wbc_stance4_19.qp"), error);
+  ASSERT_TRUE(q.has_value()) << error;
+  for (const std::string flags : {"--bench 5", "--bench 5 --warm", "--bench 5 --warm-factor"}) {
     const CliRun r = run_cli(flags + " " + inst("wbc_stance4_19.qp"), work);
     EXPECT_EQ(r.exit_code, 0) << r.err;
     ASSERT_EQ(r.lines.size(), 1u);
     ASSERT_EQ(r.lines[0].size(), 6u);
     EXPECT_EQ(r.lines[0][1], "optimal");
+    // The line reports the last timed solve: warm and reused-factor ones solve it too.
+    EXPECT_NEAR(std::stod(r.lines[0][2]), q->obj, 1e-6 * std::max(1.0, std::abs(q->obj))) << flags;
     const double median = std::stod(r.lines[0][4]), p99 = std::stod(r.lines[0][5]);
     EXPECT_GT(median, 0.0);
     EXPECT_GE(p99, median);

@@ -365,6 +365,34 @@ TEST_F(QpProperties, SmallClosedForm) {
   EXPECT_EQ(result->active.side[0], Side::upper);
 }
 
+// reuse_factor must only reuse the factor of an identical H: a sequence of problems
+// where H repeats, changes in one diagonal entry, or changes size, solved with the
+// hint, against the known x* of each (a changed H left on the old factor misses it).
+TEST_F(QpProperties, ReusedFactorOnlyForAnUnchangedHessian) {
+  Rng rng(77);
+  Solver::Hint hint;
+  hint.reuse_factor = true;
+  for (int trial = 0; trial < 200; ++trial) {
+    Generated gen = make_optimal(rng);
+    const int n = gen.qp.n;
+    for (int repeat = 0; repeat < 3; ++repeat) {
+      if (repeat == 2) {  // raise one diagonal entry (H stays positive definite), keep x*
+        const int i = rng.integer(0, n - 1);
+        const double delta = 0.5 * gen.qp.H[static_cast<std::size_t>(i * n + i)];
+        gen.qp.H[static_cast<std::size_t>(i * n + i)] += delta;
+        gen.qp.g[static_cast<std::size_t>(i)] -= delta * gen.xstar[static_cast<std::size_t>(i)];
+      }
+      load(gen.qp, *problem);
+      ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal) << "trial " << trial << " repeat " << repeat;
+      double xs = 0.0;
+      for (int k = 0; k < n; ++k) xs = std::max(xs, std::abs(gen.xstar[static_cast<std::size_t>(k)]));
+      for (int k = 0; k < n; ++k)
+        ASSERT_NEAR(result->x[static_cast<std::size_t>(k)], gen.xstar[static_cast<std::size_t>(k)], 1e-6 * std::max(1.0, xs))
+            << "trial " << trial << " repeat " << repeat;
+    }
+  }
+}
+
 TEST_F(QpProperties, CallerFactorGivesTheSameAnswer) {
   Rng rng(99);
   for (int trial = 0; trial < 50; ++trial) {

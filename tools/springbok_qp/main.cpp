@@ -1,10 +1,13 @@
-// springbok-qp [--solution DIR] [--bench REPS] [--warm] FILE...
+// springbok-qp [--solution DIR] [--bench REPS] [--warm | --warm-factor] FILE...
 //
 // Solves each instance file (shared/qp/FORMAT.md) with springbok::qp::Solver and
 // prints one line per file:  <name> <status> <objective> <iterations> [<median_us> <p99_us>]
 // Status words: optimal infeasible error maxiter size. Firmware-sized instances
 // (n <= 64, m_eq <= 32, m_in <= 160) use Solver<64, 32, 160>; larger ones a
 // Solver<128, 128, 1024> allocated at start-up; beyond that: size.
+// --warm: each timed solve starts from the active set of the previous solve.
+// --warm-factor: also reuses the previous solve's Cholesky factor of the same H
+// (StartHint::reuse_factor; the solver checks that H is unchanged).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -27,11 +30,12 @@ struct Args {
   std::string solution_dir;
   int bench_reps = 0;
   bool warm = false;
+  bool warm_factor = false;  // --warm-factor: warm active set and the previous factor of H
   std::vector<std::string> files;
 };
 
 void usage() {
-  std::fprintf(stderr, "usage: springbok-qp [--solution DIR] [--bench REPS] [--warm] FILE...\n");
+  std::fprintf(stderr, "usage: springbok-qp [--solution DIR] [--bench REPS] [--warm | --warm-factor] FILE...\n");
 }
 
 bool parse_args(int argc, char** argv, Args& args) {
@@ -56,6 +60,9 @@ bool parse_args(int argc, char** argv, Args& args) {
       }
     } else if (a == "--warm") {
       args.warm = true;
+    } else if (a == "--warm-factor") {
+      args.warm = true;
+      args.warm_factor = true;
     } else if (a.size() > 1 && a[0] == '-') {
       std::fprintf(stderr, "springbok-qp: unknown option '%s'\n", a.c_str());
       return false;
@@ -102,6 +109,7 @@ struct Slot {
         if (args.warm) {
           *warm_set = r.active;
           hint.active_set = warm_set.get();
+          hint.reuse_factor = args.warm_factor;
         }
         const auto start = std::chrono::steady_clock::now();
         solver->solve(*problem, r, hint);

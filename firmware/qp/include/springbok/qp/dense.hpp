@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 
@@ -46,6 +47,21 @@ inline bool all_finite(const double* v, int count) noexcept {
 // y += alpha x
 inline void axpy(double alpha, const double* __restrict x, double* __restrict y, int n) noexcept {
   for (int i = 0; i < n; ++i) y[i] += alpha * x[i];
+}
+
+// y += A x for a column-major A (m rows, leading dimension ld, n columns): four
+// columns per pass, so each entry of y is loaded and stored once per four columns.
+inline void gemv_add(const double* a, int ld, int m, int n, const double* x, double* __restrict y) noexcept {
+  int j = 0;
+  for (; j + 4 <= n; j += 4) {
+    const double* __restrict a0 = a + static_cast<std::ptrdiff_t>(j) * ld;
+    const double* __restrict a1 = a0 + ld;
+    const double* __restrict a2 = a1 + ld;
+    const double* __restrict a3 = a2 + ld;
+    const double x0 = x[j], x1 = x[j + 1], x2 = x[j + 2], x3 = x[j + 3];
+    for (int i = 0; i < m; ++i) y[i] += (a0[i] * x0 + a1[i] * x1) + (a2[i] * x2 + a3[i] * x3);
+  }
+  for (; j < n; ++j) axpy(x[j], a + static_cast<std::ptrdiff_t>(j) * ld, y, m);
 }
 
 // The kernels below work on whole aligned chunks of four doubles: every vector
@@ -112,25 +128,49 @@ inline void split_factor(const double* a, int ld, int n, const double* inv_diag,
 }
 
 // y <- L^-1 y for cols vectors (stride ldy, padded) at once: unit forward
-// substitution with the strict lower part of U (each y[k] is final when reached,
-// so nothing is stored outside whole chunks), then y <- D^-1 y. The columns'
-// dependency chains are independent and overlap.
-inline void forward_solve(const double* lower, int ld, const double* inv_diag, int n, double* y, int ldy = 0,
-                          int cols = 1) noexcept {
+// substitution with the strict lower part of U in panels of four columns (the
+// panel's own chunk by scalar steps, the rows below by one rank-4 update, so
+// each chunk of y is loaded and stored once per panel), then y <- D^-1 y.
+// The columns' dependency chains are independent and overlap. column(c) gives
+// the c-th vector.
+template <class Column>
+inline void forward_solve_each(const double* lower, int ld, const double* inv_diag, int n, int cols,
+                               Column column) noexcept {
   const int np = padded(n);
-  for (int k = 0; k < n; ++k) {
-    const double* __restrict col = lower + k * ld;
-    const int start = chunk_start(k + 1);
+  for (int k0 = 0; k0 < n; k0 += 4) {
+    // The panel's unit lower triangle; entries of columns past n count as zero
+    // (rows past n are zero padding in lower and in y).
+    const double* __restrict c0 = lower + k0 * ld;
+    const double* __restrict c1 = lower + (k0 + 1) * ld;
+    const double* __restrict c2 = lower + (k0 + 2) * ld;
+    const double* __restrict c3 = lower + (k0 + 3) * ld;
+    const double l10 = c0[k0 + 1], l20 = c0[k0 + 2], l30 = c0[k0 + 3];
+    const double l21 = k0 + 1 < n ? c1[k0 + 2] : 0.0, l31 = k0 + 1 < n ? c1[k0 + 3] : 0.0;
+    const double l32 = k0 + 2 < n ? c2[k0 + 3] : 0.0;
+    const bool below = k0 + 4 < n;  // a full panel with rows below it
     for (int c = 0; c < cols; ++c) {
-      double* __restrict yc = y + c * ldy;
-      const double yk = yc[k];
-      for (int i = start; i < np; ++i) yc[i] -= col[i] * yk;
+      double* __restrict yc = column(c);
+      const double y0 = yc[k0];
+      const double y1 = yc[k0 + 1] - l10 * y0;
+      const double y2 = yc[k0 + 2] - (l20 * y0 + l21 * y1);
+      const double y3 = yc[k0 + 3] - ((l30 * y0 + l31 * y1) + l32 * y2);
+      yc[k0 + 1] = y1;
+      yc[k0 + 2] = y2;
+      yc[k0 + 3] = y3;
+      if (!below) continue;
+      for (int i = k0 + 4; i < np; ++i) yc[i] -= (c0[i] * y0 + c1[i] * y1) + (c2[i] * y2 + c3[i] * y3);
     }
   }
   for (int c = 0; c < cols; ++c) {
-    double* __restrict yc = y + c * ldy;
+    double* __restrict yc = column(c);
     for (int i = 0; i < n; ++i) yc[i] *= inv_diag[i];
   }
+}
+
+// forward_solve_each on cols vectors stored with stride ldy.
+inline void forward_solve(const double* lower, int ld, const double* inv_diag, int n, double* y, int ldy = 0,
+                          int cols = 1) noexcept {
+  forward_solve_each(lower, ld, inv_diag, n, cols, [y, ldy](int c) noexcept { return y + c * ldy; });
 }
 
 // y <- L^-T y = U^-T D^-1 y with upper = strict upper part of U' (zero-padded).

@@ -2,7 +2,8 @@
 // Idnani (1983) for strictly convex dense QPs, sized at compile time.
 //
 // The method, as built here:
-//  1. H = L L' (Cholesky once; or the caller's factor).
+//  1. H = L L' (Cholesky once; or the caller's factor; or, when asked, the previous
+//     solve's factor again after checking that H has not changed).
 //  2. Equalities (Aeq rows and lb == ub rows of Ain) are eliminated as one block:
 //     B = L^-1 E' is factored by Householder QR with column pivoting, B P = Q [Re; 0].
 //     Rank-deficient (duplicated, redundant) rows are detected here and checked for
@@ -25,6 +26,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 
 #include "springbok/qp/dense.hpp"
@@ -97,21 +99,39 @@ class Solver {
     if (p.n < 1 || p.n > N || p.meq < 0 || p.meq > ME || p.mi < 0 || p.mi > MI) return Status::bad_input;
     meq_ = p.meq;
     mi_ = p.mi;
-    bool ok = dense::all_finite(p.gradient.data(), n_) && dense::all_finite(p.beq_values.data(), meq_);
+    if (!dense::all_finite(p.gradient.data(), n_) || !dense::all_finite(p.beq_values.data(), meq_))
+      return Status::bad_input;
+    // Sums of squares along the rows of H and Aeq: finite ones prove every entry
+    // finite; only a non-finite one (NaN, inf, or overflow of huge entries) needs
+    // the entries checked.
+    std::fill_n(h_row_sq_.begin(), n_, 0.0);
+    std::fill_n(eq_row_sq_.begin(), meq_, 0.0);
     for (int j = 0; j < n_; ++j) {
-      ok = ok && dense::all_finite(p.hessian.data() + idx(0, j, N), n_);
-      ok = ok && dense::all_finite(p.aeq.data() + idx(0, j, ME), meq_);
-      ok = ok && dense::all_finite(p.ain.data() + idx(0, j, MI), mi_);
+      const double* h = p.hessian.data() + idx(0, j, N);
+      for (int i = 0; i < n_; ++i) h_row_sq_[i] += h[i] * h[i];
+      const double* a = p.aeq.data() + idx(0, j, ME);
+      for (int k = 0; k < meq_; ++k) eq_row_sq_[k] += a[k] * a[k];
     }
-    if (!ok) return Status::bad_input;
+    if (!dense::all_finite(h_row_sq_.data(), n_) || !dense::all_finite(eq_row_sq_.data(), meq_)) {
+      for (int j = 0; j < n_; ++j) {
+        if (!dense::all_finite(p.hessian.data() + idx(0, j, N), n_)) return Status::bad_input;
+        if (!dense::all_finite(p.aeq.data() + idx(0, j, ME), meq_)) return Status::bad_input;
+      }
+    }
     for (int i = 0; i < mi_; ++i)
       if (std::isnan(p.lower[i]) || std::isnan(p.upper[i])) return Status::bad_input;
 
-    // Row norms (Ain is column-major: accumulate column by column).
+    // Row norms (Ain is column-major: accumulate column by column). A finite sum of
+    // squares proves the row finite; only a non-finite one (NaN, inf, or overflow
+    // of huge entries) needs the entries checked.
     std::fill_n(row_norm_.begin(), mi_, 0.0);
     for (int j = 0; j < n_; ++j) {
       const double* col = p.ain.data() + idx(0, j, MI);
       for (int i = 0; i < mi_; ++i) row_norm_[i] += col[i] * col[i];
+    }
+    if (!dense::all_finite(row_norm_.data(), mi_)) {
+      for (int j = 0; j < n_; ++j)
+        if (!dense::all_finite(p.ain.data() + idx(0, j, MI), mi_)) return Status::bad_input;
     }
     bool infeasible = false;
     for (int i = 0; i < mi_; ++i) {
@@ -145,15 +165,29 @@ class Solver {
   double* tvec(int row) noexcept { return t_.data() + idx(0, row, kLd); }
 
   // ---- step 1: Cholesky ----------------------------------------------------
-  Status factor(const double* given_lower) noexcept {
+  // The lower triangle of H equals the one last factored with reuse_factor set.
+  bool same_factored_hessian() const noexcept {
+    if (!have_factored_h_ || factored_n_ != n_) return false;
+    for (int j = 0; j < n_; ++j) {
+      const std::size_t at = idx(j, j, N);
+      if (std::memcmp(p_->hessian.data() + at, factored_h_.data() + at, sizeof(double) * static_cast<std::size_t>(n_ - j)) != 0)
+        return false;
+    }
+    return true;
+  }
+
+  Status factor(const Hint& hint) noexcept {
     const ProblemType& p = *p_;
+    const double* given_lower = hint.cholesky_lower;
+    if (given_lower == nullptr && hint.reuse_factor && same_factored_hessian()) return Status::optimal;
+    have_factored_h_ = false;
     const double* source = given_lower != nullptr ? given_lower : p.hessian.data();
     double max_diag = 0.0;
     for (int j = 0; j < n_; ++j) {
       max_diag = std::max(max_diag, std::abs(source[idx(j, j, N)]));
       double* col = lcol(j);
-      std::fill(col + dense::chunk_start(j), col + np_, 0.0);
-      std::copy_n(source + idx(j, j, N), n_ - j, col + j);
+      const double* src = source + idx(0, j, N);
+      for (int i = dense::chunk_start(j); i < np_; ++i) col[i] = i >= j && i < n_ ? src[i] : 0.0;
     }
     if (given_lower != nullptr) {
       if (!dense::all_finite(l_.data(), kLd * n_)) return Status::bad_input;
@@ -166,6 +200,11 @@ class Solver {
       const double min_pivot = static_cast<double>(n_) * kEps * max_diag;
       if (!dense::cholesky_lower(l_.data(), kLd, n_, min_pivot, inv_diag_.data()))
         return Status::not_positive_definite;
+      if (hint.reuse_factor) {  // keep the H of this factor for the next solve
+        for (int j = 0; j < n_; ++j) std::copy_n(p.hessian.data() + idx(j, j, N), n_ - j, factored_h_.data() + idx(j, j, N));
+        factored_n_ = n_;
+        have_factored_h_ = true;
+      }
     }
     dense::split_factor(l_.data(), kLd, n_, inv_diag_.data(), lo_.data(), up_.data());
     return Status::optimal;
@@ -179,6 +218,7 @@ class Solver {
       double* col = bcol(me_);
       for (int j = 0; j < n_; ++j) col[j] = p.aeq[idx(k, j, ME)];
       std::fill(col + n_, col + np_, 0.0);
+      eq_row_norm_[me_] = std::sqrt(eq_row_sq_[k]);
       eq_rhs_[me_] = p.beq_values[k];
       eq_src_[me_] = k;
       ++me_;
@@ -188,6 +228,7 @@ class Solver {
       double* col = bcol(me_);
       for (int j = 0; j < n_; ++j) col[j] = p.ain[idx(i, j, MI)];
       std::fill(col + n_, col + np_, 0.0);
+      eq_row_norm_[me_] = row_norm_[i];
       eq_rhs_[me_] = p.lower[i];
       eq_src_[me_] = -1 - i;
       ++me_;
@@ -219,6 +260,7 @@ class Solver {
         std::swap(eq_src_[k], eq_src_[best]);
         std::swap(eq_norm2_[k], eq_norm2_[best]);
         std::swap(eq_left2_[k], eq_left2_[best]);
+        std::swap(eq_row_norm_[k], eq_row_norm_[best]);
       }
       double* bk = bcol(k);
       tau_[k] = dense::make_householder(bk + k, n_ - k);
@@ -229,7 +271,10 @@ class Solver {
       for (int j = k + 1; j < me_; ++j) {
         double* cj = bcol(j);
         dense::apply_reflector(vk, tau_[k], k, np_, cj);
-        eq_left2_[j] = dense::tail_squared_norm(cj, k + 1, np_);
+        // |c_j[k+1:]|^2 = |c_j[k:]|^2 - c_j[k]^2 (LAPACK-style downdate), recomputed
+        // once cancellation has eaten more than three digits of it.
+        const double left2 = eq_left2_[j] - cj[k] * cj[k];
+        eq_left2_[j] = left2 > 1e-3 * eq_norm2_[j] ? left2 : dense::tail_squared_norm(cj, k + 1, np_);
       }
       ++rank_;
     }
@@ -268,7 +313,7 @@ class Solver {
   Status prepare(const Hint& hint) noexcept {
     Status s = classify();
     if (s != Status::optimal) return s;
-    s = factor(hint.cholesky_lower);
+    s = factor(hint);
     if (s != Status::optimal) return s;
     return eliminate_equalities();
   }
@@ -389,7 +434,7 @@ class Solver {
   int most_violated(int& sigma) noexcept {
     const ProblemType& p = *p_;
     std::fill_n(slack_.begin(), mi_, 0.0);
-    for (int j = 0; j < n_; ++j) dense::axpy(x_[j], p.ain.data() + idx(0, j, MI), slack_.data(), mi_);
+    dense::gemv_add(p.ain.data(), MI, mi_, n_, x_.data(), slack_.data());  // Ain x for every row
     const double tol = options_.feasibility_tol;
     int best = -1;
     double best_score = 0.0;
@@ -425,18 +470,44 @@ class Solver {
 
   bool count_iteration() noexcept { return ++iterations_ <= max_iterations_; }
 
+  // The side (+1 lower, -1 upper) of a hinted row that can be active there, else 0.
+  int hinted_sigma(int row, Side side) const noexcept {
+    if (row < 0 || row >= mi_ || side == Side::equal) return 0;
+    const RowKind kind = kind_[row];
+    const int sigma = side == Side::lower ? 1 : -1;
+    if (kind == RowKind::dead || kind == RowKind::equal) return 0;
+    if ((sigma > 0 && kind == RowKind::upper) || (sigma < 0 && kind == RowKind::lower)) return 0;
+    return sigma;
+  }
+
+  // t_i for every valid hinted row at once: one multi-column forward solve.
+  void reduce_hinted_rows(const ActiveSet<MI>& hint, int count) noexcept {
+    int rows = 0;
+    for (int e = 0; e < count; ++e) {
+      const int row = hint.row[static_cast<std::size_t>(e)];
+      if (hinted_sigma(row, hint.side[static_cast<std::size_t>(e)]) == 0 || have_t_[row]) continue;
+      double* t = tvec(row);
+      const double* a = p_->ain.data() + idx(row, 0, MI);
+      for (int j = 0; j < n_; ++j) t[j] = a[idx(0, j, MI)];
+      std::fill(t + n_, t + np_, 0.0);
+      have_t_[row] = true;
+      batch_row_[rows++] = row;
+    }
+    dense::forward_solve_each(lo_.data(), kLd, inv_diag_.data(), n_, rows,
+                              [this](int c) noexcept { return tvec(batch_row_[c]); });
+    for (int k = 0; k < rank_; ++k)
+      for (int c = 0; c < rows; ++c) dense::apply_reflector(vcol(k), tau_[k], k, np_, tvec(batch_row_[c]));
+  }
+
   // Warm start: add the hinted rows (skipping invalid or dependent ones), take the
   // minimiser on that set, drop rows with a wrong-sign multiplier one at a time.
   void warm_start(const ActiveSet<MI>& hint) noexcept {
     const int count = std::min(hint.size, MI);
+    reduce_hinted_rows(hint, count);
     for (int e = 0; e < count && q_ < m_; ++e) {
       const int row = hint.row[static_cast<std::size_t>(e)];
-      const Side side = hint.side[static_cast<std::size_t>(e)];
-      if (row < 0 || row >= mi_ || active_side_[row] != 0 || side == Side::equal) continue;
-      const RowKind kind = kind_[row];
-      const int sigma = side == Side::lower ? 1 : -1;
-      if (kind == RowKind::dead || kind == RowKind::equal) continue;
-      if ((sigma > 0 && kind == RowKind::upper) || (sigma < 0 && kind == RowKind::lower)) continue;
+      const int sigma = hinted_sigma(row, hint.side[static_cast<std::size_t>(e)]);
+      if (sigma == 0 || active_side_[row] != 0) continue;
       const double rhs = reduced_row(row, sigma);
       const double np_norm = full_norm_;
       project();
@@ -473,6 +544,7 @@ class Solver {
 
   // ---- step 3: Goldfarb-Idnani on the reduced problem -------------------------
   Status run(const ActiveSet<MI>* warm) noexcept {
+    x_current_ = false;
     q_ = 0;
     epoch_ = 0;
     for (int i = 0; i < m_; ++i) w_[i] = -c_[rank_ + i];
@@ -486,7 +558,10 @@ class Solver {
       compute_x();
       int sigma = 0;
       const int p = most_violated(sigma);
-      if (p < 0) return Status::optimal;
+      if (p < 0) {
+        x_current_ = true;  // x_ is that of the final w
+        return Status::optimal;
+      }
       const double rhs = reduced_row(p, sigma);
       const double np_norm = full_norm_;
       double slack = dense::dot(np_vec_.data(), w_.data(), m_) - rhs;  // < 0 when violated
@@ -543,24 +618,23 @@ class Solver {
   // max(|a_i| |x|, |bound|). Ill-conditioned H (cond 1e10) leaves ~1e-8 here.
   double active_residuals() noexcept {
     const ProblemType& p = *p_;
+    if (!slack_current_) {  // Ain x; most_violated left it for the final x otherwise
+      std::fill_n(slack_.begin(), mi_, 0.0);
+      dense::gemv_add(p.ain.data(), MI, mi_, n_, x_.data(), slack_.data());
+    }
+    std::fill_n(eq_ax_.begin(), meq_, 0.0);
+    dense::gemv_add(p.aeq.data(), ME, meq_, n_, x_.data(), eq_ax_.data());
     double worst = 0.0;
     for (int k = 0; k < rank_; ++k) {
       const int src = eq_src_[k];
-      double ax = 0.0, norm2 = 0.0;
-      for (int j = 0; j < n_; ++j) {
-        const double a = src >= 0 ? p.aeq[idx(src, j, ME)] : p.ain[idx(-1 - src, j, MI)];
-        ax += a * x_[j];
-        norm2 += a * a;
-      }
+      const double ax = src >= 0 ? eq_ax_[src] : slack_[-1 - src];
       eq_res_[k] = eq_rhs_[k] - ax;
-      worst = std::max(worst, std::abs(eq_res_[k]) / std::max(std::sqrt(norm2) * x_norm_, std::abs(eq_rhs_[k])));
+      worst = std::max(worst, std::abs(eq_res_[k]) / std::max(eq_row_norm_[k] * x_norm_, std::abs(eq_rhs_[k])));
     }
     for (int j = 0; j < q_; ++j) {
       const int row = act_row_[j];
-      double ax = 0.0;
-      for (int l = 0; l < n_; ++l) ax += p.ain[idx(row, l, MI)] * x_[l];
       const double bound = act_sigma_[j] > 0 ? p.lower[row] : p.upper[row];
-      act_res_[j] = bound - ax;
+      act_res_[j] = bound - slack_[row];
       worst = std::max(worst, std::abs(act_res_[j]) / std::max(row_norm_[row] * x_norm_, std::abs(bound)));
     }
     return worst;
@@ -591,7 +665,8 @@ class Solver {
 
   bool finish(ResultType& result) noexcept {
     const ProblemType& p = *p_;
-    compute_x();
+    slack_current_ = x_current_;
+    if (!x_current_) compute_x();
     if (active_residuals() > 1e-13) refine();
     std::copy_n(x_.data(), n_, result.x.begin());
     // v = [v1; w] = Q' L' x, f = 1/2 |v|^2 + c'v.
@@ -637,16 +712,21 @@ class Solver {
   int me_ = 0, rank_ = 0, m_ = 0, q_ = 0;
   int iterations_ = 0, max_iterations_ = 0, epoch_ = 0;
   double x_norm_ = 0.0, full_norm_ = 0.0, c_norm_ = 0.0;
+  bool x_current_ = false;
+  bool slack_current_ = false;  // slack_ = Ain x_ (set by finish() when x_ is the one most_violated used)  // x_ = L^-T Q [v1; w] for the current w (set when run() ends optimal)
 
   // factor of H
   alignas(64) Buf<double, kLd * N> l_{};   // Cholesky scratch
   alignas(64) Buf<double, kLd * N> lo_{};  // L = U D: strict lower part of U, zero-padded
   alignas(64) Buf<double, kLd * N> up_{};  // strict upper part of U', zero-padded
   Buf<double, N> inv_diag_{};
+  Buf<double, N * N> factored_h_{};  // lower triangle of the H last factored with reuse_factor
+  int factored_n_ = 0;
+  bool have_factored_h_ = false;
   // equality block: Householder QR of L^-1 E' (column-major, leading dim kLd)
   alignas(64) Buf<double, kLd * kMaxEqRows> b_{};
   alignas(64) Buf<double, kLd * N> v_{};  // Householder vectors, full and padded
-  Buf<double, kMaxEqRows> tau_{}, eq_rhs_{}, eq_norm2_{}, eq_left2_{}, eq_res_{};
+  Buf<double, kMaxEqRows> tau_{}, eq_rhs_{}, eq_norm2_{}, eq_left2_{}, eq_res_{}, eq_row_norm_{};
   Buf<int, kMaxEqRows> eq_src_{};
   // reduced problem
   alignas(64) Buf<double, kLd> v1_{}, c_{}, w_{}, x_{}, y_{}, np_vec_{}, z_{}, d_{}, e_{}, rdir_{}, beta_{};
@@ -657,12 +737,16 @@ class Solver {
   Buf<std::int8_t, N> act_sigma_{};
   // per inequality row
   alignas(64) Buf<double, kLd * MI> t_{};
-  alignas(64) Buf<double, MI> slack_{};
+  alignas(64) Buf<double, MI> slack_{};  // Ain x
+  Buf<double, ME> eq_ax_{};               // Aeq x
   Buf<double, MI> row_norm_{};
+  Buf<double, N> h_row_sq_{};   // sums of squares along the rows of H (finiteness check)
+  Buf<double, ME> eq_row_sq_{};  // and of Aeq (finiteness check, row norms)
   Buf<RowKind, MI> kind_{};
   Buf<std::int8_t, MI> active_side_{};
   Buf<bool, MI> have_t_{};
-  Buf<int, MI> skipped_epoch_{};  // row skipped as a rounding-level violation while epoch_ holds
+  Buf<int, MI> skipped_epoch_{};
+  Buf<int, MI> batch_row_{};      // rows whose t_i one multi-column solve computes  // row skipped as a rounding-level violation while epoch_ holds
 };
 
 }  // namespace springbok::qp

@@ -115,10 +115,14 @@ struct Result {
 
 // Optional help for a solve: a guess of the active set (the previous tick's) and a
 // Cholesky factor of H the caller already has (column-major lower, leading dim N, H = L L').
+// reuse_factor: H may be bit-identical to the H of this solver's previous solve that
+// also set it; the solver then compares the lower triangles (n^2/2 loads instead of
+// a Cholesky) and reuses its own factor when they are equal, else factors afresh.
 template <int N, int MI>
 struct StartHint {
   const ActiveSet<MI>* active_set = nullptr;
   const double* cholesky_lower = nullptr;
+  bool reuse_factor = false;
 };
 
 struct Options {
