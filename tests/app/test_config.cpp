@@ -49,6 +49,32 @@ TEST(AppConfig, TheShippedFileLoads) {
   EXPECT_EQ(c.stand_gains.kp_nm_per_rad[kFirstArmJoint], 40.0);
   EXPECT_EQ(c.stand_posture_rad[8], 1.4);  // lh knee
   EXPECT_EQ(c.operator_socket, "/run/springbok/operator.sock");
+  EXPECT_EQ(c.control_mode, ControlModeKind::wbc);
+  EXPECT_EQ(c.wbc.template_params.mass_base_kg.x(), 92.0);
+  EXPECT_EQ(c.estimator.velocity_gain_per_s, 30.0);
+}
+
+TEST(AppConfig, ControlSectionErrorsNameTheField) {
+  EXPECT_EQ(only_error(load_config_text(with("  controller: wbc", "  controller: mpc"))),
+            "control.controller: expected wbc or joint_pd, got 'mpc'");
+  EXPECT_EQ(only_error(load_config_text(with("base: {mass: 92,", "base: {mass: -92,"))).rfind("control.wbc.template.base.mass", 0),
+            0u);
+  EXPECT_EQ(only_error(load_config_text(with("{velocity_gain: 30,", "{velocity_gian: 30,")))
+                .rfind("control.estimator.velocity_gian: unknown key", 0),
+            0u);
+  // joint_pd needs no wbc map; wbc does.
+  const std::string text = shipped_text();
+  const auto wbc_at = text.find("  wbc:"), estimator_at = text.find("  estimator:");
+  ASSERT_NE(wbc_at, std::string::npos);
+  ASSERT_NE(estimator_at, std::string::npos);
+  std::string without_wbc = text;
+  without_wbc.erase(wbc_at, estimator_at - wbc_at);
+  EXPECT_EQ(only_error(load_config_text(without_wbc)), "control.wbc: missing (control.controller is wbc)");
+  const auto at = without_wbc.find("  controller: wbc");
+  without_wbc.replace(at, 17, "  controller: joint_pd");
+  const ConfigResult pd = load_config_text(without_wbc);
+  ASSERT_TRUE(pd.ok) << pd.errors.front();
+  EXPECT_EQ(pd.config.control_mode, ControlModeKind::joint_pd);
 }
 
 TEST(AppConfig, UnknownKeyIsNamed) {

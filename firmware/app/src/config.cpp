@@ -11,6 +11,9 @@
 #include <sstream>
 #include <string_view>
 
+#include "springbok/config/fields.hpp"
+#include "springbok/wbc/wbc_config.hpp"
+
 namespace springbok::app {
 namespace {
 
@@ -36,6 +39,8 @@ class Reader {
   explicit Reader(std::vector<std::string>& errors) : errors_(errors) {}
 
   void fail(const std::string& field, const std::string& what) { errors_.push_back(field + ": " + what); }
+  // An error already in "field: what" form (springbok::config readers).
+  void fail(const std::string& line) { errors_.push_back(line); }
 
   // Unknown keys of a map are errors; returns false when `map` is not a map.
   bool map(const YAML::Node& node, const std::string& path, std::initializer_list<std::string_view> known) {
@@ -184,7 +189,7 @@ class Reader {
 };
 
 void read_config(const YAML::Node& root, Reader& r, AppConfig& c) {
-  if (!r.map(root, "", {"loop", "rt", "safety", "gains", "operator", "log", "can"})) return;
+  if (!r.map(root, "", {"loop", "rt", "safety", "gains", "control", "operator", "log", "can"})) return;
   c.has_can_section = root["can"].IsDefined();
 
   if (const YAML::Node n = r.child(root, "", "loop"); n.IsDefined() && r.map(n, "loop", {"rate_hz", "warmup_ticks"})) {
@@ -237,6 +242,29 @@ void read_config(const YAML::Node& root, Reader& r, AppConfig& c) {
                "outside the joint limits of " + std::string(robot::kJoints[static_cast<std::size_t>(j)].name) +
                    " [" + show(limits.lower_rad[j]) + ", " + show(limits.upper_rad[j]) + "]: " + show(q));
       }
+    }
+  }
+  if (const YAML::Node n = r.child(root, "", "control");
+      n.IsDefined() && r.map(n, "control", {"controller", "wbc", "estimator"})) {
+    std::string kind_name;
+    r.text(n, "control", "controller", kind_name);
+    if (kind_name == "wbc") {
+      c.control_mode = ControlModeKind::wbc;
+      if (!n["wbc"].IsDefined()) r.fail("control.wbc", "missing (control.controller is wbc)");
+    } else if (kind_name == "joint_pd") {
+      c.control_mode = ControlModeKind::joint_pd;
+    } else if (!kind_name.empty()) {
+      r.fail("control.controller", "expected wbc or joint_pd, got '" + kind_name + "'");
+    }
+    try {
+      if (n["wbc"].IsDefined()) c.wbc = wbc::read_wbc_params(config::Fields(n["wbc"], "control.wbc"));
+    } catch (const config::ConfigError& e) {
+      r.fail(e.what());
+    }
+    try {
+      c.estimator = est::read_estimator_params(config::Fields(n["estimator"], "control.estimator"));
+    } catch (const config::ConfigError& e) {
+      r.fail(e.what());
     }
   }
   if (const YAML::Node n = r.child(root, "", "operator"); n.IsDefined() && r.map(n, "operator", {"socket"})) {

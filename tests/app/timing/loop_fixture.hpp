@@ -78,9 +78,9 @@ inline AppConfig test_config() {
 }
 
 // Everything the deployed binary wires, with the stepped clock.
-template <class Hardware>
+template <class Hardware, class Control = JointPdHold>
 struct LoopRig {
-  using Modes = PostureModes<JointPdHold>;
+  using Modes = PostureModes<Control>;
   using Loop = ControlLoop<Modes>;
 
   LoopRig(rt::SteppedClock& c, Hardware& h, const AppConfig& cfg = test_config())
@@ -99,7 +99,7 @@ struct LoopRig {
   rt::SteppedClock& clock;
   Hardware& hardware;
   safety::Supervisor supervisor;
-  JointPdHold control;
+  Control control;
   Modes modes;
   OperatorMailbox mailbox;
   LoopStatus status;

@@ -11,15 +11,23 @@
 
 #include <Eigen/Geometry>  // model.hpp names Eigen::Quaterniond but includes only Eigen/Core
 
+#include "springbok/estimation/base_estimator.hpp"
 #include "springbok/model/model.hpp"
 #include "springbok/rt/realtime.hpp"
 #include "springbok/safety/supervisor.hpp"
+#include "springbok/wbc/whole_body_controller.hpp"
 
 namespace springbok::app {
 
 struct JointGains {
   VecNj kp_nm_per_rad = VecNj::Zero();
   VecNj kd_nms_per_rad = VecNj::Zero();
+};
+
+// The controller of the control mode (control.controller).
+enum class ControlModeKind : std::uint8_t {
+  wbc,       // the whole-body controller on the estimated base state
+  joint_pd,  // hold the stand posture with gains.control (bring-up without an IMU)
 };
 
 struct AppConfig {
@@ -31,7 +39,10 @@ struct AppConfig {
   double stand_up_duration_s = 3.0;
   double stand_tolerance_rad = 0.05;     // stand-up is done when every leg joint is this close
   VecNj stand_posture_rad = VecNj::Zero();
-  JointGains control_gains;              // control mode until the WBC lands (joint PD)
+  JointGains control_gains;              // control mode with control.controller = joint_pd
+  ControlModeKind control_mode = ControlModeKind::wbc;
+  wbc::WbcParams wbc;                    // control.wbc (wbc_config.hpp's YAML)
+  est::EstimatorParams estimator;        // control.estimator (every key optional)
   std::string operator_socket;
   std::string log_path;                  // "-" = standard error
   bool has_can_section = false;

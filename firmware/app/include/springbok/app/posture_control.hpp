@@ -1,11 +1,11 @@
-// The controllers of the enabled modes until the whole-body controller lands:
-// joint PD laws toward the stand posture (no model-based feed-forward).
+// The controllers of the enabled modes:
 //
 //   stand_up: the desired posture moves from the pose at entry to the stand
 //             posture along a smoothstep in stand_up_duration_s; done when
 //             the ramp ended and every leg joint is within stand_tolerance_rad;
-//   stand:    hold the stand posture;
-//   control:  the plug-in control-mode controller (JointPdHold for now).
+//   stand:    hold the stand posture (joint PD, no model-based feed-forward);
+//   control:  the plug-in control-mode controller (ControlMode in
+//             control_mode.hpp: the whole-body controller, or JointPdHold).
 #pragma once
 
 #include <algorithm>
@@ -24,10 +24,10 @@ struct ControlInput {
   const hal::Measurements* meas = nullptr;
 };
 
-// A controller of the control mode (the WBC, later).
+// A controller of the control mode; `in.ticks_in_mode` is 0 on its first tick.
 template <class C>
-concept ControlModeController = requires(C& c, const hal::Measurements& m, hal::JointCommands& cmd) {
-  { c.compute(m, cmd) } noexcept -> std::same_as<safety::ControllerReport>;
+concept ControlModeController = requires(C& c, const ControlInput& in, hal::JointCommands& cmd) {
+  { c.compute(in, cmd) } noexcept -> std::same_as<safety::ControllerReport>;
 };
 
 // rt: no alloc
@@ -41,12 +41,13 @@ inline void joint_pd_command(const VecNj& q_des_rad, const VecNj& qd_des_rad_s, 
   cmd.tau_ff_nm.setZero();
 }
 
-// Control mode until the WBC lands: hold the stand posture with the control gains.
+// Hold the stand posture with the control gains (control.controller joint_pd; the
+// whole-body controller's safe command while it cannot run).
 class JointPdHold {
  public:
   explicit JointPdHold(const AppConfig& config) noexcept
       : posture_rad_(config.stand_posture_rad), gains_(config.control_gains) {}
-  safety::ControllerReport compute(const hal::Measurements&, hal::JointCommands& cmd) noexcept {  // rt: no alloc
+  safety::ControllerReport compute(const ControlInput&, hal::JointCommands& cmd) noexcept {  // rt: no alloc
     joint_pd_command(posture_rad_, VecNj::Zero(), gains_, cmd);
     return {};
   }
@@ -89,7 +90,7 @@ class PostureModes {
         joint_pd_command(posture_rad_, VecNj::Zero(), gains_, cmd);
         return {};
       case safety::Mode::control:
-        return control_.compute(m, cmd);
+        return control_.compute(in, cmd);
       case safety::Mode::idle:
       case safety::Mode::damping:
         break;  // the supervisor writes these commands
