@@ -1,0 +1,81 @@
+#include "springbok/gait/trot.hpp"
+
+#include <cmath>
+
+#include "springbok/config/fields.hpp"
+
+namespace springbok::gait {
+namespace {
+
+// Phase offset of each foot (lf, rf, lh, rh): the diagonals {lf, rh} and {rf, lh}.
+constexpr std::array<double, kFeet> kOffset{0.0, 0.5, 0.5, 0.0};
+
+}  // namespace
+
+TrotParams read_trot_params(const config::Fields& f) {
+  f.allow_only({"step_frequency", "duty_factor", "step_height", "velocity_gain", "touchdown_depth"});
+  TrotParams p;
+  p.step_frequency_hz = f.number("step_frequency", p.step_frequency_hz, 0.1, 5.0);
+  p.duty_factor = f.number("duty_factor", p.duty_factor, 0.5, 0.95);
+  p.step_height_m = f.number("step_height", p.step_height_m, 0.0, 0.3);
+  p.velocity_gain_s = f.number("velocity_gain", p.velocity_gain_s, 0.0, 1.0);
+  p.touchdown_depth_m = f.number("touchdown_depth", p.touchdown_depth_m, 0.0, 0.05);
+  return p;
+}
+
+Profile quintic_blend(double s) noexcept {
+  return {s * s * s * (10.0 - 15.0 * s + 6.0 * s * s), 30.0 * s * s * (1.0 - s) * (1.0 - s),
+          60.0 * s * (1.0 - s) * (1.0 - 2.0 * s)};
+}
+
+Profile swing_bump(double s) noexcept {
+  const double u = 1.0 - s;
+  return {64.0 * s * s * s * u * u * u, 192.0 * s * s * u * u * (1.0 - 2.0 * s),
+          384.0 * s * u * (1.0 - 5.0 * s + 5.0 * s * s)};
+}
+
+TrotGait::TrotGait(const TrotParams& params) noexcept : params_(params) {}
+
+void TrotGait::start(const std::array<Vec3, kFeet>& nominal_feet_b) noexcept {
+  nominal_b_ = nominal_feet_b;
+  liftoff_b_ = nominal_feet_b;
+  touchdown_b_ = nominal_feet_b;
+  swinging_.fill(false);
+  plan_ = ContactPlan{};
+}
+
+// rt: no alloc
+const ContactPlan& TrotGait::update(double t_s, const std::array<Vec3, kFeet>& feet_b,
+                                    const Vec3& base_velocity_b) noexcept {
+  const double cycles = std::max(0.0, t_s) * params_.step_frequency_hz;
+  const double swing_s = swing_duration_s();
+  for (int f = 0; f < kFeet; ++f) {
+    double phase = cycles - kOffset[f];
+    phase -= std::floor(phase);
+    plan_.phase[f] = phase;
+    const bool stance = phase < params_.duty_factor;
+    plan_.stance[f] = stance;
+    if (stance) {
+      swinging_[f] = false;
+      continue;
+    }
+    if (!swinging_[f]) {  // lift-off: from here to the foothold
+      swinging_[f] = true;
+      liftoff_b_[f] = feet_b[f];
+      Vec3 correction = Vec3::Zero();
+      correction.head<2>() = (0.5 * stance_duration_s() + params_.velocity_gain_s) * base_velocity_b.head<2>();
+      touchdown_b_[f] = nominal_b_[f] + correction - Vec3(0.0, 0.0, params_.touchdown_depth_m);
+    }
+    const double s = (phase - params_.duty_factor) / (1.0 - params_.duty_factor);
+    const Profile blend = quintic_blend(s), bump = swing_bump(s);
+    const Vec3 span = touchdown_b_[f] - liftoff_b_[f];
+    const Vec3 up = Vec3::UnitZ() * params_.step_height_m;
+    SwingReference& r = plan_.swing[f];
+    r.position_m = liftoff_b_[f] + blend.value * span + bump.value * up;
+    r.velocity_m_s = (blend.rate * span + bump.rate * up) / swing_s;
+    r.acceleration_m_s2 = (blend.curvature * span + bump.curvature * up) / (swing_s * swing_s);
+  }
+  return plan_;
+}
+
+}  // namespace springbok::gait

@@ -1,0 +1,124 @@
+// The trot: the schedule's timing (duty factor, diagonal pairs, the four-feet
+// overlap), the swing trajectory against finite differences and its end
+// conditions, the foothold correction, config errors, no allocation.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "alloc_trap.hpp"
+#include "springbok/config/fields.hpp"
+#include "springbok/gait/trot.hpp"
+
+namespace {
+using namespace springbok;
+
+std::array<Vec3, kFeet> nominal() {
+  return {Vec3(0.37, 0.3, -0.6), Vec3(0.37, -0.3, -0.6), Vec3(-0.37, 0.3, -0.6), Vec3(-0.37, -0.3, -0.6)};
+}
+
+TEST(Trot, ProfilesMatchTheirDerivativesAndEndConditions) {
+  for (auto profile : {&gait::quintic_blend, &gait::swing_bump}) {
+    const double h = 1e-6;
+    for (double s = 0.01; s < 1.0; s += 0.049) {
+      const gait::Profile p = profile(s), lo = profile(s - h), hi = profile(s + h);
+      EXPECT_NEAR(p.rate, (hi.value - lo.value) / (2 * h), 1e-6);
+      EXPECT_NEAR(p.curvature, (hi.rate - lo.rate) / (2 * h), 1e-5);
+    }
+    for (double s : {0.0, 1.0}) {
+      EXPECT_EQ(profile(s).rate, 0.0);
+      EXPECT_NEAR(profile(s).curvature, 0.0, 1e-12);
+    }
+  }
+  EXPECT_EQ(gait::quintic_blend(0.0).value, 0.0);
+  EXPECT_EQ(gait::quintic_blend(1.0).value, 1.0);
+  EXPECT_EQ(gait::swing_bump(0.5).value, 1.0);
+  EXPECT_EQ(gait::swing_bump(1.0).value, 0.0);
+}
+
+TEST(Trot, ScheduleKeepsTheDutyFactorAndTheDiagonals) {
+  for (const auto& [fs, df] : std::vector<std::pair<double, double>>{{1.4, 0.55}, {1.4, 0.65}, {1.8, 0.55}, {1.8, 0.65}}) {
+    gait::TrotParams p;
+    p.step_frequency_hz = fs;
+    p.duty_factor = df;
+    gait::TrotGait trot(p);
+    trot.start(nominal());
+    const double dt = 1e-4, duration = 10.0 / fs;  // ten whole cycles
+    std::array<int, kFeet> stance_ticks{};
+    int all_four = 0, ticks = 0;
+    for (double t = 0.0; t < duration - dt / 2; t += dt, ++ticks) {
+      const gait::ContactPlan& plan = trot.update(t, nominal(), Vec3::Zero());
+      for (int f = 0; f < kFeet; ++f) stance_ticks[f] += plan.stance[f] ? 1 : 0;
+      EXPECT_EQ(plan.stance[0], plan.stance[3]) << "lf and rh move together";
+      EXPECT_EQ(plan.stance[1], plan.stance[2]) << "rf and lh move together";
+      EXPECT_TRUE(plan.stance[0] || plan.stance[1]) << "never more than one pair in the air";
+      all_four += plan.stance[0] && plan.stance[1] ? 1 : 0;
+    }
+    for (int f = 0; f < kFeet; ++f) EXPECT_NEAR(static_cast<double>(stance_ticks[f]) / ticks, df, 2e-3);
+    EXPECT_NEAR(static_cast<double>(all_four) / ticks, 2.0 * (df - 0.5), 2e-3);
+  }
+}
+
+TEST(Trot, SwingGoesFromLiftOffToTheFootholdSmoothly) {
+  gait::TrotParams p;
+  p.step_frequency_hz = 1.4;
+  p.duty_factor = 0.6;
+  p.step_height_m = 0.1;
+  p.touchdown_depth_m = 0.004;
+  gait::TrotGait trot(p);
+  trot.start(nominal());
+  std::array<Vec3, kFeet> feet = nominal();
+  feet[0] += Vec3(0.02, -0.01, 0.0);  // lf lifts off from here
+  const Vec3 v_base(0.1, -0.05, 0.0);
+  const double t_lift = p.duty_factor / p.step_frequency_hz, t_swing = trot.swing_duration_s();
+  (void)trot.update(t_lift - 1e-9, feet, v_base);
+  ASSERT_TRUE(trot.plan().stance[0]);
+  const gait::SwingReference first = trot.update(t_lift + 1e-12, feet, v_base).swing[0];
+  ASSERT_FALSE(trot.plan().stance[0]);
+  EXPECT_LT((first.position_m - feet[0]).norm(), 1e-9);
+  EXPECT_LT(first.velocity_m_s.norm(), 1e-6);
+  // The foothold: nominal + T_stance / 2 * v_xy, touchdown_depth below.
+  const Vec3 foothold = nominal()[0] + Vec3(0.5 * trot.stance_duration_s() * 0.1, 0.5 * trot.stance_duration_s() * -0.05,
+                                             -0.004);
+  const gait::SwingReference last = trot.update(t_lift + t_swing * (1 - 1e-9), feet, Vec3::Zero()).swing[0];
+  EXPECT_LT((last.position_m - foothold).norm(), 1e-6) << "the foothold is fixed at lift-off";
+  EXPECT_LT(last.velocity_m_s.norm(), 1e-6);
+  // Mid-swing: the step height above the straight line; velocity and acceleration by differences.
+  const double tm = t_lift + 0.5 * t_swing;
+  const gait::SwingReference mid = trot.update(tm, feet, Vec3::Zero()).swing[0];
+  EXPECT_NEAR(mid.position_m.z() - 0.5 * (feet[0].z() + foothold.z()), 0.1, 1e-9);
+  const double h = 1e-5;
+  const Vec3 p_lo = trot.update(tm - h, feet, Vec3::Zero()).swing[0].position_m;
+  const Vec3 v_lo = trot.plan().swing[0].velocity_m_s;
+  const Vec3 p_hi = trot.update(tm + h, feet, Vec3::Zero()).swing[0].position_m;
+  const Vec3 v_hi = trot.plan().swing[0].velocity_m_s;
+  EXPECT_LT((mid.velocity_m_s - (p_hi - p_lo) / (2 * h)).norm(), 1e-6);
+  EXPECT_LT((mid.acceleration_m_s2 - (v_hi - v_lo) / (2 * h)).norm(), 1e-4);
+}
+
+TEST(Trot, UpdateDoesNotAllocate) {
+  gait::TrotGait trot(gait::TrotParams{});
+  trot.start(nominal());
+  test::AllocationTrap trap;
+  for (int k = 0; k < 3000; ++k) (void)trot.update(k * 1e-3, nominal(), Vec3::Zero());
+  EXPECT_EQ(trap.disarm(), 0u);
+}
+
+TEST(Trot, ConfigErrorsNameTheField) {
+  auto error_of = [](const std::string& yaml) -> std::string {
+    try {
+      gait::read_trot_params(config::Fields(YAML::Load(yaml), "gait"));
+    } catch (const config::ConfigError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_NE(error_of("{duty_factor: 0.4}").find("gait.duty_factor"), std::string::npos);
+  EXPECT_NE(error_of("{step_frequency: .inf}").find("gait.step_frequency"), std::string::npos);
+  EXPECT_NE(error_of("{step_hieght: 0.1}").find("gait.step_hieght"), std::string::npos);
+  const gait::TrotParams p =
+      gait::read_trot_params(config::Fields(YAML::Load("{step_frequency: 1.8, duty_factor: 0.55}"), "gait"));
+  EXPECT_EQ(p.step_frequency_hz, 1.8);
+  EXPECT_EQ(p.duty_factor, 0.55);
+}
+
+}  // namespace
