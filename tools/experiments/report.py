@@ -18,6 +18,8 @@ import numpy as np  # noqa: E402
 AXES = ["base_x", "base_y", "base_z", "ee_x", "ee_y", "ee_z"]
 BASE_CASES = [("4", 4, 126.5), ("92", 92, 610), ("184", 184, 858)]
 ARM_CASES = [("0p4", 0.4, 29), ("4", 4, 90), ("10", 10, 142)]
+TROT_ARMS = [("0p4", 0.4), ("10", 10)]
+TROT_GAITS = [("gp1", 1.4, 0.55), ("gp2", 1.4, 0.65), ("gp3", 1.8, 0.55), ("gp4", 1.8, 0.65)]
 TARGETS = {"arm_ee_nrmse": 0.03, "base_nrmse": 0.08, "steady": 0.01, "chirp_db": 2.0}
 
 
@@ -201,6 +203,31 @@ def main():
         ok = (all(g is not None and g <= TARGETS["chirp_db"] for g in gains) and not s["fell"]
               and s["qp_failures"] == 0 and s["max_torque_ratio"] <= 1.0 and not s["joint_limit_hit"])
         checks.append((n, ok, f"gain error {num(gains[0])} / {num(gains[1])} dB (target 2 dB)"))
+
+    trot_runs = [(f"trot_me{a}_{g}", m, g, fs, df) for a, m in TROT_ARMS for g, fs, df in TROT_GAITS]
+    trots = {n: load_summary(out, n) for n, *_ in trot_runs}
+    if any(trots.values()):
+        lines += ["", "## Trotting in place with the 50 N step (push at 2 s)", "",
+                  "The trot of `firmware/gait` (diagonal pairs, quintic + bump swing, footholds under the hips) "
+                  "starts with the WBC at 0.5 s; ground-truth base state. Scores from the WBC start.", "",
+                  "| scenario | M_e [kg] | gait | f_s [Hz] | d_f | NRMSE base x | NRMSE EE x | steady state base x | "
+                  "steady state EE x | QP failures | max tau/limit | fell (s) |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        for n, m, g, fs, df in trot_runs:
+            s = trots[n]
+            if s is None:
+                lines.append(f"| {n} | missing |" + " |" * 10)
+                continue
+            fell = f"{s['fell']} ({num(s['fell_time_s'])})" if s["fell"] else "False"
+            lines.append(f"| {n} | {m} | {g.upper()} | {fs} | {df} | {pct(s['nrmse']['base_x'])} | "
+                         f"{pct(s['nrmse']['ee_x'])} | {pct(s['steady_state_error']['base_x'])} | "
+                         f"{pct(s['steady_state_error']['ee_x'])} | {s['qp_failures']} | "
+                         f"{s['max_torque_ratio']:.3f} | {fell} |")
+        standing = [(n, m, g, s) for (n, m, g, _, _), s in zip(trot_runs, trots.values()) if s and not s["fell"]]
+        if standing:
+            lines += ["", "- *While trotting the error grows with the arm's apparent inertia*: EE x NRMSE "
+                      + ", ".join(f"{pct(s['nrmse']['ee_x'])} (M_e {m}, {g.upper()})" for _, m, g, s in standing)
+                      + ". Runs that fell are not comparable and are listed above with the time they fell."]
 
     lines += ["", "## Targets (issue 8)", ""]
     lines += [f"- {'PASS' if ok else 'MISS'} {n}: {why}" for n, ok, why in checks]

@@ -77,6 +77,11 @@ WbcAdapter::WbcAdapter(const Scenario& s)
       estimator_ = std::make_unique<est::BaseEstimator>(ep);
       wbc_params.remove("estimator");
     }
+    if (wbc_params.IsMap() && wbc_params["gait"]) {
+      gait_ = std::make_unique<gait::TrotGait>(
+          gait::read_trot_params(config::Fields(wbc_params["gait"], "controller.params.gait")));
+      wbc_params.remove("gait");
+    }
     params_ = wbc::read_wbc_params(config::Fields(wbc_params, "controller.params"));
   } catch (const config::ConfigError& e) {
     throw ScenarioError(e.what());
@@ -102,11 +107,10 @@ WbcAdapter::~WbcAdapter() = default;
 
 void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept {
   ticked_ = false;
-  constexpr est::Stance kAllFeet{true, true, true, true};
   if (estimator_) {  // runs from the first tick (the settle phase included) to converge
     const bool first = estimator_->estimate().status == est::EstimateStatus::not_reset;
-    const est::EstimateStatus status = first ? estimator_->reset(m, kAllFeet, truth.q.head<2>())
-                                             : estimator_->update(m, kAllFeet, dt_s_).status;
+    const est::EstimateStatus status = first ? estimator_->reset(m, stance_, truth.q.head<2>())
+                                             : estimator_->update(m, stance_, dt_s_).status;  // last tick's plan
     estimator_ok_ = estimator_ok_ && status == est::EstimateStatus::ok;
   }
   if (!active_ && truth.time_s + 0.5 * dt_s_ < settle_s_) {
@@ -122,7 +126,26 @@ void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth,
     input_.v = truth.v;
     input_.v.tail<kNj>() = m.qd_rad_s;
   }
-  input_.stance = kAllFeet;
+  if (gait_) {
+    // Feet relative to the trunk (trunk axes) for the gait's lift-off points and footholds.
+    dyn::forward_kinematics(model_, *data_, input_.q);
+    const Mat3 rot = Quat(input_.q[6], input_.q[3], input_.q[4], input_.q[5]).normalized().toRotationMatrix();
+    std::array<Vec3, kFeet> feet_b;
+    for (int f = 0; f < kFeet; ++f) feet_b[f] = rot.transpose() * (data_->frames[kFootFrames[f]].translation - input_.q.head<3>());
+    if (!active_) {
+      gait_->start(feet_b);
+      wbc_start_s_ = truth.time_s;
+    }
+    const gait::ContactPlan& plan = gait_->update(truth.time_s - wbc_start_s_, feet_b, input_.v.head<3>());
+    for (int f = 0; f < kFeet; ++f) {
+      stance_changes_ += plan.stance[f] != stance_[f] ? 1 : 0;
+      stance_[f] = plan.stance[f];
+      input_.swing[f].position_m = plan.swing[f].position_m;
+      input_.swing[f].velocity_m_s = plan.swing[f].velocity_m_s;
+      input_.swing[f].acceleration_m_s2 = plan.swing[f].acceleration_m_s2;
+    }
+  }
+  input_.stance = stance_;
   input_.wrist_force_n = m.wrist.valid ? m.wrist.force_n : Vec3::Zero();
   input_.wrist_torque_nm = m.wrist.valid ? m.wrist.torque_nm : Vec3::Zero();
   if (!active_) {
@@ -293,6 +316,14 @@ std::string WbcAdapter::summary_fields() const {
   j += fmt::format("  \"fallback_ticks\": {},\n", fallback_ticks_);
   j += fmt::format("  \"max_torque_ratio\": {:.6g},\n", max_torque_ratio_);
   j += fmt::format("  \"joint_limit_hit\": {},\n", joint_limit_hit_ ? "\"" + joint_limit_joint_ + "\"" : "null");
+  if (gait_) {
+    const gait::TrotParams& g = gait_->params();
+    j += fmt::format("  \"gait\": {{\"step_frequency_hz\": {:.6g}, \"duty_factor\": {:.6g}, \"step_height_m\": {:.6g}, "
+                     "\"stance_changes\": {}}},\n",
+                     g.step_frequency_hz, g.duty_factor, g.step_height_m, stance_changes_);
+  } else {
+    j += "  \"gait\": null,\n";
+  }
   if (estimator_) {
     j += fmt::format("  \"estimator\": {{\"all_ok\": {}, \"velocity_rms_error_m_s\": {:.6g}, \"position_max_error_m\": {:.6g}}},\n",
                      estimator_ok_ ? "true" : "false",

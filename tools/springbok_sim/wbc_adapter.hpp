@@ -23,6 +23,7 @@
 #include "scenario.hpp"
 #include "springbok/dynamics/dynamics.hpp"
 #include "springbok/estimation/base_estimator.hpp"
+#include "springbok/gait/trot.hpp"
 #include "springbok/wbc/impedance_template.hpp"
 #include "springbok/wbc/stand_controller.hpp"
 #include "springbok/wbc/whole_body_controller.hpp"
@@ -59,6 +60,10 @@ class WbcAdapter final : public Controller {
   std::unique_ptr<wbc::WholeBodyController> wbc_;
   std::unique_ptr<wbc::TemplateReference> template_;
   std::unique_ptr<est::BaseEstimator> estimator_;   // null: ground truth
+  std::unique_ptr<gait::TrotGait> gait_;            // null: four feet in stance
+  double wbc_start_s_ = 0.0;
+  std::array<bool, kFeet> stance_{true, true, true, true};
+  std::uint64_t stance_changes_ = 0;
   bool estimator_ok_ = true;                        // every update since reset was ok
   double estimator_velocity_sq_sum_ = 0.0;          // vs ground truth, WBC ticks
   double estimator_position_max_m_ = 0.0;
