@@ -1,6 +1,7 @@
 #include "springbok/wbc/whole_body_controller.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -25,6 +26,34 @@ Vec3 log_so3(const Mat3& r) noexcept {
 }
 
 int foot_var(int foot) noexcept { return kNv + kFootVars * foot; }
+
+using HessianFactor = std::array<double, static_cast<std::size_t>(kQpVars) * kQpVars>;
+
+// The Cholesky factor of the QP Hessian build_qp assembles: dense in the base block
+// (first 6 variables), diagonal elsewhere, so L is the 6x6 block's factor and the
+// square roots of the other diagonal entries (column-major lower, leading dim
+// kQpVars; only the lower triangle is written, as the solver reads). False (the
+// solver then factors H itself) when H is not of that shape or not positive definite.
+// rt: no alloc
+bool factor_qp_hessian(const WbcSolver::ProblemType& p, HessianFactor& lower) noexcept {
+  constexpr int kBlock = 6;
+  const Eigen::Map<const Eigen::Matrix<double, kQpVars, kQpVars>> hess(p.hessian.data());
+  Eigen::Map<Eigen::Matrix<double, kQpVars, kQpVars>> factor(lower.data());
+  for (int j = 0; j < kQpVars; ++j) {
+    const int zero_from = j < kBlock ? kBlock : j + 1;  // rows of column j outside the shape
+    for (int i = zero_from; i < kQpVars; ++i)
+      if (hess(i, j) != 0.0) return false;
+  }
+  const Eigen::LLT<Mat6> block(hess.topLeftCorner<kBlock, kBlock>());
+  if (block.info() != Eigen::Success) return false;
+  for (int j = 0; j < kQpVars; ++j) factor.col(j).tail(kQpVars - j).setZero();
+  factor.topLeftCorner<kBlock, kBlock>().triangularView<Eigen::Lower>() = block.matrixL();
+  for (int j = kBlock; j < kQpVars; ++j) {
+    if (!(hess(j, j) > 0.0)) return false;
+    factor(j, j) = std::sqrt(hess(j, j));
+  }
+  return true;
+}
 
 }  // namespace
 
@@ -324,8 +353,11 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in) noexcept {
 
   // Warm start from the previous tick's active set while the contact state holds
   // (the per-foot rows keep their places); the solver checks it and falls back cold.
+  // The Hessian's factor is cheap from its structure: the solver skips its Cholesky.
   WbcSolver::Hint hint;
   if (have_warm_start_ && in.stance == last_stance_) hint.active_set = warm_start_.get();
+  HessianFactor hessian_factor;
+  if (factor_qp_hessian(*problem_, hessian_factor)) hint.cholesky_lower = hessian_factor.data();
   const qp::Status status = solver_->solve(*problem_, *result_, hint);
   out_.qp_status = status;
   out_.qp_iterations = result_->iterations;

@@ -106,12 +106,8 @@ class Solver {
     // the entries checked.
     std::fill_n(h_row_sq_.begin(), n_, 0.0);
     std::fill_n(eq_row_sq_.begin(), meq_, 0.0);
-    for (int j = 0; j < n_; ++j) {
-      const double* h = p.hessian.data() + idx(0, j, N);
-      for (int i = 0; i < n_; ++i) h_row_sq_[i] += h[i] * h[i];
-      const double* a = p.aeq.data() + idx(0, j, ME);
-      for (int k = 0; k < meq_; ++k) eq_row_sq_[k] += a[k] * a[k];
-    }
+    dense::add_row_squares(p.hessian.data(), N, n_, n_, h_row_sq_.data());
+    dense::add_row_squares(p.aeq.data(), ME, meq_, n_, eq_row_sq_.data());
     if (!dense::all_finite(h_row_sq_.data(), n_) || !dense::all_finite(eq_row_sq_.data(), meq_)) {
       for (int j = 0; j < n_; ++j) {
         if (!dense::all_finite(p.hessian.data() + idx(0, j, N), n_)) return Status::bad_input;
@@ -125,10 +121,7 @@ class Solver {
     // squares proves the row finite; only a non-finite one (NaN, inf, or overflow
     // of huge entries) needs the entries checked.
     std::fill_n(row_norm_.begin(), mi_, 0.0);
-    for (int j = 0; j < n_; ++j) {
-      const double* col = p.ain.data() + idx(0, j, MI);
-      for (int i = 0; i < mi_; ++i) row_norm_[i] += col[i] * col[i];
-    }
+    dense::add_row_squares(p.ain.data(), MI, mi_, n_, row_norm_.data());
     if (!dense::all_finite(row_norm_.data(), mi_)) {
       for (int j = 0; j < n_; ++j)
         if (!dense::all_finite(p.ain.data() + idx(0, j, MI), mi_)) return Status::bad_input;
@@ -233,7 +226,11 @@ class Solver {
       eq_src_[me_] = -1 - i;
       ++me_;
     }
-    dense::forward_solve(lo_.data(), kLd, inv_diag_.data(), n_, bcol(0), kLd, me_);
+    // g rides along as column me_: the same solve and reflectors give c = Q' L^-1 g.
+    double* gcol = bcol(me_);
+    std::copy_n(p.gradient.data(), n_, gcol);
+    std::fill(gcol + n_, gcol + np_, 0.0);
+    dense::forward_solve(lo_.data(), kLd, inv_diag_.data(), n_, bcol(0), kLd, me_ + 1);
     for (int k = 0; k < me_; ++k) {
       eq_norm2_[k] = dense::squared_norm(bcol(k), n_);
       eq_left2_[k] = eq_norm2_[k];
@@ -276,6 +273,7 @@ class Solver {
         const double left2 = eq_left2_[j] - cj[k] * cj[k];
         eq_left2_[j] = left2 > 1e-3 * eq_norm2_[j] ? left2 : dense::tail_squared_norm(cj, k + 1, np_);
       }
+      dense::apply_reflector(vk, tau_[k], k, np_, gcol);
       ++rank_;
     }
     m_ = n_ - rank_;
@@ -295,10 +293,7 @@ class Solver {
       if (std::abs(implied - eq_rhs_[j]) > 1e-9 * scale) return Status::infeasible;
     }
     // c = Q' L^-1 g; the unconstrained reduced minimiser is w0 = -c[r:].
-    std::copy_n(p.gradient.data(), n_, c_.data());
-    std::fill(c_.data() + n_, c_.data() + np_, 0.0);
-    dense::forward_solve(lo_.data(), kLd, inv_diag_.data(), n_, c_.data());
-    apply_qt(c_.data());
+    std::copy_n(gcol, np_, c_.data());
     c_norm_ = std::sqrt(dense::squared_norm(c_.data(), n_));
     return Status::optimal;
   }
@@ -724,7 +719,7 @@ class Solver {
   int factored_n_ = 0;
   bool have_factored_h_ = false;
   // equality block: Householder QR of L^-1 E' (column-major, leading dim kLd)
-  alignas(64) Buf<double, kLd * kMaxEqRows> b_{};
+  alignas(64) Buf<double, kLd*(kMaxEqRows + 1)> b_{};  // and L^-1 g in column me_
   alignas(64) Buf<double, kLd * N> v_{};  // Householder vectors, full and padded
   Buf<double, kMaxEqRows> tau_{}, eq_rhs_{}, eq_norm2_{}, eq_left2_{}, eq_res_{}, eq_row_norm_{};
   Buf<int, kMaxEqRows> eq_src_{};
