@@ -103,14 +103,18 @@ inline bool cholesky_lower(double* a, int ld, int n, double min_pivot, double* i
       double* col_k = a + k * ld;
       const double pivot = col_k[k];
       if (!(pivot > min_pivot)) return false;
+      // The panel's next columns are updated from the unscaled column with
+      // a_ik a_jk / pivot = l_ik l_jk, so the next pivot waits on one division,
+      // not on a square root and a division; the scaling runs alongside.
+      const double inv_pivot = 1.0 / pivot;
+      for (int j = k + 1; j < k1; ++j) {
+        double* col_j = a + j * ld;
+        const double a_jk = col_k[j] * inv_pivot;
+        for (int i = chunk_start(j); i < np; ++i) col_j[i] -= col_k[i] * a_jk;
+      }
       const double inv = 1.0 / std::sqrt(pivot);
       inv_diag[k] = inv;
       for (int i = chunk_start(k + 1); i < np; ++i) col_k[i] *= inv;
-      for (int j = k + 1; j < k1; ++j) {
-        double* col_j = a + j * ld;
-        const double l_jk = col_k[j];
-        for (int i = chunk_start(j); i < np; ++i) col_j[i] -= col_k[i] * l_jk;
-      }
     }
     const double* c0 = a + k0 * ld;  // panel columns; missing ones (n not a multiple of 4) count as zero
     const double* c1 = k0 + 1 < k1 ? c0 + ld : c0;
