@@ -5,6 +5,7 @@
 #include <string>
 
 #include "springbok/can/config_yaml.hpp"
+#include "springbok/model/model.hpp"
 
 namespace springbok::can {
 namespace {
@@ -121,8 +122,27 @@ TEST(CanConfig, StructuralErrors) {
   EXPECT_NE(load_can_config_file("/nonexistent/can.yaml").error.find("cannot open"), std::string::npos);
 }
 
+TEST(CanConfig, LayoutWideMitRangesOverrideTheGainRangesOfEveryMitDrive) {
+  const ConfigResult r = load_can_config_text("can: {layout: fd5, mit_ranges: {kp: [0, 2000], kd: [0, 50]}}");
+  ASSERT_TRUE(r.ok) << r.error;
+  for (const BusConfig& b : r.config.buses) {
+    for (const DriveConfig& d : b.drives) {
+      EXPECT_DOUBLE_EQ(d.mit_ranges.kp_max, 2000.0) << d.drive_id;
+      EXPECT_DOUBLE_EQ(d.mit_ranges.kd_max, 50.0) << d.drive_id;
+      EXPECT_DOUBLE_EQ(d.mit_ranges.p_max_rad, 12.5) << d.drive_id;  // not listed: unchanged
+      // The torque range stays the joint's effort limit.
+      EXPECT_DOUBLE_EQ(d.mit_ranges.t_max_nm, robot::kJoints[static_cast<std::size_t>(d.joint)].limits.effort_nm);
+    }
+  }
+  // The torque range is per joint: not accepted layout-wide; bad ranges name the field.
+  EXPECT_NE(load_can_config_text("can: {layout: classic7, mit_ranges: {t: [-1, 1]}}").error.find("can.mit_ranges.t: unknown key"),
+            std::string::npos);
+  EXPECT_NE(load_can_config_text("can: {layout: classic7, mit_ranges: {kp: [500, 0]}}").error.find("can.mit_ranges.kp"),
+            std::string::npos);
+}
+
 TEST(CanConfig, ExampleFilesLoad) {
-  for (const char* name : {"mit_classic7.yaml", "cia402_classic7.yaml", "mit_fd5.yaml"}) {
+  for (const char* name : {"mit_classic7.yaml", "cia402_classic7.yaml", "mit_fd5.yaml", "stand_mit7.yaml"}) {
     const ConfigResult r = load_can_config_file(std::string(SPRINGBOK_SOURCE_DIR) + "/tests/hil/config/" + name);
     EXPECT_TRUE(r.ok) << name << ": " << r.error;
   }

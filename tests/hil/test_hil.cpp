@@ -5,6 +5,7 @@
 #include <net/if.h>
 #include <signal.h>
 #include <sys/socket.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -24,6 +25,7 @@
 #include "springbok/can/can_hardware.hpp"
 #include "springbok/can/config_yaml.hpp"
 #include "springbok/can/mit.hpp"
+#include "springbok/dynamics/dynamics.hpp"
 
 namespace springbok::can {
 namespace {
@@ -46,7 +48,7 @@ bool have_vcan(int buses) {
 // The drive emulator as a child process.
 class Emulator {
  public:
-  Emulator(const std::string& config, const std::string& faults_yaml) {
+  Emulator(const std::string& config, const std::string& faults_yaml, const std::vector<std::string>& extra = {}) {
     const std::string tag = std::to_string(::getpid()) + "_" + std::to_string(counter_++);
     ready_ = "/tmp/springbok_emu_ready_" + tag;
     out_ = "/tmp/springbok_emu_out_" + tag;
@@ -58,6 +60,7 @@ class Emulator {
       args.push_back("--faults");
       args.push_back(faults_);
     }
+    args.insert(args.end(), extra.begin(), extra.end());
     ::unlink(ready_.c_str());
     pid_ = ::fork();
     if (pid_ == 0) {
@@ -68,7 +71,7 @@ class Emulator {
       ::execv(argv[0], argv.data());
       ::_exit(127);
     }
-    for (int i = 0; i < 1000 && ::access(ready_.c_str(), F_OK) != 0; ++i) {
+    for (int i = 0; i < 6000 && ::access(ready_.c_str(), F_OK) != 0; ++i) {  // Bullet settling: seconds in the VM
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
     ready_ok_ = ::access(ready_.c_str(), F_OK) == 0;
@@ -335,6 +338,193 @@ TEST(Hil, TransientFaultsAreCountedNotFatal) {
   EXPECT_GE(last.drives[15].missed_total, 1u);               // drive 16 delayed by 2 ticks
   EXPECT_TRUE(hw.diagnostics(6).error_passive);              // bus arm2 degraded
   EXPECT_EQ(hw.diagnostics(6).fault, BusFault::none);
+}
+
+// The deployed binary as a child process; stdout and stderr into one file.
+class Firmware {
+ public:
+  Firmware(const std::string& config, int time_scale) {
+    out_ = "/tmp/springbok_fw_out_" + std::to_string(::getpid());
+    std::vector<std::string> args{std::string(SPRINGBOK_BIN_DIR) + "/springbok", "--config", config, "--time-scale",
+                                  std::to_string(time_scale)};
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      std::freopen(out_.c_str(), "w", stdout);
+      ::dup2(::fileno(stdout), 2);
+      std::vector<char*> argv;
+      for (std::string& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      ::execv(argv[0], argv.data());
+      ::_exit(127);
+    }
+  }
+  ~Firmware() { stop(); }
+  bool running() {
+    int status = 0;
+    return pid_ > 0 && ::waitpid(pid_, &status, WNOHANG) == 0;
+  }
+  // SIGTERM (orderly stop: damping, drives disabled); returns everything it printed.
+  std::string stop() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGTERM);
+      ::waitpid(pid_, &status_, 0);
+      pid_ = -1;
+      std::ifstream in(out_);
+      std::stringstream ss;
+      ss << in.rdbuf();
+      output_ = ss.str();
+      ::unlink(out_.c_str());
+    }
+    return output_;
+  }
+  int exit_status() const { return status_; }
+
+ private:
+  pid_t pid_ = -1;
+  int status_ = -1;
+  std::string out_, output_;
+};
+
+// One line to the operator socket, its one-line answer ("" when the socket is not there).
+std::string operator_line(const std::string& socket_path, const std::string& line) {
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", socket_path.c_str());
+  std::string reply;
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0) {
+    const std::string msg = line + "\n";
+    if (::write(fd, msg.data(), msg.size()) == static_cast<ssize_t>(msg.size())) {
+      char c = 0;
+      while (::read(fd, &c, 1) == 1 && c != '\n') reply += c;
+    }
+  }
+  ::close(fd);
+  return reply;
+}
+
+struct TruthSample {
+  double t_s, trunk_z_m, tilt_rad;
+  int non_foot_contact;
+};
+
+// The emulator's ground-truth trace (--truth-log), as far as it is written.
+std::vector<TruthSample> read_truth(const std::string& path) {
+  std::vector<TruthSample> out;
+  std::ifstream in(path);
+  TruthSample t{};
+  while (in >> t.t_s >> t.trunk_z_m >> t.tilt_rad >> t.non_foot_contact) out.push_back(t);
+  return out;
+}
+
+double truth_time(const std::string& path) {
+  const std::vector<TruthSample> t = read_truth(path);
+  return t.empty() ? 0.0 : t.back().t_s;
+}
+
+// Waits (wall clock) until done() or the firmware exits or `limit_s` passes.
+template <class Done>
+bool wait_for(Firmware& fw, double limit_s, Done&& done) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(limit_s);
+  while (std::chrono::steady_clock::now() < end) {
+    if (done()) return true;
+    if (!fw.running()) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  return false;
+}
+
+// The trunk height over flat ground for these joint angles with the trunk level:
+// the lowest foot sphere touches the ground (springbok::dyn forward kinematics).
+double standing_height_m(const VecNj& q_joints) {
+  const dyn::Model model;
+  auto data = std::make_unique<dyn::Data>();
+  VecNq q = VecNq::Zero();
+  q[6] = 1.0;
+  q.tail<kNj>() = q_joints;
+  dyn::forward_kinematics(model, *data, q);
+  double lowest = 0.0;
+  for (int f = 0; f < kFeet; ++f) {
+    lowest = std::min(lowest, data->frames[static_cast<std::size_t>(kFootFrames[static_cast<std::size_t>(f)])].translation.z());
+  }
+  return kFootRadius_m - lowest;
+}
+
+// Issue 10: the deployed binary stands the simulated robot through vcan for 5 s.
+// LOCKSTEP: the emulator steps sim_hal's Bullet world once per firmware tick (when all 19
+// commands of the tick are in) and the firmware runs --time-scale N times slower than
+// wall time, so that under the VM's emulated CPU (a Bullet step ~6 ms) every reply still
+// arrives before its receive deadline. All times below are simulated unless said wall.
+TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
+  REQUIRE_VCAN(7);
+  const char* scale_env = std::getenv("SPRINGBOK_HIL_TIME_SCALE");
+  const int time_scale = scale_env != nullptr ? std::atoi(scale_env) : 30;
+  ASSERT_GE(time_scale, 1);
+  const std::string config = kConfigDir + "stand_mit7.yaml";
+  const std::string socket_path = "/tmp/springbok_hil_stand.sock";  // operator.socket of the config
+  const std::string truth = "/tmp/springbok_hil_truth_" + std::to_string(::getpid()) + ".txt";
+  // --settle-s: the first Bullet steps are slow under the VM's emulated CPU (code not yet
+  // translated); 0.1 s unpowered on the feet before the drives boot warms them up.
+  Emulator emu(config, "", {"--motion", "bullet", "--truth-log", truth, "--settle-s", "0.1"});
+  ASSERT_TRUE(emu.ready());
+  ::unlink(socket_path.c_str());
+  Firmware fw(config, time_scale);
+  const double wall_per_sim_s = time_scale * 1.2 + 5.0;  // generous: the wall time a simulated second may take
+  // The robot spawns crouched on its feet (sim_hal); idle is zero torque, so the operator
+  // starts the stand-up as soon as the firmware listens.
+  std::string started;
+  ASSERT_TRUE(wait_for(fw, 120.0, [&] {
+    started = operator_line(socket_path, "start");
+    return !started.empty();
+  })) << fw.stop();
+  EXPECT_EQ(started.rfind("ok", 0), 0u) << started;
+  ASSERT_TRUE(wait_for(fw, 60.0, [&] { return !read_truth(truth).empty(); })) << fw.stop();
+  const double crouch_z_m = read_truth(truth).front().trunk_z_m;
+  std::string status;
+  ASSERT_TRUE(wait_for(fw, 4.0 * wall_per_sim_s, [&] {
+    status = operator_line(socket_path, "status");
+    return status.find("mode=stand ") != std::string::npos || status.find("mode=damping") != std::string::npos;
+  })) << status << "\n" << fw.stop();
+  ASSERT_NE(status.find("mode=stand "), std::string::npos) << status << "\n" << fw.stop() << emu.stop();
+  const double t_stand_s = truth_time(truth);
+  ASSERT_TRUE(wait_for(fw, 6.0 * wall_per_sim_s, [&] { return truth_time(truth) >= t_stand_s + 5.0; }));
+  status = operator_line(socket_path, "status");
+  EXPECT_NE(status.find("mode=stand faults=none"), std::string::npos) << status;
+  const std::string fw_out = fw.stop();
+  EXPECT_TRUE(WIFEXITED(fw.exit_status()) && WEXITSTATUS(fw.exit_status()) == 0) << fw_out;
+  EXPECT_NE(fw_out.find("mode=stand faults=none"), std::string::npos) << fw_out;
+  const std::string summary = emu.stop();
+
+  // The emulator's ground truth over the 5 s of standing.
+  const std::vector<TruthSample> samples = read_truth(truth);
+  ::unlink(truth.c_str());
+  double z_min = 1e9, z_max = -1e9, tilt_max = 0.0;
+  int n = 0, non_foot = 0;
+  for (const TruthSample& t : samples) {
+    if (t.t_s < t_stand_s || t.t_s > t_stand_s + 5.0) continue;
+    ++n;
+    z_min = std::min(z_min, t.trunk_z_m);
+    z_max = std::max(z_max, t.trunk_z_m);
+    tilt_max = std::max(tilt_max, t.tilt_rad);
+    non_foot += t.non_foot_contact;
+  }
+  // The oracle: the trunk height at which the stand posture puts the feet on the ground.
+  VecNj stand = VecNj::Zero();
+  for (int j = 0; j < 12; ++j) stand[j] = stance(j);
+  const double z_stand_m = standing_height_m(stand);
+  std::printf("standing %.2f .. %.2f s: trunk z %.4f .. %.4f m (stand posture on flat ground: %.4f m; crouched at "
+              "start-up %.4f m), max tilt %.4f rad\n",
+              t_stand_s, t_stand_s + 5.0, z_min, z_max, z_stand_m, crouch_z_m, tilt_max);
+  EXPECT_GE(n, 400) << "trace samples in the 5 s";
+  EXPECT_LT(crouch_z_m, z_stand_m - 0.1) << "it stood up from a crouch";
+  // The joint PD without gravity compensation sags a little (stand_tolerance_rad 0.15).
+  EXPECT_NEAR(z_min, z_stand_m, 0.06);
+  EXPECT_NEAR(z_max, z_stand_m, 0.06);
+  EXPECT_LT(z_max - z_min, 0.01) << "it holds still";
+  EXPECT_LT(tilt_max, 0.05);
+  EXPECT_EQ(non_foot, 0) << "only the feet touch the ground";
+  // Lockstep held: every step had the commands of all 19 drives.
+  EXPECT_NE(summary.find("forced_steps 0\n"), std::string::npos) << summary;
 }
 
 TEST(Hil, RoundTripTime) {

@@ -1,8 +1,10 @@
 // drive_emulator: answers on the configured CAN buses as the configured drives
 // would (MIT mode or CiA 402, drive side, byte-exact), motion from a per-joint
-// model, faults injected from a script. Runs until SIGINT/SIGTERM or --duration-s.
+// model or from sim_hal's Bullet robot (lockstep: one world step per host tick),
+// faults injected from a script. Runs until SIGINT/SIGTERM or --duration-s.
 //
 //   drive_emulator --config can.yaml [--faults faults.yaml] [--pose stance|zero]
+//   drive_emulator --config can.yaml --motion bullet [--truth-log trunk.txt]
 //   drive_emulator --config can.yaml --print-layout      (no CAN needed)
 #include <signal.h>
 
@@ -11,6 +13,7 @@
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <cstdio>
+#include <deque>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -21,6 +24,9 @@
 #include "springbok/can/socketcan.hpp"
 #include "springbok/drive_emulator/drives.hpp"
 #include "springbok/model/model.hpp"
+#if SPRINGBOK_EMULATOR_HAS_BULLET
+#include "springbok/drive_emulator/bullet_motion.hpp"
+#endif
 
 namespace {
 
@@ -57,7 +63,9 @@ void print_layout(const springbok::can::CanConfig& c) {
 int main(int argc, char** argv) {
   using namespace springbok;
   CLI::App app{"CAN drive emulator (MIT mode / CiA 402) for HIL over vcan"};
-  std::string config_path, faults_path, pose = "stance", ready_file;
+  std::string config_path, faults_path, pose = "stance", ready_file, motion = "joint", truth_log;
+  int truth_every = 10;
+  double settle_s = 0.0;
   double duration_s = 0.0;
   std::uint32_t can_timeout_ms = 0;
   bool layout_only = false;
@@ -67,6 +75,14 @@ int main(int argc, char** argv) {
   app.add_option("--duration-s", duration_s, "stop after this many seconds (0 = until SIGTERM)")->check(CLI::NonNegativeNumber);
   app.add_option("--can-timeout-ms", can_timeout_ms, "MIT CAN_TIMEOUT: zero the stored command after this silence (0 = off)");
   app.add_option("--ready-file", ready_file, "written once the buses are open and the drives booted");
+  app.add_option("--motion", motion,
+                 "joint: a 1-DoF model per drive; bullet: the joints of the simulated robot (sim_hal), "
+                 "stepped once per host tick, the robot spawned crouched on its feet")
+      ->check(CLI::IsMember({"joint", "bullet"}));
+  app.add_option("--truth-log", truth_log, "bullet: trace of the trunk ground truth (t_s trunk_z_m tilt_rad non_foot_contact)");
+  app.add_option("--truth-every", truth_every, "bullet: one trace line every this many steps")->check(CLI::Range(1, 1000000));
+  app.add_option("--settle-s", settle_s, "bullet: the robot lies unpowered this long before the drives boot")
+      ->check(CLI::Range(0.0, 60.0));
   app.add_flag("--print-layout", layout_only, "print frames per tick and worst-case load per bus, then exit");
   CLI11_PARSE(app, argc, argv);
 
@@ -89,10 +105,34 @@ int main(int argc, char** argv) {
     faults = fr.faults;
   }
 
+  std::unique_ptr<emu::Motion> world;
+  std::FILE* truth_file = nullptr;
+  if (motion == "bullet") {
+#if SPRINGBOK_EMULATOR_HAS_BULLET
+    if (!truth_log.empty() && (truth_file = std::fopen(truth_log.c_str(), "w")) == nullptr) {
+      std::fprintf(stderr, "drive_emulator: --truth-log: cannot write %s\n", truth_log.c_str());
+      return 2;
+    }
+    try {
+      world = std::make_unique<emu::BulletMotion>(truth_file, truth_every, settle_s);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "drive_emulator: %s\n", e.what());
+      return 2;
+    }
+#else
+    std::fprintf(stderr, "drive_emulator: --motion bullet: this build has no Bullet (SPRINGBOK_BUILD_SIM=OFF)\n");
+    return 2;
+#endif
+  } else if (!truth_log.empty()) {
+    std::fprintf(stderr, "drive_emulator: --truth-log needs --motion bullet\n");
+    return 2;
+  }
+
   struct BusIo {
     can::SocketCanBus socket;
     std::vector<std::unique_ptr<emu::Drive>> drives;
     std::uint64_t tx_failed = 0;
+    std::deque<can::Frame> held;  // lockstep: frames waiting for the world to step, in order
   };
   std::vector<BusIo> buses(cfg.config.buses.size());
   const std::int64_t t0 = can::monotonic_ns();
@@ -113,6 +153,7 @@ int main(int argc, char** argv) {
       } else {
         buses[b].drives.push_back(std::make_unique<emu::Cia402Drive>(d, model, mine, t0));
       }
+      buses[b].drives.back()->attach(world.get());
     }
   }
   for (const emu::Fault& f : faults) {
@@ -148,14 +189,54 @@ int main(int argc, char** argv) {
   for (const BusIo& io : buses) fds.push_back(io.socket.native_handle());
   const std::int64_t end_ns = duration_s > 0 ? t0 + static_cast<std::int64_t>(duration_s * 1e9) : INT64_MAX;
   can::Frame f;
+  const auto deliver = [&](BusIo& io, const can::Frame& frame, std::int64_t now) {
+    for (auto& d : io.drives) d->on_frame(frame, now, out);
+    flush(io);
+  };
+  // Lockstep (--motion bullet): a drive's next cyclic command waits until the world has
+  // stepped with the current ones, so an emulator that falls behind (reading one bus while
+  // the host already sent the next tick on another) never steps the world early. The frames
+  // behind a held one on its bus wait too (bus order is kept).
+  const auto blocked = [](const BusIo& io, const can::Frame& frame) {
+    for (const auto& d : io.drives) {
+      if (d->waits_for_step(frame)) return true;
+    }
+    return false;
+  };
+  const auto release_held = [&](std::int64_t now) {
+    for (bool progress = true; progress;) {
+      progress = false;
+      for (BusIo& io : buses) {
+        while (!io.held.empty() && !blocked(io, io.held.front())) {
+          const can::Frame frame = io.held.front();
+          io.held.pop_front();
+          deliver(io, frame, now);
+          progress = true;
+        }
+      }
+    }
+  };
+  // More held frames than three ticks of a bus: a command the world waits for was lost.
+  constexpr std::size_t kMaxHeldFrames = 3 * (can::kMaxDrivesPerBus + 1);
   const auto serve_pending = [&](std::int64_t now) {
     for (BusIo& io : buses) {
       while (io.socket.receive(f) == can::RxStatus::frame) {
-        for (auto& d : io.drives) d->on_frame(f, now, out);
-        flush(io);
+        if (!io.held.empty() || blocked(io, f)) {
+          io.held.push_back(f);
+        } else {
+          deliver(io, f, now);
+          release_held(now);
+        }
       }
       for (auto& d : io.drives) d->on_time(now, out);
       flush(io);
+    }
+    for (const BusIo& io : buses) {
+      if (world && io.held.size() > kMaxHeldFrames) {
+        world->force_step();
+        release_held(now);
+        break;
+      }
     }
   };
   while (!g_stop && can::monotonic_ns() < end_ns) {
@@ -165,6 +246,14 @@ int main(int argc, char** argv) {
   // A stop can arrive while a later bus is being served: frames already queued on an
   // earlier bus (e.g. the firmware's shut-down frames) are still answered before the summary.
   serve_pending(can::monotonic_ns());
+  for (bool any_held = true; world && any_held;) {
+    any_held = false;
+    for (const BusIo& io : buses) any_held = any_held || !io.held.empty();
+    if (any_held) {
+      world->force_step();
+      release_held(can::monotonic_ns());
+    }
+  }
   for (std::size_t b = 0; b < buses.size(); ++b) {
     for (const auto& d : buses[b].drives) {
       std::printf("drive %d joint %s bus %s tick %llu frames_in %llu replies_out %llu enabled %d q_rad %.6f\n",
@@ -176,5 +265,14 @@ int main(int argc, char** argv) {
     std::printf("bus %s tx_failed %llu\n", cfg.config.buses[b].name.c_str(),
                 static_cast<unsigned long long>(buses[b].tx_failed));
   }
+#if SPRINGBOK_EMULATOR_HAS_BULLET
+  if (const auto* bullet = dynamic_cast<const emu::BulletMotion*>(world.get())) {
+    const emu::TruthSummary& t = bullet->truth();
+    std::printf("truth steps %llu time_s %.3f trunk_z_m %.5f trunk_tilt_rad %.5f non_foot_contact %d forced_steps %llu\n",
+                static_cast<unsigned long long>(t.steps), t.time_s, t.trunk_z_m, t.trunk_tilt_rad,
+                t.non_foot_ground_contact ? 1 : 0, static_cast<unsigned long long>(t.forced_steps));
+  }
+#endif
+  if (truth_file != nullptr) std::fclose(truth_file);
   return 0;
 }

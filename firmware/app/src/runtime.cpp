@@ -12,6 +12,7 @@
 #include "springbok/app/control_loop.hpp"
 #include "springbok/app/operator_server.hpp"
 #include "springbok/app/posture_control.hpp"
+#include "springbok/app/slowed_clock.hpp"
 #include "springbok/rt/clock.hpp"
 #include "springbok/rt/executive.hpp"
 #include "springbok/rt/log.hpp"
@@ -28,6 +29,10 @@ CommandLine parse_command_line(int argc, char** argv, const char* program) {
                "refuse to start without SCHED_FIFO, mlockall and a PREEMPT_RT kernel");
   app.add_option("--duration", cli.run.duration_s, "stop after this many seconds (0: run until SIGTERM)")
       ->check(CLI::Range(0.0, 1e7));
+  app.add_option("--time-scale", cli.run.time_scale,
+                 "run the firmware clock this many times slower than wall time (integer; 1 = real time). "
+                 "Hardware-in-the-loop against a simulated robot on a slow host only, never on a robot")
+      ->check(CLI::Range(1, static_cast<int>(kMaxTimeScale)));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -41,7 +46,7 @@ namespace {
 
 using Modes = PostureModes<JointPdHold>;
 using Loop = ControlLoop<Modes>;
-using FirmwareExecutive = rt::Executive<rt::MonotonicClock, Loop>;
+using FirmwareExecutive = rt::Executive<SlowedClock, Loop>;
 
 void print_histogram(const char* name, const rt::DurationHistogram& h) {
   std::printf("%s [us]: n=%llu p50=%.0f p99=%.0f p99.9=%.0f max=%.1f\n", name,
@@ -92,7 +97,7 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   const auto mailbox = std::make_unique<OperatorMailbox>();
   LoopStatus status;
   Loop loop(hardware, modes, supervisor, *mailbox, status, log_ring.get());
-  rt::MonotonicClock clock;
+  SlowedClock clock(options.time_scale);
   const auto executive =
       std::make_unique<FirmwareExecutive>(clock, loop, rt::kNsPerS / config.rate_hz, log_ring.get());
 
@@ -121,6 +126,10 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   }
   std::fprintf(stderr, "springbok: running at %d Hz on %.*s; operator socket %s\n", config.rate_hz,
                static_cast<int>(hardware.name().size()), hardware.name().data(), config.operator_socket.c_str());
+  if (clock.scale() > 1) {
+    std::fprintf(stderr, "springbok: time scale %lld: the firmware clock runs %lld times slower than wall time\n",
+                 static_cast<long long>(clock.scale()), static_cast<long long>(clock.scale()));
+  }
 
   timespec wait{};
   wait.tv_nsec = 100'000'000;

@@ -116,6 +116,20 @@ void parse_range(const YAML::Node& map, const char* key, const std::string& path
   if (!(lo < hi)) fail(p, "min must be below max");
 }
 
+// The fields given override `r`; `with_torque` false: the torque range stays per joint.
+void parse_mit_ranges(const YAML::Node& n, const std::string& path, bool with_torque, mit::Ranges& r) {
+  if (with_torque) {
+    check_keys(n, path, {"p", "v", "kp", "kd", "t"});
+  } else {
+    check_keys(n, path, {"p", "v", "kp", "kd"});
+  }
+  parse_range(n, "p", path, r.p_min_rad, r.p_max_rad);
+  parse_range(n, "v", path, r.v_min_rad_s, r.v_max_rad_s);
+  parse_range(n, "kp", path, r.kp_min, r.kp_max);
+  parse_range(n, "kd", path, r.kd_min, r.kd_max);
+  if (with_torque) parse_range(n, "t", path, r.t_min_nm, r.t_max_nm);
+}
+
 void parse_timing(const YAML::Node& n, const std::string& path, Timing& t) {
   check_keys(n, path,
              {"tick_us", "missed_replies_lost", "rx_deadline_us", "mit_presence_timeout_ms", "mit_presence_retries",
@@ -156,15 +170,7 @@ DriveConfig parse_drive(const YAML::Node& n, const std::string& path, Protocol b
   }
   read_uint(n, "reply_id", path, d.mit_reply_id, kStandardIdMask);
   if (n["vendor_reply"]) d.mit_vendor_reply = parse_bool(n["vendor_reply"], path + ".vendor_reply");
-  if (const YAML::Node r = n["mit_ranges"]) {
-    const std::string rp = path + ".mit_ranges";
-    check_keys(r, rp, {"p", "v", "kp", "kd", "t"});
-    parse_range(r, "p", rp, d.mit_ranges.p_min_rad, d.mit_ranges.p_max_rad);
-    parse_range(r, "v", rp, d.mit_ranges.v_min_rad_s, d.mit_ranges.v_max_rad_s);
-    parse_range(r, "kp", rp, d.mit_ranges.kp_min, d.mit_ranges.kp_max);
-    parse_range(r, "kd", rp, d.mit_ranges.kd_min, d.mit_ranges.kd_max);
-    parse_range(r, "t", rp, d.mit_ranges.t_min_nm, d.mit_ranges.t_max_nm);
-  }
+  if (const YAML::Node r = n["mit_ranges"]) parse_mit_ranges(r, path + ".mit_ranges", true, d.mit_ranges);
   if (const YAML::Node m = n["mapping"]) {
     const std::string s = scalar(m, path + ".mapping");
     if (s == "compact") d.mapping = cia402::Mapping::compact;
@@ -204,7 +210,7 @@ BusConfig parse_bus(const YAML::Node& n, const std::string& path) {
 CanConfig parse_can(const YAML::Node& n) {
   const std::string path = "can";
   if (!n) fail(path, "missing section");
-  check_keys(n, path, {"layout", "protocol", "interface_prefix", "max_bus_load", "timing", "buses"});
+  check_keys(n, path, {"layout", "protocol", "interface_prefix", "max_bus_load", "mit_ranges", "timing", "buses"});
   const std::string prefix = n["interface_prefix"] ? scalar(n["interface_prefix"], path + ".interface_prefix") : "can";
   const Protocol protocol = n["protocol"] ? parse_protocol(n["protocol"], path + ".protocol") : Protocol::mit;
   CanConfig c;
@@ -222,6 +228,15 @@ CanConfig parse_can(const YAML::Node& n) {
     }
   } else if (!n["layout"]) {
     fail(path, "needs `layout` or `buses`");
+  }
+  // Flash settings shared by every MIT drive (e.g. KP_MAX above the Mini Cheetah's 500 for
+  // stiff leg gains): the listed fields override those of every MIT drive, its own entry's too.
+  if (const YAML::Node r = n["mit_ranges"]) {
+    for (BusConfig& b : c.buses) {
+      for (DriveConfig& d : b.drives) {
+        if (d.protocol == Protocol::mit) parse_mit_ranges(r, path + ".mit_ranges", false, d.mit_ranges);
+      }
+    }
   }
   read_double(n, "max_bus_load", path, c.max_bus_load);
   if (const YAML::Node t = n["timing"]) parse_timing(t, path + ".timing", c.timing);

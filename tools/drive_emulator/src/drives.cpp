@@ -57,6 +57,38 @@ const char* to_string(FaultKind k) noexcept {
 Drive::Drive(const can::DriveConfig& cfg, bool fd_bus, JointModel model, std::vector<Fault> faults)
     : cfg_(cfg), fd_bus_(fd_bus), model_(model), faults_(std::move(faults)) {}
 
+void Drive::attach(Motion* motion) {
+  motion_ = motion;
+  if (motion_ != nullptr) {
+    motion_->set_enabled(cfg_.joint, enabled_);
+    sync_from_motion();
+  }
+}
+
+void Drive::set_enabled(bool enabled) {
+  enabled_ = enabled;
+  if (motion_ != nullptr) motion_->set_enabled(cfg_.joint, enabled);
+}
+
+void Drive::sync_from_motion() {
+  if (motion_ == nullptr) return;
+  const JointState s = motion_->state(cfg_.joint);
+  model_.q_rad = s.q_rad;
+  model_.qd_rad_s = s.qd_rad_s;
+  model_.tau_nm = s.tau_nm;
+}
+
+void Drive::step_joint(const DriveLaw& law, double tau_nm) {
+  if (motion_ == nullptr) {
+    model_.step(tau_nm, 1e-3);
+    return;
+  }
+  const JointState s = motion_->command(cfg_.joint, law);
+  model_.q_rad = s.q_rad;
+  model_.qd_rad_s = s.qd_rad_s;
+  model_.tau_nm = s.tau_nm;
+}
+
 bool Drive::active(const Fault& flt) const noexcept {
   if (tick_ < flt.at_tick) return false;
   return flt.kind == FaultKind::silent || tick_ < flt.at_tick + flt.count;
@@ -146,9 +178,10 @@ void MitDrive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Frame>&
   if (f.error || f.id != cfg_.drive_id || f.len != can::mit::kCommandLen) return;
   ++frames_in_;
   last_rx_ns_ = now_ns;
+  sync_from_motion();
   switch (can::mit::classify(f)) {
-    case can::mit::Special::enter_motor_mode: enabled_ = true; emit(reply(), out); return;
-    case can::mit::Special::exit_motor_mode: enabled_ = false; emit(reply(), out); return;
+    case can::mit::Special::enter_motor_mode: set_enabled(true); emit(reply(), out); return;
+    case can::mit::Special::exit_motor_mode: set_enabled(false); emit(reply(), out); return;
     case can::mit::Special::set_zero: ++zero_frames_; model_.q_rad = 0.0; emit(reply(), out); return;
     case can::mit::Special::none: break;
   }
@@ -166,8 +199,13 @@ void MitDrive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Frame>&
   begin_tick(out);
   const double tau = std::clamp(kp_ * (p_des_ - model_.q_rad) + kd_ * (v_des_ - model_.qd_rad_s) + t_ff_,
                                 cfg_.mit_ranges.t_min_nm, cfg_.mit_ranges.t_max_nm);
-  model_.step(tau, 1e-3);
+  step_joint(DriveLaw{p_des_, v_des_, kp_, kd_, t_ff_}, tau);
   emit_cyclic(reply(), out);
+}
+
+bool MitDrive::cyclic(const Frame& f) const noexcept {
+  return enabled_ && !f.error && f.id == cfg_.drive_id && f.len == can::mit::kCommandLen &&
+         can::mit::classify(f) == can::mit::Special::none;
 }
 
 void MitDrive::on_time(std::int64_t now_ns, std::vector<Frame>&) {
@@ -265,14 +303,17 @@ void Cia402Drive::on_sync(std::vector<Frame>& out) {
   } else {
     step_state_machine();
   }
-  enabled_ = state_ == St::enabled;
+  set_enabled(state_ == St::enabled);
   if (enabled_) {
     begin_tick(out);
     const std::int16_t permille = std::clamp<std::int16_t>(applied_target_torque_, static_cast<std::int16_t>(-max_torque_),
                                                            static_cast<std::int16_t>(max_torque_));
-    model_.step(c4::permille_to_torque(permille, cfg_.rated_torque_nm, cfg_.gear_ratio), 1e-3);
-  } else {
+    const double tau_nm = c4::permille_to_torque(permille, cfg_.rated_torque_nm, cfg_.gear_ratio);
+    step_joint(DriveLaw{0.0, 0.0, 0.0, 0.0, tau_nm}, tau_nm);
+  } else if (motion_ == nullptr) {
     model_.step(0.0, 1e-3);
+  } else {
+    sync_from_motion();  // a disabled drive does not step the shared world
   }
   // Synchronous TPDOs, packed from their mapping (little-endian).
   for (int k = 0; k < 4; ++k) {
@@ -499,6 +540,7 @@ void Cia402Drive::corrupt(Frame& f) const {
 
 void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Frame>& out) {
   if (f.error || nmt_ == 0x00) return;
+  sync_from_motion();
   const std::uint8_t n = cfg_.drive_id;
   if (f.id == c4::cob::nmt) {
     c4::NmtCommand cs{};
@@ -551,6 +593,10 @@ void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Fram
     }
     return;
   }
+}
+
+bool Cia402Drive::cyclic(const Frame& f) const noexcept {
+  return !f.error && f.id == c4::cob::sync && f.len == 0 && nmt_ == 0x05 && state_ == St::enabled;
 }
 
 void Cia402Drive::on_time(std::int64_t now_ns, std::vector<Frame>& out) {

@@ -15,7 +15,8 @@ namespace springbok::app {
 
 struct RunOptions {
   bool require_rt = false;   // --require-rt: refuse to start without every RT step
-  double duration_s = 0.0;   // 0: until SIGINT/SIGTERM
+  double duration_s = 0.0;   // 0: until SIGINT/SIGTERM (firmware time)
+  int time_scale = 1;        // --time-scale: firmware time runs this many times slower than wall time (HIL)
 };
 
 // The process exit code: 0 after an orderly stop, 1 on a start-up error,
@@ -23,7 +24,7 @@ struct RunOptions {
 int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOptions& options);
 
 // The command line shared by the executables: --config, --check-config,
-// --require-rt, --duration. Returns the exit code. `make_hardware(config,
+// --require-rt, --duration, --time-scale. Returns the exit code. `make_hardware(config,
 // config_path)` builds the backend without touching any device (nullptr after
 // printing the error); --check-config therefore also checks the backend's part.
 template <class MakeHardware>

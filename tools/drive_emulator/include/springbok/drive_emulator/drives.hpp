@@ -1,6 +1,7 @@
 // The drive side of both protocols (CAN.md section 5), as the emulator runs it:
-// an MIT-mode drive and a CiA 402 drive, each moving a per-joint model, each
-// with a scriptable list of injected faults. No I/O: frames in, frames out.
+// an MIT-mode drive and a CiA 402 drive, each moving a per-joint model or a
+// joint of a shared world (Motion), each with a scriptable list of injected
+// faults. No I/O: frames in, frames out.
 #pragma once
 
 #include <array>
@@ -28,6 +29,33 @@ struct JointModel {
   void step(double tau_cmd_nm, double dt_s) noexcept;
 };
 JointModel make_joint_model(int joint, double q0_rad);
+
+// The law a drive applies until its next command: tau = kp (p_des - q) + kd (v_des - qd) + t_ff.
+struct DriveLaw {
+  double p_des_rad = 0.0, v_des_rad_s = 0.0, kp = 0.0, kd = 0.0, t_ff_nm = 0.0;
+};
+struct JointState {
+  double q_rad = 0.0, qd_rad_s = 0.0, tau_nm = 0.0;
+};
+
+// Where the joints move when not each in its own JointModel: one world shared by every
+// drive (the Bullet robot, bullet_motion.hpp), stepped in lockstep with the host's ticks.
+class Motion {
+ public:
+  virtual ~Motion() = default;
+  // The cyclic command of `joint` for the next step (MIT: a command in motor mode;
+  // CiA 402: the SYNC while Operation enabled). Returns the joint's state at reception,
+  // i.e. measured before the step this command belongs to (as a real drive replies).
+  virtual JointState command(int joint, const DriveLaw& law) = 0;
+  // Only enabled drives take part in a step; a disabled one applies no torque.
+  virtual void set_enabled(int joint, bool enabled) = 0;
+  virtual JointState state(int joint) const = 0;
+  // The joint's command for the coming step already arrived: a further one must wait
+  // for the step (the emulator holds that frame back, see main.cpp).
+  virtual bool pending(int joint) const = 0;
+  // Steps now with the stored commands of the joints still missing theirs (a frame was lost).
+  virtual void force_step() = 0;
+};
 
 enum class FaultKind : std::uint8_t {
   drop,           // no reply for `count` ticks
@@ -68,6 +96,10 @@ class Drive {
   virtual void on_frame(const can::Frame& f, std::int64_t now_ns, std::vector<can::Frame>& out) = 0;
   // Time passes (heartbeats, CAN_TIMEOUT).
   virtual void on_time(std::int64_t now_ns, std::vector<can::Frame>& out) = 0;
+  // `f` would be this drive's cyclic command (one world step per host tick).
+  virtual bool cyclic(const can::Frame& f) const noexcept = 0;
+  // The drive's joint waits for the world to step before it may take another cyclic command.
+  bool waits_for_step(const can::Frame& f) const noexcept { return motion_ != nullptr && cyclic(f) && motion_->pending(cfg_.joint); }
 
   const can::DriveConfig& config() const noexcept { return cfg_; }
   const JointModel& model() const noexcept { return model_; }
@@ -75,8 +107,16 @@ class Drive {
   std::uint64_t frames_in() const noexcept { return frames_in_; }
   std::uint64_t replies_out() const noexcept { return replies_out_; }
   bool enabled() const noexcept { return enabled_; }
+  // Moves this drive's joint in `motion` instead of its own JointModel (nullptr: own model).
+  void attach(Motion* motion);
 
  protected:
+  void set_enabled(bool enabled);
+  // The joint's state from the shared world (no-op with the own JointModel).
+  void sync_from_motion();
+  // One cyclic step under `law` with the own model, or the command to the shared world.
+  void step_joint(const DriveLaw& law, double tau_nm);
+  Motion* motion_ = nullptr;
   // Starts a cyclic tick: releases delayed replies, fires one-shot events.
   void begin_tick(std::vector<can::Frame>& out);
   // Sends a cyclic reply through the active faults.
@@ -104,6 +144,7 @@ class MitDrive final : public Drive {
            std::uint32_t can_timeout_ms);
   void on_frame(const can::Frame& f, std::int64_t now_ns, std::vector<can::Frame>& out) override;
   void on_time(std::int64_t now_ns, std::vector<can::Frame>& out) override;
+  bool cyclic(const can::Frame& f) const noexcept override;
   std::uint64_t zero_frames() const noexcept { return zero_frames_; }
 
  private:
@@ -124,6 +165,7 @@ class Cia402Drive final : public Drive {
   Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns);
   void on_frame(const can::Frame& f, std::int64_t now_ns, std::vector<can::Frame>& out) override;
   void on_time(std::int64_t now_ns, std::vector<can::Frame>& out) override;
+  bool cyclic(const can::Frame& f) const noexcept override;
   // Sends the boot-up frame (power-on).
   void boot(std::int64_t now_ns, std::vector<can::Frame>& out);
   std::uint16_t status_word() const noexcept;

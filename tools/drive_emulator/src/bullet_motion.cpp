@@ -1,0 +1,112 @@
+#include "springbok/drive_emulator/bullet_motion.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "../../../firmware/app/sim/stepped_bullet_robot.hpp"
+
+namespace springbok::emu {
+
+BulletMotion::BulletMotion(std::FILE* trace, int trace_every, double settle_s)
+    : robot_(std::make_unique<app::SteppedBulletRobot>(app::crouched_sim_config(1000))),
+      trace_(nullptr),
+      trace_every_(std::max(1, trace_every)) {
+  constexpr double kDt_s = 0.001;
+  for (int j = 0; j < kNj; ++j) {
+    const auto& in = robot::kJoints[static_cast<std::size_t>(j)].inertia;
+    const double axis_inertia_kgm2 =
+        in.inertia_com_kgm2[2] + in.mass_kg * (in.com_m[0] * in.com_m[0] + in.com_m[1] * in.com_m[1]);
+    kd_cap_[static_cast<std::size_t>(j)] = axis_inertia_kgm2 / kDt_s;
+    kp_cap_[static_cast<std::size_t>(j)] = axis_inertia_kgm2 / (4.0 * kDt_s * kDt_s);
+  }
+  const hal::LifecycleResult c = robot_->configure();
+  if (!c.ok) throw std::runtime_error("bullet world: " + c.message);
+  const hal::LifecycleResult a = robot_->activate();
+  if (!a.ok) throw std::runtime_error("bullet world: " + a.message);
+  for (int k = 0; k < static_cast<int>(settle_s * 1000.0 + 0.5); ++k) step();  // every drive disabled
+  hal::Measurements m;
+  (void)robot_->read(m);
+  for (int j = 0; j < kNj; ++j) state_[static_cast<std::size_t>(j)] = JointState{m.q_rad[j], m.qd_rad_s[j], 0.0};
+  truth_ = TruthSummary{};
+  truth_.trunk_z_m = robot_->robot().ground_truth().q[2];
+  time_origin_s_ = robot_->robot().ground_truth().time_s;
+  trace_ = trace;
+}
+
+BulletMotion::~BulletMotion() = default;
+
+JointState BulletMotion::command(int joint, const DriveLaw& law) {
+  const auto j = static_cast<std::size_t>(joint);
+  if (pending_[j]) force_step();  // the caller did not hold the frame back
+  const JointState at_reception = state_[j];
+  law_[j] = law;
+  pending_[j] = true;
+  bool all = true;
+  for (std::size_t k = 0; k < pending_.size(); ++k) all = all && (pending_[k] || !enabled_[k]);
+  if (all) step();
+  return at_reception;
+}
+
+void BulletMotion::set_enabled(int joint, bool enabled) {
+  const auto j = static_cast<std::size_t>(joint);
+  enabled_[j] = enabled;
+  if (!enabled) {
+    law_[j] = DriveLaw{};
+    pending_[j] = false;
+  }
+}
+
+void BulletMotion::force_step() {
+  ++truth_.forced_steps;
+  step();
+}
+
+JointState BulletMotion::state(int joint) const { return state_[static_cast<std::size_t>(joint)]; }
+
+void BulletMotion::step() {
+  // The drive law plus the gearbox's viscous friction b (as in the per-joint JointModel):
+  // kd (v_des - qd) - b qd = (kd + b) (v' - qd) with v' = kd v_des / (kd + b). Without it an
+  // unpowered joint of small inertia spins up under the half-LSB of a "zero" MIT torque.
+  // A real drive closes this law at tens of kHz; evaluated once per 1 ms physics step it is
+  // unstable where (kd + b) dt exceeds the joint's inertia (the wrist: 2.4e-4 kg m^2). There
+  // the law settles within a tick anyway, so the gains are capped at what one step can
+  // render: kd <= I / dt, kp <= I / (4 dt^2), I = the moved body's own inertia about the axis
+  // (a lower bound of the joint's inertia: the cap only ever binds on light distal joints).
+  const double b = JointModel{}.viscous_nms_per_rad;
+  hal::JointCommands cmd;
+  cmd.mode = hal::CommandMode::enabled;
+  for (int j = 0; j < kNj; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    const double kd = enabled_[k] ? law_[k].kd : 0.0;
+    const double kd_total = std::min(kd + b, kd_cap_[k]);
+    cmd.kd_nms_per_rad[j] = kd_total;
+    if (!enabled_[k]) continue;  // power stage off: friction only
+    cmd.q_des_rad[j] = law_[k].p_des_rad;
+    cmd.qd_des_rad_s[j] = kd_total > 0.0 ? kd * law_[k].v_des_rad_s / (kd + b) : 0.0;
+    cmd.kp_nm_per_rad[j] = std::min(law_[k].kp, kp_cap_[k]);
+    cmd.tau_ff_nm[j] = law_[k].t_ff_nm;
+  }
+  (void)robot_->write(cmd);  // applies the drive law in every physics step, then steps the world
+  hal::Measurements m;
+  (void)robot_->read(m);
+  const sim::GroundTruth& gt = robot_->robot().ground_truth();
+  for (int j = 0; j < kNj; ++j) {
+    state_[static_cast<std::size_t>(j)] = JointState{m.q_rad[j], m.qd_rad_s[j], gt.tau_applied_nm[j]};
+  }
+  pending_.fill(false);
+  ++truth_.steps;
+  truth_.time_s = gt.time_s - time_origin_s_;
+  truth_.trunk_z_m = gt.q[2];
+  const Eigen::Quaterniond q_wb(gt.q[6], gt.q[3], gt.q[4], gt.q[5]);  // stored xyzw
+  const double cos_tilt = std::clamp(q_wb.normalized().toRotationMatrix()(2, 2), -1.0, 1.0);
+  truth_.trunk_tilt_rad = std::acos(cos_tilt);
+  truth_.non_foot_ground_contact = gt.non_foot_ground_contact;
+  if (trace_ != nullptr && truth_.steps % static_cast<std::uint64_t>(trace_every_) == 0) {
+    std::fprintf(trace_, "%.4f %.5f %.5f %d\n", truth_.time_s, truth_.trunk_z_m, truth_.trunk_tilt_rad,
+                 truth_.non_foot_ground_contact ? 1 : 0);
+    std::fflush(trace_);
+  }
+}
+
+}  // namespace springbok::emu
