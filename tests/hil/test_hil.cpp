@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -308,6 +309,81 @@ TEST(Hil, BusOffFaultsTheBusAndNeedsAnOperatorRecovery) {
   EXPECT_GE(ok_ticks, 45);
   EXPECT_EQ(hw.diagnostics(0).fault, BusFault::none);
   for (int j = 0; j < kNj; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
+}
+
+// A full transmit queue, made by the kernel: a pfifo qdisc of length 0 on vcan0 drops every
+// frame, and the raw socket's write() fails with ENOBUFS, as on a real controller whose queue is
+// full. One tick of it is counted (the rest of that bus's frames dropped, never retried); on
+// tx_fault_ticks ticks in a row it faults the bus.
+TEST(Hil, TransmitQueueFullIsCountedThenFaultsTheBus) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("mit_classic7.yaml");
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  ASSERT_TRUE(hw.configure().ok);
+  ASSERT_TRUE(hw.activate().ok);
+  const auto no_op = [](int, const hal::Measurements&, hal::IoStatus) {};
+  run_ticks(hw, 20, no_op);
+  EXPECT_EQ(hw.diagnostics(0).tx_dropped, 0u);
+  const auto queue = [](bool full) {
+    return std::system(full ? "tc qdisc add dev vcan0 root pfifo limit 0" : "tc qdisc del dev vcan0 root");
+  };
+  if (queue(true) != 0) GTEST_SKIP() << "needs tc and the pfifo qdisc";
+  run_ticks(hw, 1, no_op);  // one tick: 3 frames not sent
+  ASSERT_EQ(queue(false), 0);
+  hal::Measurements last;
+  run_ticks(hw, 20, [&](int, const hal::Measurements& m, hal::IoStatus) { last = m; });
+  EXPECT_EQ(hw.diagnostics(0).tx_dropped, 3u);  // the ENOBUFS frame and the rest of the tick
+  EXPECT_EQ(hw.diagnostics(0).fault, BusFault::none);
+  for (int j = 0; j < kNj; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
+  for (int b = 1; b < hw.bus_count(); ++b) EXPECT_EQ(hw.diagnostics(b).tx_dropped, 0u) << b;
+
+  ASSERT_EQ(queue(true), 0);
+  hal::IoStatus last_status{};
+  run_ticks(hw, static_cast<int>(cfg.timing.tx_fault_ticks) + 2, [&](int, const hal::Measurements& m, hal::IoStatus s) {
+    last = m;
+    last_status = s;
+  });
+  ASSERT_EQ(queue(false), 0);
+  EXPECT_EQ(hw.diagnostics(0).fault, BusFault::tx_queue_full);
+  EXPECT_GE(hw.diagnostics(0).tx_dropped, 3u + 3u * cfg.timing.tx_fault_ticks);
+  EXPECT_EQ(last_status, hal::IoStatus::error);
+  for (int j = 0; j < 3; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::lost) << j;
+  for (int j = 3; j < kNj; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
+}
+
+// CAN.md 4.1: a heartbeat missing for heartbeat_lost_periods marks the drive lost even while its
+// PDOs still flow (the supervisor then damps: tests/safety).
+TEST(Hil, Cia402HeartbeatLossMarksTheDriveLostWhilePdosFlow) {
+  REQUIRE_VCAN(7);
+  CanConfig cfg = load("cia402_classic7.yaml");
+  cfg.timing.heartbeat_lost_periods = 3;  // 300 ms at the 100 ms producer heartbeat time
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: no_heartbeat, drive: 5, at: 20}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  ASSERT_TRUE(hw.activate().ok);
+  int lost_at = -1;
+  std::uint64_t missed_when_lost = 0;
+  hal::Measurements last;
+  run_ticks(hw, 500, [&](int k, const hal::Measurements& m, hal::IoStatus) {
+    if (lost_at < 0 && m.drives[4].state == hal::DriveState::lost) {
+      lost_at = k;
+      missed_when_lost = m.drives[4].missed_total;
+    }
+    last = m;
+  });
+  // The last heartbeat came at most one period (100 ticks) before tick 20; lost 300 ticks after it.
+  EXPECT_GE(lost_at, 20 - 100 + 300);
+  EXPECT_LE(lost_at, 20 + 300 + 10);
+  EXPECT_LE(missed_when_lost, 10u) << "its TPDOs kept coming";
+  for (int j = 0; j < kNj; ++j) {
+    if (j != 4) {
+      EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
+    }
+  }
 }
 
 TEST(Hil, TransientFaultsAreCountedNotFatal) {

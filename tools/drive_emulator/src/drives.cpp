@@ -44,6 +44,7 @@ const char* to_string(FaultKind k) noexcept {
     case FaultKind::duplicate: return "duplicate";
     case FaultKind::corrupt: return "corrupt";
     case FaultKind::silent: return "silent";
+    case FaultKind::no_heartbeat: return "no_heartbeat";
     case FaultKind::emcy: return "emcy";
     case FaultKind::bus_off: return "bus_off";
     case FaultKind::error_passive: return "error_passive";
@@ -91,7 +92,7 @@ void Drive::step_joint(const DriveLaw& law, double tau_nm) {
 
 bool Drive::active(const Fault& flt) const noexcept {
   if (tick_ < flt.at_tick) return false;
-  return flt.kind == FaultKind::silent || tick_ < flt.at_tick + flt.count;
+  return flt.kind == FaultKind::silent || flt.kind == FaultKind::no_heartbeat || tick_ < flt.at_tick + flt.count;
 }
 
 void Drive::emit(const Frame& f, std::vector<Frame>& out) {
@@ -602,7 +603,7 @@ bool Cia402Drive::cyclic(const Frame& f) const noexcept {
 void Cia402Drive::on_time(std::int64_t now_ns, std::vector<Frame>& out) {
   if (nmt_ == 0x00 || heartbeat_ms_ == 0 || now_ns < next_heartbeat_ns_) return;
   for (const Fault& flt : faults_) {
-    if (flt.kind == FaultKind::silent && active(flt)) return;
+    if ((flt.kind == FaultKind::silent || flt.kind == FaultKind::no_heartbeat) && active(flt)) return;
   }
   Frame f;
   c4::encode_heartbeat(cfg_.drive_id, static_cast<c4::NmtState>(nmt_), f);

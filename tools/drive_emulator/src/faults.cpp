@@ -55,7 +55,7 @@ FaultResult load_faults_text(const std::string& text) {
     Fault f;
     const std::string kind = n["kind"] && n["kind"].IsScalar() ? n["kind"].Scalar() : "";
     bool known = false;
-    for (int k = 0; k <= static_cast<int>(FaultKind::unexpected_id); ++k) {
+    for (int k = 0; k <= static_cast<int>(FaultKind::no_heartbeat); ++k) {
       if (kind == to_string(static_cast<FaultKind>(k))) {
         f.kind = static_cast<FaultKind>(k);
         known = true;

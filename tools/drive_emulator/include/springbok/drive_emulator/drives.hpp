@@ -68,6 +68,7 @@ enum class FaultKind : std::uint8_t {
   error_passive,  // an error frame CAN_ERR_CRTL / TX passive on the drive's bus
   wrong_dlc,      // the reply one byte short, for `count` ticks
   unexpected_id,  // MIT: byte 0 = `param`; CiA 402: TPDO1 with node id `param`; for `count` ticks
+  no_heartbeat,   // CiA 402: heartbeats stop for good (the PDOs still flow)
 };
 const char* to_string(FaultKind k) noexcept;
 
