@@ -1,6 +1,8 @@
 // The Bullet backend as a HAL: lifecycle, allocation-free read/write, a
-// broken command is refused, IMU readings (at rest: gravity; seeded noise).
+// broken command is refused, IMU readings (at rest: gravity; seeded noise),
+// the ground contact report of a link other than a foot.
 #include <cmath>
+#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -136,6 +138,40 @@ TEST(SimHal, ImuNoiseIsSeededWithTheConfiguredSpread) {
   for (double v : a) var += (v - mean) * (v - mean) / (a.size() - 1);
   EXPECT_NEAR(std::sqrt(var), 0.01, 0.001);  // white noise spread
   EXPECT_GT(std::abs(mean), 1e-3);           // a constant bias drawn once (std 0.1)
+}
+
+// The trunk lying on its right side (base rolled +90 deg about x: trunk +y is
+// world +z), welded in place with its right face (trunk y = -half width)
+// `gap_m` above the ground.
+sim::SimConfig trunk_on_its_side(double gap_m) {
+  sim::SimConfig c;
+  c.fixed_base = true;
+  const auto& trunk_box = robot::kCollisions[0];  // the trunk box, centred on the trunk frame
+  c.initial_q[2] = 0.5 * trunk_box.size_m[1] + gap_m;
+  c.initial_q.segment<4>(3) << std::sin(std::numbers::pi / 4.0), 0.0, 0.0,
+      std::cos(std::numbers::pi / 4.0);  // x y z w
+  return c;
+}
+
+TEST(SimHal, ATrunkOnTheGroundIsANonFootContactCarryingForce) {
+  sim::BulletRobot robot(trunk_on_its_side(-1.0e-3));
+  ASSERT_TRUE(robot.configure().ok);
+  robot.step();
+  const sim::GroundTruth& truth = robot.ground_truth();
+  EXPECT_TRUE(truth.non_foot_ground_contact);
+  EXPECT_GT(truth.ground_force_n.z(), 0.0);  // the ground pushes the sunk trunk up
+  EXPECT_FALSE(truth.foot_contact[0]);       // the left feet point sideways, 0.4 m up
+  EXPECT_FALSE(truth.foot_contact[2]);
+}
+
+TEST(SimHal, ATrunkAboveTheGroundTouchesNothing) {
+  sim::BulletRobot robot(trunk_on_its_side(0.1));
+  ASSERT_TRUE(robot.configure().ok);
+  robot.step();
+  const sim::GroundTruth& truth = robot.ground_truth();
+  EXPECT_FALSE(truth.non_foot_ground_contact);
+  EXPECT_EQ(truth.ground_force_n.z(), 0.0);
+  for (int f = 0; f < kFeet; ++f) EXPECT_FALSE(truth.foot_contact[f]) << f;
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -87,18 +88,37 @@ std::string csv_header() {
   return h;
 }
 
-// One number into the row: 9 significant digits (std::to_chars: fast, locale-free, exact).
-void put(std::string& out, double value) {
+// A number with 6 decimals (resolution 1 um, 1 urad, 1 uN m): integer
+// formatting, several times cheaper per tick than a floating-point conversion.
+// Not finite or beyond 9e9: std::to_chars' shortest form.
+void append_fixed6(std::string& out, double value) {
   char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, value, std::chars_format::general, 9);
+  char* end = buf;
+  const double micro = std::nearbyint(value * 1e6);
+  if (std::abs(micro) < 9.0e15) {
+    auto units = static_cast<std::int64_t>(micro);
+    if (units < 0) {
+      *end++ = '-';
+      units = -units;
+    }
+    end = std::to_chars(end, buf + sizeof buf, units / 1000000).ptr;
+    *end++ = '.';
+    std::int64_t fraction = units % 1000000;
+    for (int digit = 5; digit >= 0; --digit, fraction /= 10) end[digit] = static_cast<char>('0' + fraction % 10);
+    end += 6;
+  } else {
+    end = std::to_chars(buf, buf + sizeof buf, value).ptr;
+  }
+  out.append(buf, end);
+}
+
+void put(std::string& out, double value) {
   out.push_back(',');
-  out.append(buf, r.ptr);
+  append_fixed6(out, value);
 }
 
 void append_row(std::string& out, const sim::GroundTruth& t) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, t.time_s, std::chars_format::fixed, 6);
-  out.append(buf, r.ptr);
+  append_fixed6(out, t.time_s);
   for (int i = 0; i < 7; ++i) put(out, t.q[i]);
   for (const auto& f : t.foot_force_n) put(out, f.z());
   for (bool c : t.foot_contact) out.append(c ? ",1" : ",0");
