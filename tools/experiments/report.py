@@ -268,12 +268,10 @@ def main():
         lines.append("- The same base step (M_b 92) on the *estimated* base state (IMU + leg kinematics, "
                      "`base_step_mb92_estimated`): NRMSE base x " + pct(est["nrmse"]["base_x"]) + ", EE x "
                      + pct(est["nrmse"]["ee_x"]) + "; steady state base x " + pct(est["steady_state_error"]["base_x"])
-                     + "; estimator against the ground truth: velocity " + f"{1000 * e['velocity_rms_error_m_s']:.1f} "
-                     "mm/s rms, position up to " + f"{1000 * e['position_max_error_m']:.1f} mm"
+                     + "; estimator against the ground truth: velocity " + f"{1000 * e['velocity_rms_error_m_s']:.2f} "
+                     "mm/s rms, position up to " + f"{1000 * e['position_max_error_m']:.2f} mm"
                      + ("" if e["all_ok"] else ", NOT every update ok")
-                     + ". Bullet's feet creep (~5 mm/s) under the push's tangential load, which leg odometry cannot "
-                     "see: the estimated base is measured from feet that have moved, so this run's scores are "
-                     "against the truth the controller did not have.")
+                     + ".")
     lines += ["- Differences from the paper's setup: simulation (Bullet), not the hardware; the base pose and twist "
               "are the simulator's ground truth except in the run above; the sphere feet are modelled at their contact point "
               "(`contact.foot_radius`), without which the base settled 4 % (M_b 92) to 8 % (M_b 184) past F/K_b "
