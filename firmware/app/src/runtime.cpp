@@ -11,6 +11,7 @@
 
 #include "springbok/app/control_loop.hpp"
 #include "springbok/app/operator_server.hpp"
+#include "springbok/app/control_mode.hpp"
 #include "springbok/app/posture_control.hpp"
 #include "springbok/app/slowed_clock.hpp"
 #include "springbok/rt/clock.hpp"
@@ -44,7 +45,7 @@ CommandLine parse_command_line(int argc, char** argv, const char* program) {
 
 namespace {
 
-using Modes = PostureModes<JointPdHold>;
+using Modes = PostureModes<ControlMode>;
 using Loop = ControlLoop<Modes>;
 using FirmwareExecutive = rt::Executive<SlowedClock, Loop>;
 
@@ -92,8 +93,8 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   }
 
   safety::Supervisor supervisor(config.safety);
-  JointPdHold control(config);
-  Modes modes(config, control);
+  const auto control = std::make_unique<ControlMode>(config);
+  Modes modes(config, *control);
   const auto mailbox = std::make_unique<OperatorMailbox>();
   LoopStatus status;
   Loop loop(hardware, modes, supervisor, *mailbox, status, log_ring.get());
@@ -124,6 +125,9 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
     hardware.deactivate();
     return report.refusal.empty() ? 1 : 2;
   }
+  std::fprintf(stderr, "springbok: control mode runs %s\n",
+               config.control_mode == ControlModeKind::wbc ? "the whole-body controller (IMU + leg-kinematics estimate)"
+                                                           : "the joint PD hold of gains.control");
   std::fprintf(stderr, "springbok: running at %d Hz on %.*s; operator socket %s\n", config.rate_hz,
                static_cast<int>(hardware.name().size()), hardware.name().data(), config.operator_socket.c_str());
   if (clock.scale() > 1) {
