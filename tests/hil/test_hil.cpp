@@ -534,7 +534,7 @@ double standing_height_m(const VecNj& q_joints) {
 TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
   REQUIRE_VCAN(7);
   const char* scale_env = std::getenv("SPRINGBOK_HIL_TIME_SCALE");
-  const int time_scale = scale_env != nullptr ? std::atoi(scale_env) : 30;
+  const int time_scale = scale_env != nullptr ? std::atoi(scale_env) : 50;
   ASSERT_GE(time_scale, 1);
   const std::string config = kConfigDir + "stand_mit7.yaml";
   const std::string socket_path = "/tmp/springbok_hil_stand.sock";  // operator.socket of the config
@@ -574,7 +574,7 @@ TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
   // The emulator's ground truth over the 5 s of standing.
   const std::vector<TruthSample> samples = read_truth(truth);
   ::unlink(truth.c_str());
-  double z_min = 1e9, z_max = -1e9, tilt_max = 0.0;
+  double z_min = 1e9, z_max = -1e9, tilt_max = 0.0, z_min_late = 1e9, z_max_late = -1e9;
   int n = 0, non_foot = 0;
   for (const TruthSample& t : samples) {
     if (t.t_s < t_stand_s || t.t_s > t_stand_s + 5.0) continue;
@@ -583,20 +583,24 @@ TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
     z_max = std::max(z_max, t.trunk_z_m);
     tilt_max = std::max(tilt_max, t.tilt_rad);
     non_foot += t.non_foot_contact;
+    if (t.t_s >= t_stand_s + 2.0) {  // stand is entered within stand_tolerance_rad, still settling
+      z_min_late = std::min(z_min_late, t.trunk_z_m);
+      z_max_late = std::max(z_max_late, t.trunk_z_m);
+    }
   }
   // The oracle: the trunk height at which the stand posture puts the feet on the ground.
   VecNj stand = VecNj::Zero();
   for (int j = 0; j < 12; ++j) stand[j] = stance(j);
   const double z_stand_m = standing_height_m(stand);
-  std::printf("standing %.2f .. %.2f s: trunk z %.4f .. %.4f m (stand posture on flat ground: %.4f m; crouched at "
-              "start-up %.4f m), max tilt %.4f rad\n",
-              t_stand_s, t_stand_s + 5.0, z_min, z_max, z_stand_m, crouch_z_m, tilt_max);
+  std::printf("standing %.2f .. %.2f s: trunk z %.4f .. %.4f m (last 3 s %.4f .. %.4f; stand posture on flat ground: "
+              "%.4f m; crouched at start-up %.4f m), max tilt %.4f rad\n",
+              t_stand_s, t_stand_s + 5.0, z_min, z_max, z_min_late, z_max_late, z_stand_m, crouch_z_m, tilt_max);
   EXPECT_GE(n, 400) << "trace samples in the 5 s";
   EXPECT_LT(crouch_z_m, z_stand_m - 0.1) << "it stood up from a crouch";
   // The joint PD without gravity compensation sags a little (stand_tolerance_rad 0.15).
   EXPECT_NEAR(z_min, z_stand_m, 0.06);
   EXPECT_NEAR(z_max, z_stand_m, 0.06);
-  EXPECT_LT(z_max - z_min, 0.01) << "it holds still";
+  EXPECT_LT(z_max_late - z_min_late, 0.005) << "it holds still (last 3 s)";
   EXPECT_LT(tilt_max, 0.05);
   EXPECT_EQ(non_foot, 0) << "only the feet touch the ground";
   // Lockstep held: every step had the commands of all 19 drives.
