@@ -75,6 +75,12 @@ TEST(AppConfig, ControlSectionErrorsNameTheField) {
   const ConfigResult pd = load_config_text(without_wbc);
   ASSERT_TRUE(pd.ok) << pd.errors.front();
   EXPECT_EQ(pd.config.control_mode, ControlModeKind::joint_pd);
+  // control.estimator is optional: without it every estimator default holds.
+  const auto est_at = text.find("  estimator:");
+  const std::string without_estimator = text.substr(0, est_at) + text.substr(text.find('\n', est_at) + 1);
+  const ConfigResult defaults = load_config_text(without_estimator);
+  ASSERT_TRUE(defaults.ok) << defaults.errors.front();
+  EXPECT_EQ(defaults.config.estimator.velocity_gain_per_s, est::EstimatorParams{}.velocity_gain_per_s);
 }
 
 TEST(AppConfig, UnknownKeyIsNamed) {

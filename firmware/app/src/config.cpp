@@ -261,8 +261,10 @@ void read_config(const YAML::Node& root, Reader& r, AppConfig& c) {
     } catch (const config::ConfigError& e) {
       r.fail(e.what());
     }
-    try {
-      c.estimator = est::read_estimator_params(config::Fields(n["estimator"], "control.estimator"));
+    try {  // optional: a missing map keeps every default (a const lookup of a missing key is not a node)
+      if (n["estimator"].IsDefined()) {
+        c.estimator = est::read_estimator_params(config::Fields(n["estimator"], "control.estimator"));
+      }
     } catch (const config::ConfigError& e) {
       r.fail(e.what());
     }
