@@ -30,7 +30,7 @@ class StandAdapter final : public Controller {
  public:
   explicit StandAdapter(const simtool::Fields& p) : stand_(gains(p), posture(p)) {}
   void tick(const hal::Measurements&, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept override {
-    stand_.tick(truth.q, out);  // base pose: ground truth until the estimator exists
+    stand_.tick(truth.q, out);  // base orientation: ground truth (the estimator is a wbc option)
   }
 
  private:

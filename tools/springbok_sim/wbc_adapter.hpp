@@ -4,8 +4,11 @@
 // posture while the robot settles on its feet; then the WBC takes over, holds
 // the pose of that instant as its reference (set_reference) and the template's
 // reference response starts. The WBC reads the base pose and twist from the
-// simulator's ground truth (no estimator yet), the measured joint states and
-// the wrist F/T sensor; all four feet are in stance.
+// simulator's ground truth, or with `controller.params.estimator` from
+// springbok::est::BaseEstimator (IMU + leg kinematics, as on hardware), the
+// measured joint states and the wrist F/T sensor. All four feet are in stance,
+// or with `controller.params.gait` springbok::gait::TrotGait decides which
+// feet are in stance and where the swing feet go (from the WBC's start).
 //
 // After each physics step it logs the measured base and EE displacements from
 // the reference pose (world), the template driven by the measured wrist force,
