@@ -44,6 +44,69 @@ inline bool all_finite(const double* v, int count) noexcept {
   return bad == 0;
 }
 
+// For a column-major n x n matrix with leading dimension ld, four columns per pass
+// (as add_row_squares): sq[i] += sum_j a_ij^2 (finite sums prove the row finite) and
+// bits[i] |= the OR over j != i of the magnitude bits of a_ij, so bits[i] == 0 exactly
+// when row i has no non-zero entry off the diagonal (a zero of either sign is zero).
+inline void add_row_squares_and_offdiagonal_bits(const double* a, int ld, int n, double* __restrict sq,
+                                                 std::uint64_t* __restrict bits) noexcept {
+  auto magnitude = [](double v) noexcept {
+    std::uint64_t b;
+    std::memcpy(&b, &v, sizeof b);
+    return b << 1;  // drop the sign
+  };
+  int j = 0;
+  for (; j + 4 <= n; j += 4) {
+    const double* __restrict a0 = a + static_cast<std::ptrdiff_t>(j) * ld;
+    const double* __restrict a1 = a0 + ld;
+    const double* __restrict a2 = a1 + ld;
+    const double* __restrict a3 = a2 + ld;
+    auto row = [&](int i) noexcept {
+      sq[i] += (a0[i] * a0[i] + a1[i] * a1[i]) + (a2[i] * a2[i] + a3[i] * a3[i]);
+      bits[i] |= (magnitude(a0[i]) | magnitude(a1[i])) | (magnitude(a2[i]) | magnitude(a3[i]));
+    };
+    for (int i = 0; i < j; ++i) row(i);
+    for (int i = j + 4; i < n; ++i) row(i);
+    for (int i = j; i < j + 4; ++i) {  // the diagonal block: skip a_ii in the bits
+      sq[i] += (a0[i] * a0[i] + a1[i] * a1[i]) + (a2[i] * a2[i] + a3[i] * a3[i]);
+      bits[i] |= (i != j ? magnitude(a0[i]) : 0u) | (i != j + 1 ? magnitude(a1[i]) : 0u) |
+                 (i != j + 2 ? magnitude(a2[i]) : 0u) | (i != j + 3 ? magnitude(a3[i]) : 0u);
+    }
+  }
+  for (; j < n; ++j) {
+    const double* __restrict aj = a + static_cast<std::ptrdiff_t>(j) * ld;
+    for (int i = 0; i < n; ++i) {
+      sq[i] += aj[i] * aj[i];
+      if (i != j) bits[i] |= magnitude(aj[i]);
+    }
+  }
+}
+
+// all_finite over the lower triangle (diagonal included) of a column-major n x n
+// matrix with leading dimension ld; coupled[j] = 1 when column j has a non-zero
+// entry below the diagonal or row j one left of it.
+inline bool scan_lower_triangle(const double* a, int ld, int n, std::uint64_t* __restrict row_bits,
+                                std::uint8_t* __restrict coupled) noexcept {
+  std::uint64_t bad = 0;
+  for (int i = 0; i < n; ++i) row_bits[i] = 0;
+  for (int j = 0; j < n; ++j) {
+    const double* __restrict col = a + static_cast<std::ptrdiff_t>(j) * ld;
+    std::uint64_t bits;
+    std::memcpy(&bits, col + j, sizeof bits);
+    bad |= (((bits >> 52) & 0x7ffu) + 1u) >> 11;
+    std::uint64_t col_bits = 0;
+    for (int i = j + 1; i < n; ++i) {
+      std::memcpy(&bits, col + i, sizeof bits);
+      bad |= (((bits >> 52) & 0x7ffu) + 1u) >> 11;
+      const std::uint64_t magnitude = bits << 1;
+      row_bits[i] |= magnitude;
+      col_bits |= magnitude;
+    }
+    coupled[j] = (row_bits[j] | col_bits) != 0 ? 1 : 0;
+  }
+  return bad == 0;
+}
+
 // y += alpha x
 inline void axpy(double alpha, const double* __restrict x, double* __restrict y, int n) noexcept {
   for (int i = 0; i < n; ++i) y[i] += alpha * x[i];
@@ -214,12 +277,50 @@ inline double tail_squared_norm(const double* c, int from, int np) noexcept {
   return aligned < np ? head + squared_norm(c + aligned, np - aligned) : head;
 }
 
+// Whole chunks of four as one value (GCC/Clang vector extension: AVX2 on x86-64,
+// two NEON registers on aarch64), moved by memcpy so no alignment is assumed. Chunks
+// never cross a function boundary (that would depend on the ABI's vector support).
+using Chunk = double __attribute__((vector_size(32)));
+
+// a . b over n entries, n a multiple of four (padded vectors from a chunk start).
+inline double dot_chunks(const double* a, const double* b, int n) noexcept {
+  Chunk s0 = {0.0, 0.0, 0.0, 0.0}, s1 = s0, x, y, u, v;
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    std::memcpy(&x, a + i, sizeof x);
+    std::memcpy(&y, b + i, sizeof y);
+    std::memcpy(&u, a + i + 4, sizeof u);
+    std::memcpy(&v, b + i + 4, sizeof v);
+    s0 += x * y;
+    s1 += u * v;
+  }
+  if (i < n) {
+    std::memcpy(&x, a + i, sizeof x);
+    std::memcpy(&y, b + i, sizeof y);
+    s0 += x * y;
+  }
+  s0 += s1;
+  return (s0[0] + s0[1]) + (s0[2] + s0[3]);
+}
+
+// y += alpha x over n entries, n a multiple of four.
+inline void axpy_chunks(double alpha, const double* x, double* y, int n) noexcept {
+  const Chunk a = {alpha, alpha, alpha, alpha};
+  Chunk xc, yc;
+  for (int i = 0; i < n; i += 4) {
+    std::memcpy(&xc, x + i, sizeof xc);
+    std::memcpy(&yc, y + i, sizeof yc);
+    yc += a * xc;
+    std::memcpy(y + i, &yc, sizeof yc);
+  }
+}
+
 // y <- (I - tau v v') y for a full padded reflector v (zero above row k, 1 at k).
 inline void apply_reflector(const double* v, double tau, int k, int np, double* y) noexcept {
   if (tau == 0.0) return;
   const int start = chunk_start(k);
-  const double w = tau * dot(v + start, y + start, np - start);
-  axpy(-w, v + start, y + start, np - start);
+  const double w = tau * dot_chunks(v + start, y + start, np - start);
+  axpy_chunks(-w, v + start, y + start, np - start);
 }
 
 // Householder reflector P = I - tau v v' with v = [1; tail] so that P x = [beta; 0].
