@@ -315,6 +315,61 @@ inline void axpy_chunks(double alpha, const double* x, double* y, int n) noexcep
   }
 }
 
+// out[j] = a_j . x for the first ncols columns a_j of a column-major matrix (leading
+// dimension ld), over n entries (a multiple of four): four columns per pass, so each
+// chunk of x is loaded once per four columns.
+inline void gemv_t_chunks(const double* a, int ld, int n, int ncols, const double* x, double* out) noexcept {
+  int j = 0;
+  for (; j + 4 <= ncols; j += 4) {
+    const double* a0 = a + static_cast<std::ptrdiff_t>(j) * ld;
+    const double* a1 = a0 + ld;
+    const double* a2 = a1 + ld;
+    const double* a3 = a2 + ld;
+    Chunk s0 = {0.0, 0.0, 0.0, 0.0}, s1 = s0, s2 = s0, s3 = s0, xc, c;
+    for (int i = 0; i < n; i += 4) {
+      std::memcpy(&xc, x + i, sizeof xc);
+      std::memcpy(&c, a0 + i, sizeof c);
+      s0 += c * xc;
+      std::memcpy(&c, a1 + i, sizeof c);
+      s1 += c * xc;
+      std::memcpy(&c, a2 + i, sizeof c);
+      s2 += c * xc;
+      std::memcpy(&c, a3 + i, sizeof c);
+      s3 += c * xc;
+    }
+    out[j] = (s0[0] + s0[1]) + (s0[2] + s0[3]);
+    out[j + 1] = (s1[0] + s1[1]) + (s1[2] + s1[3]);
+    out[j + 2] = (s2[0] + s2[1]) + (s2[2] + s2[3]);
+    out[j + 3] = (s3[0] + s3[1]) + (s3[2] + s3[3]);
+  }
+  for (; j < ncols; ++j) out[j] = dot_chunks(a + static_cast<std::ptrdiff_t>(j) * ld, x, n);
+}
+
+// y -= sum_j e[j] a_j over the first ncols columns (as gemv_t_chunks), n a multiple
+// of four: four columns per pass, so each chunk of y is loaded and stored once per four.
+inline void gemv_sub_chunks(const double* a, int ld, int n, int ncols, const double* e, double* y) noexcept {
+  int j = 0;
+  for (; j + 4 <= ncols; j += 4) {
+    const double* a0 = a + static_cast<std::ptrdiff_t>(j) * ld;
+    const double* a1 = a0 + ld;
+    const double* a2 = a1 + ld;
+    const double* a3 = a2 + ld;
+    const Chunk e0 = {e[j], e[j], e[j], e[j]}, e1 = {e[j + 1], e[j + 1], e[j + 1], e[j + 1]},
+                e2 = {e[j + 2], e[j + 2], e[j + 2], e[j + 2]}, e3 = {e[j + 3], e[j + 3], e[j + 3], e[j + 3]};
+    Chunk yc, c0, c1, c2, c3;
+    for (int i = 0; i < n; i += 4) {
+      std::memcpy(&yc, y + i, sizeof yc);
+      std::memcpy(&c0, a0 + i, sizeof c0);
+      std::memcpy(&c1, a1 + i, sizeof c1);
+      std::memcpy(&c2, a2 + i, sizeof c2);
+      std::memcpy(&c3, a3 + i, sizeof c3);
+      yc -= (c0 * e0 + c1 * e1) + (c2 * e2 + c3 * e3);
+      std::memcpy(y + i, &yc, sizeof yc);
+    }
+  }
+  for (; j < ncols; ++j) axpy_chunks(-e[j], a + static_cast<std::ptrdiff_t>(j) * ld, y, n);
+}
+
 // y <- (I - tau v v') y for a full padded reflector v (zero above row k, 1 at k).
 inline void apply_reflector(const double* v, double tau, int k, int np, double* y) noexcept {
   if (tau == 0.0) return;

@@ -321,6 +321,7 @@ class Solver {
       ++rank_;
     }
     m_ = n_ - rank_;
+    mp_ = dense::padded(m_);
     // v1 = Re^-T e (forward substitution with the transpose of the upper Re).
     for (int k = 0; k < rank_; ++k) {
       const double* ck = bcol(k);
@@ -380,26 +381,25 @@ class Solver {
     const double* at = t + rank_;
     const double s = static_cast<double>(sigma);
     for (int i = 0; i < m_; ++i) np_vec_[i] = s * at[i];
+    for (int i = m_; i < mp_; ++i) np_vec_[i] = 0.0;
     return sigma > 0 ? p_->lower[row] - h : h - p_->upper[row];
   }
 
-  // z = np - Q1 Q1'np (twice), d = Q1'np.
+  // z = np - Q1 Q1'np (classical Gram-Schmidt, twice), d = Q1'np. Reduced vectors
+  // and the columns of Q1 are zero-padded to mp_, so whole chunks are used.
   void project() noexcept {
-    std::copy_n(np_vec_.data(), m_, z_.data());
-    for (int pass = 0; pass < 2; ++pass) {
-      for (int j = 0; j < q_; ++j) {
-        const double coef = dense::dot(q1col(j), z_.data(), m_);
-        e_[j] = coef;
-        d_[j] = pass == 0 ? coef : d_[j] + coef;
-      }
-      for (int j = 0; j < q_; ++j) dense::axpy(-e_[j], q1col(j), z_.data(), m_);
-    }
+    std::copy_n(np_vec_.data(), mp_, z_.data());
+    dense::gemv_t_chunks(q1_.data(), kLd, mp_, q_, z_.data(), d_.data());
+    dense::gemv_sub_chunks(q1_.data(), kLd, mp_, q_, d_.data(), z_.data());
+    dense::gemv_t_chunks(q1_.data(), kLd, mp_, q_, z_.data(), e_.data());
+    dense::gemv_sub_chunks(q1_.data(), kLd, mp_, q_, e_.data(), z_.data());
+    for (int j = 0; j < q_; ++j) d_[j] += e_[j];
   }
 
   void append(int row, int sigma, double rhs, double np_norm, double z_norm, double multiplier) noexcept {
     double* qc = q1col(q_);
     const double inv = 1.0 / z_norm;
-    for (int i = 0; i < m_; ++i) qc[i] = z_[i] * inv;
+    for (int i = 0; i < mp_; ++i) qc[i] = z_[i] * inv;  // padding stays zero
     double* rc = rcol(q_);
     std::copy_n(d_.data(), q_, rc);
     rc[q_] = z_norm;
@@ -448,12 +448,14 @@ class Solver {
     --q_;
   }
 
-  // r = R^-1 d (back substitution).
+  // r = R^-1 d (back substitution by columns: R is stored by columns).
   void solve_r(const double* d, double* out) noexcept {
+    std::copy_n(d, q_, out);
     for (int j = q_ - 1; j >= 0; --j) {
-      double v = d[j];
-      for (int l = j + 1; l < q_; ++l) v -= rcol(l)[j] * out[l];
-      out[j] = v / rcol(j)[j];
+      const double* rj = rcol(j);
+      const double v = out[j] / rj[j];
+      out[j] = v;
+      dense::axpy(-v, rj, out, j);
     }
   }
 
@@ -584,6 +586,7 @@ class Solver {
     q_ = 0;
     epoch_ = 0;
     for (int i = 0; i < m_; ++i) w_[i] = -c_[rank_ + i];
+    for (int i = m_; i < mp_; ++i) w_[i] = 0.0;
     for (int i = 0; i < mi_; ++i) {
       active_side_[i] = 0;
       skipped_epoch_[i] = -1;
@@ -605,7 +608,7 @@ class Solver {
       for (;;) {
         if (!count_iteration()) return Status::maxiter;
         project();
-        const double zz = dense::squared_norm(z_.data(), m_);
+        const double zz = dense::dot_chunks(z_.data(), z_.data(), mp_);
         const double z_norm = std::sqrt(zz);
         solve_r(d_.data(), rdir_.data());
         // Partial (dual) step: the first active multiplier to reach zero.
@@ -637,7 +640,7 @@ class Solver {
         for (int j = 0; j < q_; ++j) u_[j] = std::max(0.0, u_[j] - t * rdir_[j]);
         u_plus += t;
         if (!dependent) {
-          dense::axpy(t, z_.data(), w_.data(), m_);
+          dense::axpy_chunks(t, z_.data(), w_.data(), mp_);
           slack += t * zz;
         }
         if (!dependent && t2 <= t1) {
@@ -745,7 +748,7 @@ class Solver {
   Options options_;
   const ProblemType* p_ = nullptr;
   int n_ = 0, np_ = 0, meq_ = 0, mi_ = 0;  // np_: n padded to whole chunks of four
-  int me_ = 0, rank_ = 0, m_ = 0, q_ = 0;
+  int me_ = 0, rank_ = 0, m_ = 0, mp_ = 0, q_ = 0;  // mp_: m_ padded to whole chunks
   int iterations_ = 0, max_iterations_ = 0, epoch_ = 0;
   double x_norm_ = 0.0, full_norm_ = 0.0, c_norm_ = 0.0;
   bool x_current_ = false;
