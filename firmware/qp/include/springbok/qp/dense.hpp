@@ -370,6 +370,39 @@ inline void gemv_sub_chunks(const double* a, int ld, int n, int ncols, const dou
   for (; j < ncols; ++j) axpy_chunks(-e[j], a + static_cast<std::ptrdiff_t>(j) * ld, y, n);
 }
 
+// a_j -= coef[j] v for the first ncols columns a_j of a column-major matrix (leading
+// dimension ld), over n entries (a multiple of four): a rank-1 update, four columns
+// per pass sharing each chunk of v.
+inline void sub_outer_chunks(const double* v, int n, int ncols, const double* coef, double* a, int ld) noexcept {
+  int j = 0;
+  for (; j + 4 <= ncols; j += 4) {
+    double* a0 = a + static_cast<std::ptrdiff_t>(j) * ld;
+    double* a1 = a0 + ld;
+    double* a2 = a1 + ld;
+    double* a3 = a2 + ld;
+    const Chunk e0 = {coef[j], coef[j], coef[j], coef[j]}, e1 = {coef[j + 1], coef[j + 1], coef[j + 1], coef[j + 1]},
+                e2 = {coef[j + 2], coef[j + 2], coef[j + 2], coef[j + 2]},
+                e3 = {coef[j + 3], coef[j + 3], coef[j + 3], coef[j + 3]};
+    Chunk vc, c;
+    for (int i = 0; i < n; i += 4) {
+      std::memcpy(&vc, v + i, sizeof vc);
+      std::memcpy(&c, a0 + i, sizeof c);
+      c -= e0 * vc;
+      std::memcpy(a0 + i, &c, sizeof c);
+      std::memcpy(&c, a1 + i, sizeof c);
+      c -= e1 * vc;
+      std::memcpy(a1 + i, &c, sizeof c);
+      std::memcpy(&c, a2 + i, sizeof c);
+      c -= e2 * vc;
+      std::memcpy(a2 + i, &c, sizeof c);
+      std::memcpy(&c, a3 + i, sizeof c);
+      c -= e3 * vc;
+      std::memcpy(a3 + i, &c, sizeof c);
+    }
+  }
+  for (; j < ncols; ++j) axpy_chunks(-coef[j], v, a + static_cast<std::ptrdiff_t>(j) * ld, n);
+}
+
 // y <- (I - tau v v') y for a full padded reflector v (zero above row k, 1 at k).
 inline void apply_reflector(const double* v, double tau, int k, int np, double* y) noexcept {
   if (tau == 0.0) return;

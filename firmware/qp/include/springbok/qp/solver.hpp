@@ -309,15 +309,19 @@ class Solver {
       std::fill(vk, vk + np_, 0.0);
       vk[k] = 1.0;
       std::copy(bk + k + 1, bk + n_, vk + k + 1);
+      if (tau_[k] != 0.0) {  // the reflector on columns k+1 .. me_ (g last) at once
+        const int start = dense::chunk_start(k), len = np_ - start, cols = me_ - k;
+        dense::gemv_t_chunks(bcol(k + 1) + start, kLd, len, cols, vk + start, eq_w_.data());
+        for (int j = 0; j < cols; ++j) eq_w_[j] *= tau_[k];
+        dense::sub_outer_chunks(vk + start, len, cols, eq_w_.data(), bcol(k + 1) + start, kLd);
+      }
       for (int j = k + 1; j < me_; ++j) {
-        double* cj = bcol(j);
-        dense::apply_reflector(vk, tau_[k], k, np_, cj);
+        const double* cj = bcol(j);
         // |c_j[k+1:]|^2 = |c_j[k:]|^2 - c_j[k]^2 (LAPACK-style downdate), recomputed
         // once cancellation has eaten more than three digits of it.
         const double left2 = eq_left2_[j] - cj[k] * cj[k];
         eq_left2_[j] = left2 > 1e-3 * eq_norm2_[j] ? left2 : dense::tail_squared_norm(cj, k + 1, np_);
       }
-      dense::apply_reflector(vk, tau_[k], k, np_, gcol);
       ++rank_;
     }
     m_ = n_ - rank_;
@@ -770,6 +774,7 @@ class Solver {
   alignas(64) Buf<double, kLd * N> v_{};  // Householder vectors, full and padded
   Buf<double, kMaxEqRows> tau_{}, eq_rhs_{}, eq_norm2_{}, eq_left2_{}, eq_res_{}, eq_row_norm_{};
   Buf<int, kMaxEqRows> eq_src_{};
+  Buf<double, kMaxEqRows + 1> eq_w_{};  // tau v'c_j of one reflector for the columns right of it
   // reduced problem
   alignas(64) Buf<double, kLd> v1_{}, c_{}, w_{}, x_{}, xp_{}, y_{}, np_vec_{}, z_{}, d_{}, e_{}, rdir_{}, beta_{};
   alignas(64) Buf<double, kLd * N> q1_{};
