@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -135,6 +136,20 @@ TEST_F(QpCli, BenchAddsMedianAndP99) {
     const double median = std::stod(r.lines[0][4]), p99 = std::stod(r.lines[0][5]);
     EXPECT_GT(median, 0.0);
     EXPECT_GE(p99, median);
+    // The run's summary on stderr: one instance, so its median is the median of medians.
+    const std::size_t at = r.err.find("summary: 1 instances x 5 solves");
+    ASSERT_NE(at, std::string::npos) << r.err;
+    double summary_median = 0.0, summary_p99 = 0.0, llt_median = 0.0, llt_p99 = 0.0;
+    ASSERT_EQ(std::sscanf(r.err.c_str() + r.err.find("median of medians", at),
+                          "median of medians %lf us, pooled p99 %lf us; eigen LLT+L^-1 same run: median of medians %lf "
+                          "us, pooled p99 %lf us",
+                          &summary_median, &summary_p99, &llt_median, &llt_p99),
+              4)
+        << r.err;
+    EXPECT_NEAR(summary_median, median, 1e-3);
+    EXPECT_NEAR(summary_p99, p99, 1e-3);
+    EXPECT_GT(llt_median, 0.0);
+    EXPECT_GE(llt_p99, llt_median);
   }
 }
 
