@@ -105,6 +105,30 @@ WbcAdapter::WbcAdapter(const Scenario& s)
 
 WbcAdapter::~WbcAdapter() = default;
 
+// The shift of the trot's footholds (frame H, data_ holds the kinematics at input_.q)
+// that puts their pattern's centre on the ground (the stance feet's height) under
+// the static ZMP of the weight and the wrist's measured wrench. rt: no alloc
+Vec3 WbcAdapter::footholds_shift_h(const hal::Measurements& m, const Mat3& yaw) noexcept {
+  const Vec3 com = dyn::center_of_mass(model_, *data_, input_.q);
+  double feet_z_m = 0.0;
+  int stance_feet = 0;
+  for (int f = 0; f < kFeet; ++f) {
+    if (!stance_[f]) continue;
+    feet_z_m += data_->frames[kFootFrames[f]].translation.z();
+    ++stance_feet;
+  }
+  if (stance_feet == 0) return Vec3::Zero();
+  feet_z_m /= stance_feet;
+  const dyn::Placement& wrist = data_->frames[kWristFtFrame];
+  const Vec3 force = m.wrist.valid ? Vec3(wrist.rotation * m.wrist.force_n) : Vec3::Zero();
+  const Vec3 torque = m.wrist.valid ? Vec3(wrist.rotation * m.wrist.torque_nm) : Vec3::Zero();
+  Vec3 centre = gait::static_zmp(com, model_.total_mass_kg * kGravity_m_s2, wrist.translation, force, torque,
+                                 feet_z_m - kFootRadius_m);
+  centre.z() = feet_z_m;
+  if (!centre.allFinite()) return Vec3::Zero();  // a non-finite wrench reading: the nominal pattern
+  return yaw.transpose() * (centre - input_.q.head<3>()) - gait_->nominal_centre_h();
+}
+
 void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept {
   ticked_ = false;
   if (estimator_) {  // runs from the first tick (the settle phase included) to converge
@@ -127,16 +151,20 @@ void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth,
     input_.v.tail<kNj>() = m.qd_rad_s;
   }
   if (gait_) {
-    // Feet relative to the trunk (trunk axes) for the gait's lift-off points and footholds.
+    // Feet relative to the trunk in its horizontal frame H (yaw axes) for the gait's
+    // lift-off points and footholds; the trunk's tilt maps its references to trunk axes.
     dyn::forward_kinematics(model_, *data_, input_.q);
     const Mat3 rot = Quat(input_.q[6], input_.q[3], input_.q[4], input_.q[5]).normalized().toRotationMatrix();
-    std::array<Vec3, kFeet> feet_b;
-    for (int f = 0; f < kFeet; ++f) feet_b[f] = rot.transpose() * (data_->frames[kFootFrames[f]].translation - input_.q.head<3>());
+    const Mat3 yaw = Eigen::AngleAxisd(std::atan2(rot(1, 0), rot(0, 0)), Vec3::UnitZ()).toRotationMatrix();
+    const Mat3 tilt = yaw.transpose() * rot;
+    std::array<Vec3, kFeet> feet_h;
+    for (int f = 0; f < kFeet; ++f) feet_h[f] = yaw.transpose() * (data_->frames[kFootFrames[f]].translation - input_.q.head<3>());
     if (!active_) {
-      gait_->start(feet_b);
+      gait_->start(feet_h);
       wbc_start_s_ = truth.time_s;
     }
-    const gait::ContactPlan& plan = gait_->update(truth.time_s - wbc_start_s_, feet_b, input_.v.head<3>());
+    const gait::ContactPlan& plan = gait_->update(truth.time_s - wbc_start_s_, feet_h, tilt * input_.v.head<3>(),
+                                                  footholds_shift_h(m, yaw), tilt);
     for (int f = 0; f < kFeet; ++f) {
       stance_changes_ += plan.stance[f] != stance_[f] ? 1 : 0;
       stance_[f] = plan.stance[f];

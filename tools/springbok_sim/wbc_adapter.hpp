@@ -8,7 +8,9 @@
 // springbok::est::BaseEstimator (IMU + leg kinematics, as on hardware), the
 // measured joint states and the wrist F/T sensor. All four feet are in stance,
 // or with `controller.params.gait` springbok::gait::TrotGait decides which
-// feet are in stance and where the swing feet go (from the WBC's start).
+// feet are in stance and where the swing feet go (from the WBC's start), in the
+// trunk's horizontal frame, its footholds' pattern centred under the static ZMP
+// of the weight and the measured wrist wrench.
 //
 // After each physics step it logs the measured base and EE displacements from
 // the reference pose (world), the template driven by the measured wrist force,
@@ -46,6 +48,8 @@ class WbcAdapter final : public Controller {
 
  private:
   static constexpr int kAxes = 6;  // base x y z, ee x y z
+  // The gait's footholds shift (frame H) that centres them under the static ZMP.
+  Vec3 footholds_shift_h(const hal::Measurements& m, const Mat3& yaw) noexcept;
   struct Sample {
     double time_s;
     std::array<double, kAxes> measured;

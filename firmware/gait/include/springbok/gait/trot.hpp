@@ -6,12 +6,26 @@
 // Footholds: under the hip, i.e. the foot's nominal position relative to the
 // trunk (taken at start()), moved by the base velocity as in the Reactive
 // Control Framework's heuristic (Barasuol et al., ICRA 2013):
-//     rho_td = rho_nominal + (T_stance / 2) v_xy + k_v (v_xy - v_xy^d),   v^d = 0 in place.
+//     rho_td = rho_nominal + s + (T_stance / 2) v_xy + k_v (v_xy - v_xy^d),   v^d = 0 in place,
+// where s shifts the whole pattern so that its centre, where the two diagonals
+// cross, lies on the ground under the point the robot's weight and external load
+// call for (the static zero-moment point, static_zmp below). A trot stands on one diagonal at
+// a time; ground forces on the feet of a diagonal have no moment about the line
+// through them, so a load whose ZMP is off that line tips the trunk about it
+// (with d_f 0.55, 90 % of the cycle). With the arm forward and to one side the
+// hips' pattern leaves the ZMP 3-6 cm off both diagonals.
 // Swing: from the lift-off point to the foothold in T_swing = (1 - d_f) / f_s,
 // horizontally along a quintic (zero velocity and acceleration at both ends),
 // vertically the same plus a bump of height h, 64 s^3 (1 - s)^3 (peak h at
-// mid-swing, zero velocity and acceleration at both ends). Everything relative
-// to the trunk origin in trunk axes (the WBC's swing task's coordinates).
+// mid-swing, zero velocity and acceleration at both ends).
+//
+// Frames: the plan is made in the trunk's horizontal frame H (origin at the trunk
+// origin, axes the trunk's yaw only), so a tilted trunk neither moves the
+// footholds on the ground nor lands a foot early or late (in trunk axes a 4.5 deg
+// roll and 2 deg pitch put a hind foot's target 3 cm above the ground: it touched
+// down 60 ms late and left the robot on one leg). The references handed to the WBC's swing task
+// are in trunk axes, rotated by the trunk's current tilt R_t (roll and pitch:
+// R = R_yaw R_t).
 #pragma once
 
 #include <array>
@@ -59,18 +73,34 @@ struct Profile {
 Profile quintic_blend(double s) noexcept;
 Profile swing_bump(double s) noexcept;
 
+// The static zero-moment point on the ground plane z = ground_z_m (world): where the
+// ground's resultant must act to balance the weight W at the centre of mass c and an
+// external wrench (force F, torque T) applied at the point p (Vukobratovic's ZMP with
+// the accelerations dropped):
+//   x (W - F_z) = c_x W + (p_z - z_g) F_x - p_x F_z + T_y
+//   y (W - F_z) = c_y W + (p_z - z_g) F_y - p_y F_z - T_x
+// Returns c_xy when W - F_z is not positive (the load does not press on the ground). rt: no alloc
+Vec3 static_zmp(const Vec3& com_m, double weight_n, const Vec3& point_m, const Vec3& force_n, const Vec3& torque_nm,
+                double ground_z_m) noexcept;
+
 class TrotGait {
  public:
   explicit TrotGait(const TrotParams& params) noexcept;
 
-  // Starts the cycle at time 0 with every foot in stance at `nominal_feet_b`
-  // (foot positions relative to the trunk, trunk axes: the footholds' centre).
-  void start(const std::array<Vec3, kFeet>& nominal_feet_b) noexcept;
+  // Starts the cycle at time 0 with every foot in stance at `nominal_feet_h`
+  // (foot positions relative to the trunk, frame H: the footholds' pattern).
+  void start(const std::array<Vec3, kFeet>& nominal_feet_h) noexcept;
 
-  // The plan at time t_s since start(), given the feet's current positions and
-  // the trunk's linear velocity (trunk axes). A foot's lift-off point is its
-  // position on its first swing tick. rt: no alloc
-  const ContactPlan& update(double t_s, const std::array<Vec3, kFeet>& feet_b, const Vec3& base_velocity_b) noexcept;
+  // The plan at time t_s since start(), given the feet's current positions, the
+  // trunk's linear velocity and the shift s of the footholds' pattern (all in
+  // frame H), and the trunk's tilt R_t (trunk axes to H axes). A foot's lift-off
+  // point is its position on its first swing tick; its foothold is fixed then.
+  // The swing references come out in trunk axes. rt: no alloc
+  const ContactPlan& update(double t_s, const std::array<Vec3, kFeet>& feet_h, const Vec3& base_velocity_h,
+                            const Vec3& pattern_shift_h = Vec3::Zero(), const Mat3& tilt = Mat3::Identity()) noexcept;
+
+  // The centre of the nominal footholds (mean of start()'s feet), frame H.
+  const Vec3& nominal_centre_h() const noexcept { return nominal_centre_h_; }
 
   const ContactPlan& plan() const noexcept { return plan_; }
   const TrotParams& params() const noexcept { return params_; }
@@ -79,9 +109,10 @@ class TrotGait {
 
  private:
   TrotParams params_;
-  std::array<Vec3, kFeet> nominal_b_{};
-  std::array<Vec3, kFeet> liftoff_b_{};
-  std::array<Vec3, kFeet> touchdown_b_{};
+  std::array<Vec3, kFeet> nominal_h_{};
+  Vec3 nominal_centre_h_ = Vec3::Zero();
+  std::array<Vec3, kFeet> liftoff_h_{};
+  std::array<Vec3, kFeet> touchdown_h_{};
   std::array<bool, kFeet> swinging_{};
   ContactPlan plan_;
 };
