@@ -7,6 +7,7 @@
 #include <string>
 
 #include "springbok/app/config.hpp"
+#include "springbok/app/drive_gains.hpp"
 
 namespace springbok::app {
 namespace {
@@ -45,6 +46,8 @@ TEST(AppConfig, TheShippedFileLoads) {
   EXPECT_EQ(c.safety.hal_watchdog_ticks, 5u);
   EXPECT_EQ(c.safety.damping_nms_per_rad[0], 10.0);
   EXPECT_EQ(c.safety.damping_nms_per_rad[kNj - 1], 2.0);
+  EXPECT_EQ(c.safety.idle_damping_nms_per_rad[0], 20.0);
+  EXPECT_EQ(c.safety.idle_damping_nms_per_rad[kNj - 1], 0.4);
   EXPECT_EQ(c.stand_gains.kp_nm_per_rad[kFirstArmJoint - 1], 1000.0);
   EXPECT_EQ(c.stand_gains.kp_nm_per_rad[kFirstArmJoint], 40.0);
   EXPECT_EQ(c.stand_posture_rad[8], 1.4);  // lh knee
@@ -118,6 +121,13 @@ TEST(AppConfig, OutOfRangeIsNamed) {
             "safety.overrun_streak: out of range [1, 1000]: 0");
   EXPECT_EQ(only_error(load_config_text(with("damping_nms_per_rad: {legs: 10.0", "damping_nms_per_rad: {legs: -1"))),
             "safety.damping_nms_per_rad.legs: out of range [0, 200]: -1");
+  // D_start = 0 would let the powered robot drop while idle.
+  const std::string no_idle_damping =
+      with("idle_damping_nms_per_rad: {legs: 20.0", "idle_damping_nms_per_rad: {legs: 0");
+  EXPECT_EQ(only_error(load_config_text(no_idle_damping)),
+            "safety.idle_damping_nms_per_rad.legs: out of range [0.1, 200]: 0");
+  EXPECT_EQ(load_config_text(with("  idle_damping_nms_per_rad:", "  idle_damping:")).errors,
+            (std::vector<std::string>{"safety.idle_damping: unknown key", "safety.idle_damping_nms_per_rad: missing"}));
 }
 
 TEST(AppConfig, NanAndInfinityAreRejected) {
@@ -143,6 +153,59 @@ TEST(AppConfig, SyntaxErrorsGiveTheLine) {
 
 TEST(AppConfig, AMissingFileIsAnError) {
   EXPECT_EQ(only_error(load_config_file("/nonexistent/springbok.yaml")), "/nonexistent/springbok.yaml: cannot open");
+}
+
+// MIT drives with Mini Cheetah gain ranges (kp [0, 500], kd [0, 5]) on the legs, CiA 402 on the arm.
+DriveGainRanges mini_cheetah_legs() {
+  DriveGainRanges r;
+  for (int j = 0; j < kFirstArmJoint; ++j) {
+    r.in_drive[static_cast<std::size_t>(j)] = true;
+    r.kp_max[j] = 500.0;
+    r.kd_max[j] = 5.0;
+    r.drive[static_cast<std::size_t>(j)] = "MIT drive (id " + std::to_string(j + 1) + ")";
+  }
+  return r;
+}
+
+TEST(DriveGains, GainsTheDrivesCannotRenderAreNamedWithTheRange) {
+  ConfigResult loaded = load_config_file(SPRINGBOK_APP_CONFIG);
+  ASSERT_TRUE(loaded.ok);
+  AppConfig c = loaded.config;
+  c.stand_gains.kp_nm_per_rad.head<kFirstArmJoint>().setConstant(500.0);  // at the edge: renderable
+  c.stand_gains.kd_nms_per_rad.head<kFirstArmJoint>().setConstant(5.0);
+  c.control_gains = c.stand_gains;
+  c.safety.idle_damping_nms_per_rad.head<kFirstArmJoint>().setConstant(5.0);
+  EXPECT_TRUE(check_drive_gains(c, mini_cheetah_legs()).empty());
+  // The arm's gains are rendered on the host (CiA 402): any value fits.
+  c.stand_gains.kp_nm_per_rad.tail<kArmJoints>().setConstant(900.0);
+  EXPECT_TRUE(check_drive_gains(c, mini_cheetah_legs()).empty());
+
+  c.stand_gains.kp_nm_per_rad.head<kFirstArmJoint>().setConstant(1000.0);
+  c.safety.idle_damping_nms_per_rad.head<kFirstArmJoint>().setConstant(6.0);
+  const std::vector<std::string> errors = check_drive_gains(c, mini_cheetah_legs());
+  ASSERT_EQ(errors.size(), 2u);
+  EXPECT_EQ(errors[0],
+            "gains.stand.kp_legs: 1000 is outside the kp range [0, 500] of lf_haa_joint's MIT drive (id 1) (the drive "
+            "would clamp it); lower the gain or give the drive a wider range (can.mit_ranges)");
+  EXPECT_EQ(errors[1].substr(0, 88),
+            "safety.idle_damping_nms_per_rad.legs: 6 is outside the kd range [0, 5] of lf_haa_joint's");
+  // Only one joint's drive too narrow: that joint is named.
+  DriveGainRanges one_narrow;
+  one_narrow.in_drive[7] = true;
+  one_narrow.kp_max[7] = 2000.0;
+  one_narrow.kd_max[7] = 5.5;
+  one_narrow.drive[7] = "MIT drive (id 8 on bus lh)";
+  one_narrow.backend_kd.emplace_back("can.timing.damping_kd_nms_per_rad", 2.0);
+  const std::vector<std::string> lh = check_drive_gains(c, one_narrow);
+  ASSERT_EQ(lh.size(), 1u);  // kp 1000 and 500 fit 2000, kd 5 and 2 fit 5.5; idle's 6 does not
+  EXPECT_EQ(lh[0].substr(0, 117),
+            "safety.idle_damping_nms_per_rad.legs: 6 is outside the kd range [0, 5.5] of lh_hfe_joint's MIT drive "
+            "(id 8 on bus lh)");
+  // The backend's own kd (the CAN shut-down damping) is checked on every joint's drive.
+  one_narrow.backend_kd.front().second = 7.0;
+  const std::vector<std::string> shutdown = check_drive_gains(c, one_narrow);
+  ASSERT_EQ(shutdown.size(), 2u);
+  EXPECT_EQ(shutdown[1].substr(0, 70), "can.timing.damping_kd_nms_per_rad: 7 is outside the kd range [0, 5.5] ");
 }
 
 }  // namespace

@@ -76,12 +76,64 @@ struct SupervisorTest : ::testing::Test {
   }();
 };
 
-TEST_F(SupervisorTest, IdleSendsNoTorque) {
+// CAN.md 4.2 step 5: the loop starts with damping commands, kp = 0, kd = D_start.
+TEST_F(SupervisorTest, IdleDampsThroughTheDrivesWithDStart) {
+  config.idle_damping_nms_per_rad.head<kFirstArmJoint>().setConstant(4.0);
+  config.idle_damping_nms_per_rad.tail<kArmJoints>().setConstant(1.5);
+  sup = Supervisor(config);
+  meas.qd_rad_s.setLinSpaced(-0.9, 0.9);
+  for (int t = 0; t < 3; ++t) {
+    tick();
+    EXPECT_EQ(sup.mode(), Mode::idle);
+    EXPECT_EQ(cmd.mode, hal::CommandMode::enabled);
+    for (int j = 0; j < kNj; ++j) {
+      EXPECT_EQ(cmd.kp_nm_per_rad[j], 0.0) << j;
+      EXPECT_EQ(cmd.kd_nms_per_rad[j], j < kFirstArmJoint ? 4.0 : 1.5) << j;
+      EXPECT_EQ(cmd.qd_des_rad_s[j], 0.0) << j;
+      EXPECT_EQ(cmd.tau_ff_nm[j], 0.0) << j;
+      // What the drive applies: tau = -D_start qd.
+      EXPECT_DOUBLE_EQ(hal::drive_torque_nm(cmd, j, meas.q_rad[j], meas.qd_rad_s[j]),
+                       -config.idle_damping_nms_per_rad[j] * meas.qd_rad_s[j]) << j;
+    }
+  }
+  // Back in idle after a reset: damping again, not the last controller command.
+  ASSERT_EQ(ask(OperatorCommand::start), Verdict::accepted);
+  tick();
+  ASSERT_EQ(ask(OperatorCommand::stop), Verdict::accepted);
+  meas.qd_rad_s.setZero();
+  tick();
+  ASSERT_EQ(ask(OperatorCommand::reset), Verdict::accepted);
+  tick();
+  EXPECT_EQ(cmd.kd_nms_per_rad, config.idle_damping_nms_per_rad);
+  EXPECT_TRUE(cmd.kp_nm_per_rad.isZero());
+  EXPECT_TRUE(cmd.tau_ff_nm.isZero());
+}
+
+// A joint pushed past its limit while the robot is passive (idle): the fault is
+// not hidden. It latches (naming the joint), the robot damps, `start` is refused,
+// and reset only succeeds once the joint is back within its limit + margin.
+TEST_F(SupervisorTest, JointLimitWhileIdleLatchesNamesTheJointAndBlocksStart) {
+  tick();
+  EXPECT_EQ(sup.limit_joint(), -1);
+  const int knee = 5;  // rf_kfe
+  const double lower = robot::kJoints[knee].limits.lower_rad;
+  meas.q_rad[knee] = lower - config.limit_margin_rad - 0.02;
+  tick();
+  EXPECT_EQ(sup.faults(), fault::kJointLimit);
+  EXPECT_EQ(sup.limit_joint(), knee);
+  EXPECT_EQ(sup.limit_joint_position_rad(), lower - config.limit_margin_rad - 0.02);
+  expect_damping();
+  EXPECT_EQ(ask(OperatorCommand::start), Verdict::not_idle);
+  tick();
+  EXPECT_EQ(ask(OperatorCommand::reset), Verdict::unsafe_joint_limit);
+  EXPECT_EQ(sup.mode(), Mode::damping);
+  meas.q_rad[knee] = lower - config.limit_margin_rad + 0.01;  // moved back by hand, at rest
+  tick();
+  EXPECT_EQ(ask(OperatorCommand::reset), Verdict::accepted);
+  EXPECT_EQ(sup.limit_joint(), -1);
   tick();
   EXPECT_EQ(sup.mode(), Mode::idle);
-  EXPECT_EQ(cmd.mode, hal::CommandMode::disabled);
-  EXPECT_TRUE(cmd.tau_ff_nm.isZero());
-  EXPECT_TRUE(cmd.kp_nm_per_rad.isZero());
+  EXPECT_EQ(ask(OperatorCommand::start), Verdict::accepted);
 }
 
 TEST_F(SupervisorTest, EveryModeTransition) {
@@ -226,6 +278,7 @@ TEST_F(SupervisorTest, JointLimitWithMarginFromTheModel) {
   meas.q_rad[1] = upper + config.limit_margin_rad + 1e-6;
   tick();
   EXPECT_EQ(sup.faults(), fault::kJointLimit);
+  EXPECT_EQ(sup.limit_joint(), 1);
   expect_damping();
 }
 

@@ -158,13 +158,14 @@ class Reader {
   }
 
   // {legs: x, arm: y} -> per joint
-  void legs_arm(const YAML::Node& map, const std::string& path, const std::string& key, double hi, VecNj& out) {
+  void legs_arm(const YAML::Node& map, const std::string& path, const std::string& key, double lo, double hi,
+                VecNj& out) {
     const std::string field = join(path, key);
     const YAML::Node n = child(map, path, key);
     if (!n.IsDefined() || !this->map(n, field, {"legs", "arm"})) return;
     double legs = 0, arm = 0;
-    number(n, field, "legs", 0.0, hi, legs);
-    number(n, field, "arm", 0.0, hi, arm);
+    number(n, field, "legs", lo, hi, legs);
+    number(n, field, "arm", lo, hi, arm);
     out.head<kFirstArmJoint>().setConstant(legs);
     out.tail<kArmJoints>().setConstant(arm);
   }
@@ -212,7 +213,7 @@ void read_config(const YAML::Node& root, Reader& r, AppConfig& c) {
   if (const YAML::Node n = r.child(root, "", "safety");
       n.IsDefined() && r.map(n, "safety", {"overrun_streak", "overrun_rate_per_s", "hal_watchdog_ticks",
                                            "qp_failure_streak", "limit_margin_rad", "reset_max_speed_rad_s",
-                                           "damping_nms_per_rad"})) {
+                                           "damping_nms_per_rad", "idle_damping_nms_per_rad"})) {
     int v = 0;
     r.integer(n, "safety", "overrun_streak", 1, 1000, v);
     c.safety.overrun_streak_limit = static_cast<std::uint32_t>(v);
@@ -224,7 +225,9 @@ void read_config(const YAML::Node& root, Reader& r, AppConfig& c) {
     c.safety.qp_failure_streak_limit = static_cast<std::uint32_t>(v);
     r.number(n, "safety", "limit_margin_rad", 0.0, 0.5, c.safety.limit_margin_rad);
     r.number(n, "safety", "reset_max_speed_rad_s", 0.0, 1.0, c.safety.reset_max_speed_rad_s);
-    r.legs_arm(n, "safety", "damping_nms_per_rad", 200.0, c.safety.damping_nms_per_rad);
+    r.legs_arm(n, "safety", "damping_nms_per_rad", 0.0, 200.0, c.safety.damping_nms_per_rad);
+    // D_start (CAN.md 4.2 step 5), > 0: without it the powered robot drops while idle.
+    r.legs_arm(n, "safety", "idle_damping_nms_per_rad", 0.1, 200.0, c.safety.idle_damping_nms_per_rad);
   }
   if (const YAML::Node n = r.child(root, "", "gains");
       n.IsDefined() && r.map(n, "gains", {"stand", "control", "stand_up_duration_s", "stand_tolerance_rad",

@@ -1,23 +1,51 @@
 // springbok: the deployed program on the robot. HAL = the SocketCAN joint
 // drives (springbok::can), configured by the `can:` section of the same file.
+// The firmware's gains are checked against what the drives can render
+// before anything starts (also with --check-config).
 #include <cstdio>
 #include <memory>
 #include <string>
 
+#include "springbok/app/drive_gains.hpp"
 #include "springbok/app/runtime.hpp"
 #include "springbok/can/can_hardware.hpp"
 #include "springbok/can/config_yaml.hpp"
+
+namespace {
+
+springbok::app::DriveGainRanges gain_ranges(const springbok::can::CanConfig& can) {
+  springbok::app::DriveGainRanges r;
+  for (const springbok::can::BusConfig& bus : can.buses) {
+    for (const springbok::can::DriveConfig& d : bus.drives) {
+      if (d.protocol != springbok::can::Protocol::mit || d.joint < 0 || d.joint >= springbok::kNj) continue;
+      const auto j = static_cast<std::size_t>(d.joint);
+      r.in_drive[j] = true;
+      r.kp_min[d.joint] = d.mit_ranges.kp_min;
+      r.kp_max[d.joint] = d.mit_ranges.kp_max;
+      r.kd_min[d.joint] = d.mit_ranges.kd_min;
+      r.kd_max[d.joint] = d.mit_ranges.kd_max;
+      r.drive[j] = "MIT drive (id " + std::to_string(d.drive_id) + " on bus " + bus.name + ")";
+    }
+  }
+  r.backend_kd.emplace_back("can.timing.damping_kd_nms_per_rad", can.timing.damping_kd_nms_per_rad);
+  return r;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace springbok;
   return app::firmware_main(
       argc, argv, "springbok",
-      [](const app::AppConfig&, const std::string& config_path) -> std::unique_ptr<hal::Hardware> {
+      [](const app::AppConfig& config, const std::string& config_path) -> std::unique_ptr<hal::Hardware> {
         can::ConfigResult can_config = can::load_can_config_file(config_path);
         if (!can_config.ok) {
           std::fprintf(stderr, "springbok: config error: %s\n", can_config.error.c_str());
           return nullptr;
         }
+        const std::vector<std::string> errors = app::check_drive_gains(config, gain_ranges(can_config.config));
+        for (const std::string& e : errors) std::fprintf(stderr, "springbok: config error: %s\n", e.c_str());
+        if (!errors.empty()) return nullptr;
         return std::make_unique<can::CanHardware>(std::move(can_config.config));
       });
 }

@@ -89,7 +89,18 @@ std::string OperatorServer::status_line() const {
                 static_cast<double>(stats_.max_wake_latency_ns.load()) / 1e3,
                 static_cast<double>(stats_.max_compute_ns.load()) / 1e3, status_.stale_ticks.load(),
                 static_cast<unsigned long long>(status_.hal_errors.load()));
-  return std::string("ok status mode=") + safety::to_string(mode) + " faults=" + fault_list(faults) + numbers;
+  std::string line =
+      std::string("ok status mode=") + safety::to_string(mode) + " faults=" + fault_list(faults) + numbers;
+  // Which joint to bring back inside its limits before a reset is accepted.
+  if (const int joint = status_.limit_joint.load(std::memory_order_acquire); joint >= 0 && joint < kNj) {
+    char where[128];
+    std::snprintf(where, sizeof where, " limit_joint=%.*s q_rad=%.4f",
+                  static_cast<int>(robot::kJoints[static_cast<std::size_t>(joint)].name.size()),
+                  robot::kJoints[static_cast<std::size_t>(joint)].name.data(),
+                  status_.limit_joint_position_rad.load(std::memory_order_relaxed));
+    line += where;
+  }
+  return line;
 }
 
 std::string OperatorServer::handle_line(std::string_view line) {

@@ -113,7 +113,7 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   std::atomic<bool> stop{false};
   auto body = [&] {
     executive->start();
-    executive->run_ticks(static_cast<std::uint64_t>(config.warmup_ticks));  // idle: drives get no torque
+    executive->run_ticks(static_cast<std::uint64_t>(config.warmup_ticks));  // idle: the drives damp (D_start)
     executive->reset_stats();
     executive->run_until(stop);
   };

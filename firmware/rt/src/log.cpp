@@ -13,6 +13,7 @@ const char* to_string(LogEvent event) noexcept {
     case LogEvent::command_rejected: return "command_rejected";
     case LogEvent::hal_io: return "hal_io";
     case LogEvent::stats: return "stats";
+    case LogEvent::joint_limit: return "joint_limit";
   }
   return "unknown";
 }

@@ -84,15 +84,15 @@ bool Supervisor::measurements_finite(const hal::Measurements& m) const noexcept 
   return finite;
 }
 
-bool Supervisor::joints_within_limits(const VecNj& q_rad) const noexcept {
+int Supervisor::joint_beyond_limits(const VecNj& q_rad) const noexcept {
   for (int j = 0; j < kNj; ++j) {
     if (!limits_.bounded[static_cast<std::size_t>(j)]) continue;
     if (q_rad[j] < limits_.lower_rad[j] - config_.limit_margin_rad ||
         q_rad[j] > limits_.upper_rad[j] + config_.limit_margin_rad) {
-      return false;
+      return j;
     }
   }
-  return true;
+  return -1;
 }
 
 bool Supervisor::drives_healthy(const hal::Measurements& m) noexcept {
@@ -119,13 +119,18 @@ void Supervisor::observe(const hal::Measurements& meas, hal::IoStatus io, std::u
   if (overruns_in_window > config_.overrun_rate_limit) found |= fault::kOverrunRate;
   if (stale_ticks_ >= config_.hal_watchdog_ticks) found |= fault::kHalWatchdog;
   last_meas_finite_ = measurements_finite(meas);
-  last_within_limits_ = last_meas_finite_ && joints_within_limits(meas.q_rad);
+  const int beyond = last_meas_finite_ ? joint_beyond_limits(meas.q_rad) : -1;
+  last_within_limits_ = last_meas_finite_ && beyond < 0;
   last_drives_healthy_ = drives_healthy(meas);
   last_max_speed_rad_s_ = last_meas_finite_ ? meas.qd_rad_s.cwiseAbs().maxCoeff() : 0.0;
   if (!last_meas_finite_) {
     found |= fault::kNonFinite;
   } else if (!last_within_limits_) {
     found |= fault::kJointLimit;
+    if ((faults_ & fault::kJointLimit) == 0) {
+      limit_joint_ = beyond;
+      limit_joint_position_rad_ = meas.q_rad[beyond];
+    }
   }
   if (!last_drives_healthy_) found |= fault::kDriveLost;
   latch(found);
@@ -157,6 +162,7 @@ Verdict Supervisor::request(OperatorCommand command) noexcept {  // rt: no alloc
       if (last_max_speed_rad_s_ > config_.reset_max_speed_rad_s) return Verdict::unsafe_moving;
       if (overrun_streak_ > 0) return Verdict::unsafe_timing;
       faults_ = 0;
+      limit_joint_ = -1;
       enter(Mode::idle);
       return Verdict::accepted;
   }
@@ -174,6 +180,15 @@ void Supervisor::damping_command(const hal::Measurements& meas, hal::JointComman
     const double tau = std::isfinite(qd) ? -config_.damping_nms_per_rad[j] * qd : 0.0;
     cmd.tau_ff_nm[j] = std::clamp(tau, -limits_.effort_nm[j], limits_.effort_nm[j]);
   }
+}
+
+void Supervisor::idle_command(hal::JointCommands& cmd) const noexcept {
+  cmd.mode = hal::CommandMode::enabled;
+  cmd.q_des_rad.setZero();
+  cmd.qd_des_rad_s.setZero();
+  cmd.kp_nm_per_rad.setZero();
+  cmd.kd_nms_per_rad = config_.idle_damping_nms_per_rad;
+  cmd.tau_ff_nm.setZero();
 }
 
 void Supervisor::clamp_to_limits(const hal::Measurements& meas, hal::JointCommands& cmd) const noexcept {
@@ -227,9 +242,7 @@ void Supervisor::finish(const hal::Measurements& meas, const ControllerReport& r
   if (mode_ == Mode::damping) {
     damping_command(meas, cmd);
   } else if (mode_ == Mode::idle) {
-    const std::uint64_t sequence = cmd.sequence;
-    cmd = hal::JointCommands{};
-    cmd.sequence = sequence;
+    idle_command(cmd);
   }
   if (mode_ == before) ++ticks_in_mode_;
 }

@@ -4,10 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <string>
 
 #include "alloc_trap.hpp"
 #include "loop_fixture.hpp"
+#include "springbok/app/operator_server.hpp"
 
 namespace springbok::app::test {
 namespace {
@@ -29,6 +32,11 @@ struct LoopTest : ::testing::Test {
     ASSERT_EQ(rig->supervisor.mode(), Mode::stand);
     ASSERT_EQ(rig->command(OperatorCommand::mode_control), Verdict::accepted);
   }
+  bool wrote_idle_damping() const {
+    const hal::JointCommands& c = hardware.last;
+    return c.mode == hal::CommandMode::enabled && c.kp_nm_per_rad.isZero() && c.tau_ff_nm.isZero() &&
+           c.kd_nms_per_rad == rig->config.safety.idle_damping_nms_per_rad;
+  }
   bool wrote_damping() const {
     const hal::JointCommands& c = hardware.last;
     return c.mode == hal::CommandMode::enabled && c.kp_nm_per_rad.isZero() && c.kd_nms_per_rad.isZero();
@@ -37,7 +45,7 @@ struct LoopTest : ::testing::Test {
 
 TEST_F(LoopTest, ModeSequenceThroughTheLoop) {
   rig->executive->run_ticks(5);
-  EXPECT_EQ(hardware.last.mode, hal::CommandMode::disabled);  // idle
+  EXPECT_TRUE(wrote_idle_damping());
   ASSERT_EQ(rig->command(OperatorCommand::start), Verdict::accepted);
   // stand_up lasts stand_up_duration_s = 0.5 s = 500 ticks at 1 kHz (the start tick is tick 0)
   rig->executive->run_ticks(499);
@@ -56,7 +64,7 @@ TEST_F(LoopTest, ModeSequenceThroughTheLoop) {
   EXPECT_EQ(rig->status.faults.load(), safety::fault::kOperatorStop);
   EXPECT_EQ(rig->command(OperatorCommand::reset), Verdict::accepted);
   EXPECT_EQ(rig->supervisor.mode(), Mode::idle);
-  EXPECT_EQ(hardware.last.mode, hal::CommandMode::disabled);
+  EXPECT_TRUE(wrote_idle_damping());
   EXPECT_EQ(rig->status.mode.load(), static_cast<std::uint8_t>(Mode::idle));
   EXPECT_EQ(rig->executive->stats().overruns, 0u);
 }
@@ -97,6 +105,46 @@ TEST_F(LoopTest, NonFiniteMeasurementDampsInTheSameTick) {
   EXPECT_EQ(rig->supervisor.faults(), safety::fault::kNonFinite);
   EXPECT_TRUE(wrote_damping());
   EXPECT_EQ(hardware.last.tau_ff_nm[4], 0.0);
+}
+
+// A joint pushed past its limit while idle (the robot passive, the drives damping):
+// the fault is latched, logged with the joint and its position, shown in `status`,
+// and `start` is refused until the joint is back inside and the operator resets.
+TEST_F(LoopTest, JointLimitWhileIdleIsLoggedAndShownWithTheJoint) {
+  rig->executive->run_ticks(5);
+  ASSERT_TRUE(wrote_idle_damping());
+  OperatorServer server(rig->mailbox, rig->status, rig->executive->published());  // not opened: `status` only
+  EXPECT_EQ(server.handle_line("status").find("limit_joint"), std::string::npos);
+  rt::LogRecord r;
+  while (rig->log.pop(r)) {
+  }
+  const int knee = 8;  // lh_kfe: upper limit
+  const double beyond_rad = robot::kJoints[knee].limits.upper_rad + 0.2;
+  hardware.state().q_rad[knee] = beyond_rad;
+  rig->executive->run_ticks(1);
+  EXPECT_EQ(rig->supervisor.mode(), Mode::damping);
+  EXPECT_EQ(rig->supervisor.faults(), safety::fault::kJointLimit);
+  EXPECT_TRUE(wrote_damping());
+  bool logged = false;
+  while (rig->log.pop(r)) {
+    if (r.event != rt::LogEvent::joint_limit) continue;
+    logged = true;
+    EXPECT_EQ(r.a, knee);
+    EXPECT_EQ(r.b, static_cast<std::int64_t>(Mode::idle));
+    EXPECT_EQ(r.x, beyond_rad);
+  }
+  EXPECT_TRUE(logged);
+  const std::string status = server.handle_line("status");
+  EXPECT_EQ(status.substr(0, 42), "ok status mode=damping faults=joint_limit ");
+  char expected[64];
+  std::snprintf(expected, sizeof expected, " limit_joint=lh_kfe_joint q_rad=%.4f", beyond_rad);
+  EXPECT_NE(status.find(expected), std::string::npos) << status;
+  EXPECT_EQ(rig->command(OperatorCommand::start), Verdict::not_idle);
+  EXPECT_EQ(rig->command(OperatorCommand::reset), Verdict::unsafe_joint_limit);
+  hardware.state().q_rad[knee] = robot::kJoints[knee].limits.upper_rad;  // moved back by hand
+  EXPECT_EQ(rig->command(OperatorCommand::reset), Verdict::accepted);
+  EXPECT_EQ(server.handle_line("status").find("limit_joint"), std::string::npos);
+  EXPECT_EQ(rig->command(OperatorCommand::start), Verdict::accepted);
 }
 
 TEST_F(LoopTest, LogRingRecordsModeChangesAndVerdicts) {

@@ -1,9 +1,12 @@
 // The loop against the simulated robot (sim_hal, Bullet) on the stepped
-// clock: it stands up from a crouch without a fault, and a whole tick
+// clock: left idle, the crouched robot settles under the drives' damping
+// without a joint-limit fault; it stands up from a crouch without a fault, and a whole tick
 // (read -> controller -> safety -> write + physics step) allocates nothing;
 // in control mode the whole-body controller on the estimated base state
 // renders a push at the hand.
 #include <gtest/gtest.h>
+
+#include <algorithm>
 
 #include "../../../firmware/app/sim/stepped_bullet_robot.hpp"
 #include "alloc_trap.hpp"
@@ -14,6 +17,61 @@ namespace springbok::app::test {
 namespace {
 
 using Rig = LoopRig<SteppedBulletRobot>;
+
+// The crouched robot left idle for `ticks` (1 kHz) with D_start = `idle_damping`.
+struct IdleRun {
+  double worst_leg_excursion_rad = 0.0;  // furthest past a leg joint's limit (<= 0: never reached it)
+  double peak_leg_speed_rad_s = 0.0;
+  double final_max_speed_rad_s = 0.0;
+  safety::Mode mode = safety::Mode::idle;
+  safety::FaultMask faults = 0;
+};
+IdleRun leave_idle(const VecNj& idle_damping_nms_per_rad, int ticks) {
+  rt::SteppedClock clock(0);
+  SteppedBulletRobot robot(crouched_sim_config(1000));
+  EXPECT_TRUE(robot.configure().ok);
+  EXPECT_TRUE(robot.activate().ok);
+  AppConfig config = test_config();
+  config.safety.idle_damping_nms_per_rad = idle_damping_nms_per_rad;
+  auto rig = std::make_unique<Rig>(clock, robot, config);
+  const safety::JointLimits limits = safety::joint_limits_from_model();
+  IdleRun run;
+  run.worst_leg_excursion_rad = -1.0;
+  for (int t = 0; t < ticks; ++t) {
+    rig->executive->run_tick();
+    const hal::Measurements& m = rig->loop.measurements();
+    for (int j = 0; j < kFirstArmJoint; ++j) {
+      run.worst_leg_excursion_rad =
+          std::max({run.worst_leg_excursion_rad, m.q_rad[j] - limits.upper_rad[j], limits.lower_rad[j] - m.q_rad[j]});
+    }
+    run.peak_leg_speed_rad_s =
+        std::max(run.peak_leg_speed_rad_s, m.qd_rad_s.head<kFirstArmJoint>().cwiseAbs().maxCoeff());
+  }
+  run.final_max_speed_rad_s = rig->loop.measurements().qd_rad_s.cwiseAbs().maxCoeff();
+  run.mode = rig->supervisor.mode();
+  run.faults = rig->supervisor.faults();
+  return run;
+}
+
+// Idle is damping (CAN.md 4.2 step 5). Damping cannot hold 95 kg up: the crouched robot
+// folds onto its knee stops either way, but with D_start it arrives slowly and stays there
+// (Bullet's stop yields ~0.035 rad under the resting load, inside the 0.05 rad margin).
+// With zero torque (the old idle) the fall breaks through the front knee stops and
+// latches joint_limit while idle.
+TEST(LoopOnSim, IdleDampsSoTheCrouchedRobotSettlesWithoutAJointLimitFault) {
+  VecNj d_start;  // the shipped D_start: legs 20, arm 0.4 Nms/rad
+  d_start << VecNj::Constant(20.0).head<kFirstArmJoint>(), VecNj::Constant(0.4).tail<kArmJoints>();
+  const IdleRun damped = leave_idle(d_start, 5000);
+  EXPECT_EQ(damped.faults, 0u) << fault_list(damped.faults);
+  EXPECT_EQ(damped.mode, safety::Mode::idle);
+  EXPECT_LT(damped.worst_leg_excursion_rad, safety::SupervisorConfig{}.limit_margin_rad);
+  EXPECT_LT(damped.final_max_speed_rad_s, 1.0) << "settled";
+
+  const IdleRun limp = leave_idle(VecNj::Zero(), 5000);
+  EXPECT_NE(limp.faults & safety::fault::kJointLimit, 0u) << fault_list(limp.faults);
+  EXPECT_GT(limp.worst_leg_excursion_rad, 0.5);
+  EXPECT_GT(limp.peak_leg_speed_rad_s, 2.0 * damped.peak_leg_speed_rad_s);
+}
 
 TEST(LoopOnSim, StandsUpFromACrouchAndHolds) {
   rt::SteppedClock clock(0);

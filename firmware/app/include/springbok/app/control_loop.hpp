@@ -62,6 +62,10 @@ class ControlLoop {
     }
     if (supervisor_.faults() != faults_before) {
       log(info, rt::LogEvent::fault_latched, supervisor_.faults() & ~faults_before, supervisor_.faults());
+      if ((supervisor_.faults() & ~faults_before & safety::fault::kJointLimit) != 0) {
+        log(info, rt::LogEvent::joint_limit, supervisor_.limit_joint(), static_cast<std::int64_t>(mode_before),
+            supervisor_.limit_joint_position_rad());
+      }
     }
     if (supervisor_.mode() != mode_before) {
       log(info, rt::LogEvent::mode_change, static_cast<std::int64_t>(mode_before),
@@ -70,14 +74,16 @@ class ControlLoop {
     status_.mode.store(static_cast<std::uint8_t>(supervisor_.mode()), std::memory_order_relaxed);
     status_.faults.store(supervisor_.faults(), std::memory_order_relaxed);
     status_.stale_ticks.store(supervisor_.stale_ticks(), std::memory_order_relaxed);
+    status_.limit_joint_position_rad.store(supervisor_.limit_joint_position_rad(), std::memory_order_relaxed);
+    status_.limit_joint.store(supervisor_.limit_joint(), std::memory_order_release);
   }
 
   const hal::Measurements& measurements() const noexcept { return meas_; }
   const hal::JointCommands& commands() const noexcept { return cmd_; }
 
  private:
-  void log(const rt::TickInfo& info, rt::LogEvent event, std::int64_t a, std::int64_t b) noexcept {
-    if (log_ != nullptr) log_->push(rt::LogRecord{info.index, info.wake_ns, event, a, b, 0.0});
+  void log(const rt::TickInfo& info, rt::LogEvent event, std::int64_t a, std::int64_t b, double x = 0.0) noexcept {
+    if (log_ != nullptr) log_->push(rt::LogRecord{info.index, info.wake_ns, event, a, b, x});
   }
 
   hal::Hardware& hal_;

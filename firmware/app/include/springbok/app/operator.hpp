@@ -60,6 +60,8 @@ struct LoopStatus {
   std::atomic<std::uint32_t> faults{0};
   std::atomic<std::uint32_t> stale_ticks{0};
   std::atomic<std::uint64_t> hal_errors{0};  // ticks whose HAL read or write was not ok
+  std::atomic<std::int32_t> limit_joint{-1};  // the joint that latched joint_limit, -1: none
+  std::atomic<double> limit_joint_position_rad{0.0};
 };
 
 // "overrun_streak,hal_watchdog" or "none".

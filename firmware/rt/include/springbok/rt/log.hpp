@@ -22,6 +22,7 @@ enum class LogEvent : std::uint16_t {
   command_rejected = 5,  // a: command kind, b: reason code
   hal_io = 6,            // a: IoStatus, b: consecutive stale ticks
   stats = 7,             // a: ticks, b: overruns, x: max wake latency [us]
+  joint_limit = 8,       // a: joint index, b: mode when latched, x: joint position [rad]
 };
 
 const char* to_string(LogEvent event) noexcept;

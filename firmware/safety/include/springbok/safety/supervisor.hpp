@@ -3,9 +3,13 @@
 //   idle --start--> stand_up --posture reached--> stand <--mode--> control
 //   any fault or operator stop --> damping --reset (safe state)--> idle
 //
-// Every fault latches a bit and moves to damping (tau = -D qd within the
-// torque limits) in the tick it is detected; leaving damping needs an
-// explicit operator reset while the robot is in a safe state. Each tick:
+// Idle is passive but powered: the drives damp (kp = 0, kd = D_start,
+// CAN.md 4.2 step 5), so the robot settles instead of dropping. Every fault
+// latches a bit and moves to damping (tau = -D qd within the torque limits)
+// in the tick it is detected, in idle too: a joint pushed past its limit
+// while passive is still reported (limit_joint() names it) and blocks
+// `start`; leaving damping needs an explicit operator reset while the robot
+// is in a safe state (every joint back within its limit + margin). Each tick:
 //
 //   supervisor.observe(meas, io, overrun_streak, overruns_in_window);
 //   supervisor.request(cmd)            // optional: one operator command
@@ -66,6 +70,9 @@ struct SupervisorConfig {
   double limit_margin_rad = 0.05;
   double reset_max_speed_rad_s = 0.05;
   VecNj damping_nms_per_rad = VecNj::Constant(10.0);
+  // D_start: the drives' damping in idle (MIT: kd of the command frame, so it
+  // must lie in the drive's kd range; CiA 402: rendered on the host).
+  VecNj idle_damping_nms_per_rad = VecNj::Constant(2.0);
 };
 
 // What the controller says about its tick.
@@ -96,17 +103,23 @@ class Supervisor {
   // Ticks completed in the current mode (0 in the first tick of a mode).
   std::uint64_t ticks_in_mode() const noexcept { return ticks_in_mode_; }
   std::uint32_t stale_ticks() const noexcept { return stale_ticks_; }
+  // The joint that latched fault::kJointLimit (-1: none) and its position then.
+  int limit_joint() const noexcept { return limit_joint_; }
+  double limit_joint_position_rad() const noexcept { return limit_joint_position_rad_; }
   const JointLimits& limits() const noexcept { return limits_; }
 
   // tau = -D qd, clamped to the torque limits; 0 on joints whose velocity
   // is not finite. rt: no alloc
   void damping_command(const hal::Measurements& meas, hal::JointCommands& cmd) const noexcept;
+  // Idle: kp = 0, kd = D_start, qd_des = 0, tau_ff = 0 (the drive damps). rt: no alloc
+  void idle_command(hal::JointCommands& cmd) const noexcept;
 
  private:
   void latch(FaultMask bits) noexcept;
   void enter(Mode mode) noexcept;
   bool measurements_finite(const hal::Measurements& meas) const noexcept;
-  bool joints_within_limits(const VecNj& q_rad) const noexcept;
+  // The first bounded joint beyond its limit + margin, -1 when none.
+  int joint_beyond_limits(const VecNj& q_rad) const noexcept;
   static bool drives_healthy(const hal::Measurements& meas) noexcept;
   void clamp_to_limits(const hal::Measurements& meas, hal::JointCommands& cmd) const noexcept;
 
@@ -118,6 +131,8 @@ class Supervisor {
   std::uint32_t stale_ticks_ = 0;
   std::uint32_t qp_failure_streak_ = 0;
   std::uint32_t overrun_streak_ = 0;
+  int limit_joint_ = -1;
+  double limit_joint_position_rad_ = 0.0;
   bool have_sequence_ = false;
   std::uint64_t last_sequence_ = 0;
   // The safe-state judgement of the last observe(), for reset.
