@@ -326,6 +326,17 @@ class Solver {
     }
     m_ = n_ - rank_;
     mp_ = dense::padded(m_);
+    // Condition estimate of the equality block from the pivoted QR's diagonal: the
+    // accuracy with which the equalities pin x down (rounding-level tests scale with it).
+    eq_cond_ = 1.0;
+    if (rank_ > 0) {
+      double big = 0.0, small = kInf;
+      for (int k = 0; k < rank_; ++k) {
+        big = std::max(big, std::abs(bcol(k)[k]));
+        small = std::min(small, std::abs(bcol(k)[k]));
+      }
+      eq_cond_ = small > 0.0 ? big / small : kInf;
+    }
     // v1 = Re^-T e (forward substitution with the transpose of the upper Re).
     for (int k = 0; k < rank_; ++k) {
       const double* ck = bcol(k);
@@ -583,6 +594,10 @@ class Solver {
   }
 
   double dependence_tol() const noexcept { return 1e-11; }
+  // Relative size of a violation that the reduced coordinates cannot resolve: 1e-11,
+  // or more (at most 1e-9) when an ill-conditioned equality block pins x down less
+  // accurately.
+  double rounding_level() const noexcept { return std::clamp(64.0 * kEps * eq_cond_, 1e-11, 1e-9); }
 
   // ---- step 3: Goldfarb-Idnani on the reduced problem -------------------------
   Status run(const ActiveSet<MI>* warm) noexcept {
@@ -628,12 +643,15 @@ class Solver {
           }
         }
         const bool dependent = q_ >= m_ || !(z_norm > dependence_tol() * np_norm);
-        // A row dependent on the active rows whose violation is at the rounding level
-        // of the reduced coordinates (a degenerate vertex; the path from the
-        // unconstrained minimiser c sets that level) is skipped until the active set
-        // changes: exchanges driven by it would only amplify rounding.
+        // A row (nearly) dependent on the active rows whose violation is at the
+        // rounding level of the reduced coordinates (a degenerate vertex; the path from
+        // the unconstrained minimiser c sets that level) is skipped until the active set
+        // changes: exchanges driven by it would only amplify rounding (a primal step of
+        // violation / |z|^2 along a z of rounding noise, or a dual step through a
+        // multiplier ratio of rounding noise, throws w and the multipliers far away).
+        const bool nearly_dependent = dependent || !(z_norm > 1e-8 * np_norm);
         const double path = std::max(v_norm(), c_norm_);
-        if (dependent && k < 0 && u_plus == 0.0 && -slack <= 1e-11 * (full_norm_ * path + std::abs(rhs))) {
+        if (nearly_dependent && u_plus == 0.0 && -slack <= rounding_level() * (full_norm_ * path + std::abs(rhs))) {
           skipped_epoch_[p] = epoch_;
           --iterations_;  // no step taken
           break;
@@ -755,6 +773,7 @@ class Solver {
   int me_ = 0, rank_ = 0, m_ = 0, mp_ = 0, q_ = 0;  // mp_: m_ padded to whole chunks
   int iterations_ = 0, max_iterations_ = 0, epoch_ = 0;
   double x_norm_ = 0.0, full_norm_ = 0.0, c_norm_ = 0.0;
+  double eq_cond_ = 1.0;  // max/min |diagonal| of the equality block's R (a condition estimate)
   bool x_current_ = false;
   bool slack_current_ = false;  // slack_ = Ain x_ (set by finish() when x_ is the one most_violated used)  // x_ = L^-T Q [v1; w] for the current w (set when run() ends optimal)
 
