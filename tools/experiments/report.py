@@ -208,7 +208,8 @@ def main():
     trots = {n: load_summary(out, n) for n, *_ in trot_runs}
     if any(trots.values()):
         lines += ["", "## Trotting in place with the 50 N step (push at 2 s)", "",
-                  "The trot of `firmware/gait` (diagonal pairs, quintic + bump swing, footholds under the hips) "
+                  "The trot of `firmware/gait` (diagonal pairs, quintic + bump swing, planned in the trunk's "
+                  "horizontal frame, footholds centred under the static ZMP of weight + wrist wrench) "
                   "starts with the WBC at 0.5 s; ground-truth base state. Scores from the WBC start.", "",
                   "| scenario | M_e [kg] | gait | f_s [Hz] | d_f | NRMSE base x | NRMSE EE x | steady state base x | "
                   "steady state EE x | QP failures | max tau/limit | fell (s) |",
@@ -228,6 +229,14 @@ def main():
             lines += ["", "- *While trotting the error grows with the arm's apparent inertia*: EE x NRMSE "
                       + ", ".join(f"{pct(s['nrmse']['ee_x'])} (M_e {m}, {g.upper()})" for _, m, g, s in standing)
                       + ". Runs that fell are not comparable and are listed above with the time they fell."]
+            # The paper: the tracking depends more on the duty factor than on the step frequency.
+            by = {(m, g): s for _, m, g, s in standing}
+            for m in sorted({m for _, m, _, _ in standing}, key=float):
+                if all((m, g) in by for g in ("gp1", "gp2", "gp3")):
+                    e1, e2, e3 = (by[(m, g)]["nrmse"]["ee_x"] for g in ("gp1", "gp2", "gp3"))
+                    lines.append(f"- M_e {m}: from GP1, raising the duty factor (GP2) takes EE x NRMSE "
+                                 f"{pct(e1)} -> {pct(e2)}; raising the step frequency (GP3) {pct(e1)} -> {pct(e3)} "
+                                 f"({'duty factor matters more' if abs(e1 - e2) > abs(e1 - e3) else 'step frequency matters as much or more'}).")
 
     lines += ["", "## Targets (issue 8)", ""]
     lines += [f"- {'PASS' if ok else 'MISS'} {n}: {why}" for n, ok, why in checks]
