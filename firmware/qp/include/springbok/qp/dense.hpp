@@ -198,16 +198,15 @@ inline bool cholesky_lower(double* a, int ld, int n, double min_pivot, double* i
 // upper part of U'); both zero elsewhere up to padded(n).
 inline void split_factor(const double* a, int ld, int n, const double* inv_diag, double* lower, double* upper) noexcept {
   const int np = padded(n);
-  for (int k = 0; k < n; ++k) {
+  for (int k = 0; k < n; ++k) {  // whole padded columns, selected branch-free (no memset calls)
     const double* src = a + k * ld;
     double* lo = lower + k * ld;
-    for (int i = 0; i <= k; ++i) lo[i] = 0.0;
-    for (int i = k + 1; i < np; ++i) lo[i] = src[i] * inv_diag[k];
+    const double scale = inv_diag[k];
+    for (int i = 0; i < np; ++i) lo[i] = i > k ? src[i] * scale : 0.0;
   }
   for (int k = 0; k < n; ++k) {
     double* up = upper + k * ld;
-    for (int i = 0; i < k; ++i) up[i] = lower[i * ld + k];
-    for (int i = k; i < np; ++i) up[i] = 0.0;
+    for (int i = 0; i < np; ++i) up[i] = i < k ? lower[i * ld + k] : 0.0;
   }
 }
 

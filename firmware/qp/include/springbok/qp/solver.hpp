@@ -51,7 +51,7 @@ class Solver {
   explicit Solver(const Options& options = {}) noexcept : options_(options) {}
 
   // rt: no alloc, no block
-  Status solve(const ProblemType& problem, ResultType& result, const Hint& hint = {}) noexcept {
+  [[gnu::noinline]] Status solve(const ProblemType& problem, ResultType& result, const Hint& hint = {}) noexcept {
     p_ = &problem;
     result.iterations = 0;
     result.active.clear();
