@@ -546,8 +546,8 @@ TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
   ::unlink(socket_path.c_str());
   Firmware fw(config, time_scale);
   const double wall_per_sim_s = time_scale * 1.2 + 5.0;  // generous: the wall time a simulated second may take
-  // The robot spawns crouched on its feet (sim_hal); idle is zero torque, so the operator
-  // starts the stand-up as soon as the firmware listens.
+  // The robot spawns crouched on its feet (sim_hal); idle only damps (it cannot hold the
+  // robot up), so the operator starts the stand-up as soon as the firmware listens.
   std::string started;
   ASSERT_TRUE(wait_for(fw, 120.0, [&] {
     started = operator_line(socket_path, "start");
