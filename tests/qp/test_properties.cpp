@@ -232,7 +232,8 @@ TEST_F(QpProperties, RandomKktConstructedQpsAreSolvedExactly) {
 // Opt-in soak (not run by CI): SPRINGBOK_QP_SOAK_SEEDS=S and SPRINGBOK_QP_SOAK_TRIALS=T
 // solve T random KKT-constructed QPs for each of S seeds from SPRINGBOK_QP_SOAK_FIRST
 // (default 1), cold. A solve fails when it is not optimal or its own KKT residuals miss
-// the instance criteria (primal 1e-8, stationarity 1e-7, wrong sign 1e-8); one that
+// the instance criteria (primal 1e-8, stationarity 1e-7, wrong sign 1e-8), or when a warm
+// start from a junk active set disagrees with it (status, or its own KKT residuals); one that
 // satisfies KKT but lies farther than 1e-6 from x* is counted apart (an ill-conditioned
 // draw: the KKT point is the minimiser, x* is only known to rounding).
 TEST_F(QpProperties, SoakRandomKktConstructedQps) {
@@ -264,6 +265,24 @@ TEST_F(QpProperties, SoakRandomKktConstructedQps) {
                       << kkt.wrong_sign;
       } else if (!(err <= 1e-6 * std::max(1.0, xs))) {
         ++far_from_xstar;
+      }
+      // The same QP warm-started from a junk active set must agree with the cold solve.
+      const std::array<double, kN> cold_x = result->x;
+      springbok::qp::ActiveSet<kMI> junk;
+      for (int k = 0; k < 10; ++k) junk.push(rng.integer(0, std::max(0, gen.qp.mi - 1)), static_cast<Side>(rng.integer(0, 1)));
+      Solver::Hint hint;
+      hint.active_set = &junk;
+      const Status warm_status = solver->solve(*problem, *result, hint);
+      double warm_diff = 0.0;
+      for (int i = 0; i < gen.qp.n; ++i)
+        warm_diff = std::max(warm_diff, std::abs(result->x[static_cast<std::size_t>(i)] - cold_x[static_cast<std::size_t>(i)]));
+      const auto warm_kkt = kkt_check(gen.qp, result->x.data(), result->lambda_eq.data(), result->lambda_in.data());
+      const bool warm_kkt_ok = warm_kkt.primal <= 1e-8 && warm_kkt.stationarity <= 1e-7 && warm_kkt.wrong_sign <= 1e-8;
+      if (warm_status != status || (status == Status::optimal && !warm_kkt_ok)) {
+        ++failures;
+        ADD_FAILURE() << "seed " << seed << " trial " << trial << " warm from junk: " << springbok::qp::to_string(warm_status)
+                      << " (cold " << springbok::qp::to_string(status) << "), x differs by " << warm_diff
+                      << ", its kkt primal " << warm_kkt.primal << " stationarity " << warm_kkt.stationarity;
       }
     }
   }

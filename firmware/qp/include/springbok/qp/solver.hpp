@@ -60,9 +60,12 @@ class Solver {
     Status status = prepare(hint);
     if (status == Status::optimal) {
       status = run(hint.active_set);
-      // A warm start is only a guess: an infeasible or capped run from it is
-      // re-checked from the cold start (same factorization).
-      if (hint.active_set != nullptr && (status == Status::infeasible || status == Status::maxiter)) {
+      // A warm start is only a guess: a capped run from it is re-run from the cold
+      // start (same factorization). An infeasible verdict stands: the warm start
+      // leaves a valid dual state (the minimiser on a set of tight rows, multipliers
+      // >= 0), and from such a state "violated, dependent, no multiplier to trade" is
+      // a Farkas certificate however the state was reached.
+      if (hint.active_set != nullptr && status == Status::maxiter) {
         iterations_ = 0;
         status = run(nullptr);
       }
