@@ -182,7 +182,8 @@ const char* status_word(qp::Status status) {
     case qp::Status::infeasible: return "infeasible";
     case qp::Status::maxiter: return "maxiter";
     case qp::Status::bad_input:
-    case qp::Status::not_positive_definite: return "error";
+    case qp::Status::not_positive_definite:
+    case qp::Status::inaccurate: return "error";
   }
   return "error";
 }

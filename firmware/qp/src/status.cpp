@@ -9,6 +9,7 @@ const char* to_string(Status status) noexcept {
     case Status::maxiter: return "maxiter";
     case Status::bad_input: return "bad_input";
     case Status::not_positive_definite: return "not_positive_definite";
+    case Status::inaccurate: return "inaccurate";
   }
   return "unknown";
 }

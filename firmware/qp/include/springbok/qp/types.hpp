@@ -23,9 +23,10 @@ enum class Status : std::uint8_t {
   maxiter,                // iteration cap reached
   bad_input,              // NaN/inf where not allowed, sizes out of range, bad factor
   not_positive_definite,  // Cholesky of H failed
+  inaccurate,             // the answer failed the solver's own stationarity check (rounding won)
 };
 
-// The word used by tools and logs: optimal infeasible maxiter bad_input not_positive_definite.
+// The word used by tools and logs: optimal infeasible maxiter bad_input not_positive_definite inaccurate.
 const char* to_string(Status status) noexcept;
 
 // Which bound of a row is active. `equal` marks an Ain row with lb == ub.
