@@ -250,12 +250,6 @@ inline void forward_solve_each(const double* lower, int ld, const double* inv_di
   }
 }
 
-// forward_solve_each on cols vectors stored with stride ldy.
-inline void forward_solve(const double* lower, int ld, const double* inv_diag, int n, double* y, int ldy = 0,
-                          int cols = 1) noexcept {
-  forward_solve_each(lower, ld, inv_diag, n, cols, [y, ldy](int c) noexcept { return y + c * ldy; });
-}
-
 // y <- L^-T y = U^-T D^-1 y with upper = strict upper part of U' (zero-padded).
 inline void backward_solve_transposed(const double* upper, int ld, const double* inv_diag, int n,
                                       double* __restrict y) noexcept {
