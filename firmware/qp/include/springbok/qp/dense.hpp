@@ -194,9 +194,8 @@ inline bool cholesky_lower(double* a, int ld, int n, double min_pivot, double* i
 }
 
 // From the factor left in a by cholesky_lower, with L = U D (U unit lower,
-// D = diag(L)): lower = strict lower part of U, upper = its transpose (strict
-// upper part of U'); both zero elsewhere up to padded(n).
-inline void split_factor(const double* a, int ld, int n, const double* inv_diag, double* lower, double* upper) noexcept {
+// D = diag(L)): lower = strict lower part of U, zero elsewhere up to padded(n).
+inline void split_factor(const double* a, int ld, int n, const double* inv_diag, double* lower) noexcept {
   const int np = padded(n);
   for (int k = 0; k < n; ++k) {  // whole padded columns, selected branch-free (no memset calls)
     const double* src = a + k * ld;
@@ -204,21 +203,16 @@ inline void split_factor(const double* a, int ld, int n, const double* inv_diag,
     const double scale = inv_diag[k];
     for (int i = 0; i < np; ++i) lo[i] = i > k ? src[i] * scale : 0.0;
   }
-  for (int k = 0; k < n; ++k) {
-    double* up = upper + k * ld;
-    for (int i = 0; i < np; ++i) up[i] = i < k ? lower[i * ld + k] : 0.0;
-  }
 }
 
-// y <- L^-1 y for cols vectors (stride ldy, padded) at once: unit forward
+// y <- U^-1 y for cols vectors (padded) at once, U unit lower (L = U D): forward
 // substitution with the strict lower part of U in panels of four columns (the
 // panel's own chunk by scalar steps, the rows below by one rank-4 update, so
-// each chunk of y is loaded and stored once per panel), then y <- D^-1 y.
-// The columns' dependency chains are independent and overlap. column(c) gives
-// the c-th vector.
+// each chunk of y is loaded and stored once per panel). The columns' dependency
+// chains are independent and overlap. column(c) gives the c-th vector; D^-1 is
+// the caller's (one pass over whole chunks).
 template <class Column>
-inline void forward_solve_each(const double* lower, int ld, const double* inv_diag, int n, int cols,
-                               Column column) noexcept {
+inline void unit_forward_solve_each(const double* lower, int ld, int n, int cols, Column column) noexcept {
   const int np = padded(n);
   for (int k0 = 0; k0 < n; k0 += 4) {
     // The panel's unit lower triangle; entries of columns past n count as zero
@@ -243,22 +237,6 @@ inline void forward_solve_each(const double* lower, int ld, const double* inv_di
       if (!below) continue;
       for (int i = k0 + 4; i < np; ++i) yc[i] -= (c0[i] * y0 + c1[i] * y1) + (c2[i] * y2 + c3[i] * y3);
     }
-  }
-  for (int c = 0; c < cols; ++c) {
-    double* __restrict yc = column(c);
-    for (int i = 0; i < n; ++i) yc[i] *= inv_diag[i];
-  }
-}
-
-// y <- L^-T y = U^-T D^-1 y with upper = strict upper part of U' (zero-padded).
-inline void backward_solve_transposed(const double* upper, int ld, const double* inv_diag, int n,
-                                      double* __restrict y) noexcept {
-  for (int i = 0; i < n; ++i) y[i] *= inv_diag[i];
-  for (int k = n - 1; k > 0; --k) {
-    const double xk = y[k];
-    const double* __restrict col = upper + k * ld;
-    const int end = chunk_start(k) + 4;
-    for (int i = 0; i < end; ++i) y[i] -= col[i] * xk;
   }
 }
 
@@ -308,6 +286,17 @@ inline void axpy_chunks(double alpha, const double* x, double* y, int n) noexcep
   }
 }
 
+// y[i] *= s[i] over n entries, n a multiple of four.
+inline void scale_chunks(const double* s, double* y, int n) noexcept {
+  Chunk sc, yc;
+  for (int i = 0; i < n; i += 4) {
+    std::memcpy(&sc, s + i, sizeof sc);
+    std::memcpy(&yc, y + i, sizeof yc);
+    yc *= sc;
+    std::memcpy(y + i, &yc, sizeof yc);
+  }
+}
+
 // out[j] = a_j . x for the first ncols columns a_j of a column-major matrix (leading
 // dimension ld), over n entries (a multiple of four): four columns per pass, so each
 // chunk of x is loaded once per four columns.
@@ -336,6 +325,17 @@ inline void gemv_t_chunks(const double* a, int ld, int n, int ncols, const doubl
     out[j + 3] = (s3[0] + s3[1]) + (s3[2] + s3[3]);
   }
   for (; j < ncols; ++j) out[j] = dot_chunks(a + static_cast<std::ptrdiff_t>(j) * ld, x, n);
+}
+
+// y <- U^-T y for U unit lower (its strict lower part in the zero-padded columns
+// of lower, n of them), y padded: backward substitution by dot products with the
+// columns of U over whole chunks (entries of U on and above the diagonal are zero).
+inline void unit_backward_solve_transposed(const double* lower, int ld, int n, double* y) noexcept {
+  const int np = padded(n);
+  for (int k = n - 2; k >= 0; --k) {
+    const int start = chunk_start(k + 1);
+    y[k] -= dot_chunks(lower + static_cast<std::ptrdiff_t>(k) * ld + start, y + start, np - start);
+  }
 }
 
 // y -= sum_j e[j] a_j over the first ncols columns (as gemv_t_chunks), n a multiple
@@ -404,15 +404,16 @@ inline void apply_reflector(const double* v, double tau, int k, int np, double* 
   axpy_chunks(-w, v + start, y + start, np - start);
 }
 
-// Householder reflector P = I - tau v v' with v = [1; tail] so that P x = [beta; 0].
-// x has len entries; on return x[0] = beta and x[1..] holds the tail of v.
-inline double make_householder(double* x, int len) noexcept {
+// Householder reflector P = I - tau v v' with v = [1; scale * x[1..]] so that
+// P x = [beta; 0]. x has len entries; only x[0] changes (to beta): the caller
+// writes the scaled tail where it wants it. Returns tau (0: P = I, scale 0).
+inline double make_householder(double* x, int len, double& scale) noexcept {
   const double alpha = x[0];
   const double tail2 = squared_norm(x + 1, len - 1);
+  scale = 0.0;
   if (tail2 == 0.0) return 0.0;  // already reduced: P = I
   const double beta = (alpha >= 0.0 ? -1.0 : 1.0) * std::sqrt(alpha * alpha + tail2);
-  const double scale = 1.0 / (alpha - beta);
-  for (int i = 1; i < len; ++i) x[i] *= scale;
+  scale = 1.0 / (alpha - beta);
   x[0] = beta;
   return (beta - alpha) / beta;
 }

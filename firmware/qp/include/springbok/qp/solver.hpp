@@ -238,19 +238,17 @@ class Solver {
         have_factored_h_ = true;
       }
     }
-    dense::split_factor(l_.data(), kLd, nc_, inv_diag_.data(), lo_.data(), up_.data());
+    dense::split_factor(l_.data(), kLd, nc_, inv_diag_.data(), lo_.data());
+    std::fill(inv_diag_.begin() + n_, inv_diag_.begin() + np_, 0.0);  // keeps padding zero
     return Status::optimal;
   }
 
   // y <- L^-1 y (permuted coordinates, padded) for `cols` vectors: the coupled block by
-  // forward substitution, the separable tail by its diagonal.
+  // unit forward substitution, then D^-1 on every variable (the separable ones' L).
   template <class Column>
   void solve_lower_each(int cols, Column column) noexcept {
-    dense::forward_solve_each(lo_.data(), kLd, inv_diag_.data(), nc_, cols, column);
-    for (int c = 0; c < cols; ++c) {
-      double* __restrict y = column(c);
-      for (int k = nc_; k < n_; ++k) y[k] *= inv_diag_[k];
-    }
+    dense::unit_forward_solve_each(lo_.data(), kLd, nc_, cols, column);
+    for (int c = 0; c < cols; ++c) dense::scale_chunks(inv_diag_.data(), column(c), np_);
   }
   void solve_lower(double* y, int ldy = 0, int cols = 1) noexcept {
     solve_lower_each(cols, [y, ldy](int c) noexcept { return y + c * ldy; });
@@ -314,11 +312,10 @@ class Solver {
         std::swap(eq_row_norm_[k], eq_row_norm_[best]);
       }
       double* bk = bcol(k);
-      tau_[k] = dense::make_householder(bk + k, n_ - k);
-      double* vk = vcol(k);  // the full padded reflector: zeros above k, 1 at k
-      std::fill(vk, vk + np_, 0.0);
-      vk[k] = 1.0;
-      std::copy(bk + k + 1, bk + n_, vk + k + 1);
+      double scale = 0.0;
+      tau_[k] = dense::make_householder(bk + k, n_ - k, scale);
+      double* vk = vcol(k);  // the full padded reflector: zeros above k, 1 at k (bk's tail is left unused)
+      for (int i = 0; i < np_; ++i) vk[i] = i > k ? bk[i] * scale : (i == k ? 1.0 : 0.0);
       if (tau_[k] != 0.0) {  // the reflector on columns k+1 .. me_ (g last) at once
         const int start = dense::chunk_start(k), len = np_ - start, cols = me_ - k;
         dense::gemv_t_chunks(bcol(k + 1) + start, kLd, len, cols, vk + start, eq_w_.data());
@@ -491,8 +488,8 @@ class Solver {
     std::copy_n(w_.data(), m_, y + rank_);
     std::fill(y + n_, y + np_, 0.0);
     apply_q(y);
-    for (int k = nc_; k < n_; ++k) y[k] *= inv_diag_[k];
-    dense::backward_solve_transposed(up_.data(), kLd, inv_diag_.data(), nc_, y);
+    dense::scale_chunks(inv_diag_.data(), y, np_);
+    dense::unit_backward_solve_transposed(lo_.data(), kLd, nc_, y);
     for (int k = 0; k < n_; ++k) x_[perm_[k]] = y[k];
     x_norm_ = std::sqrt(dense::squared_norm(x_.data(), n_));
   }
@@ -833,9 +830,8 @@ class Solver {
 
   // factor of H
   alignas(64) Buf<double, kLd * N> l_{};   // Cholesky scratch
-  alignas(64) Buf<double, kLd * N> lo_{};  // L = U D: strict lower part of U, zero-padded
-  alignas(64) Buf<double, kLd * N> up_{};  // strict upper part of U', zero-padded
-  Buf<double, N> inv_diag_{};
+  alignas(64) Buf<double, kLd * N> lo_{};  // L = U D: strict lower part of U (coupled block), zero-padded
+  alignas(64) Buf<double, kLd> inv_diag_{};  // 1 / L_kk, zero past n_
   Buf<double, N * N> factored_h_{};  // lower triangle of the H last factored with reuse_factor
   int factored_n_ = 0;
   Buf<int, N> perm_{};               // variable order: original index of position k
