@@ -154,55 +154,46 @@ inline constexpr int chunk_start(int i) noexcept { return i & ~3; }
 
 // Right-looking Cholesky of the lower triangle of a (column-major, leading
 // dimension ld >= padded(n), rows [n, padded(n)) zero), in panels of four
-// columns with one rank-4 update of the trailing columns per panel. On return
-// the strict lower triangle of a holds L; its diagonal and upper part are
-// scratch. Writes 1/L_kk into inv_diag. False when a pivot is not above
-// min_pivot (or is NaN).
+// columns with one rank-4 update of the trailing columns per panel, as H = U D^2 U'
+// with U unit lower (L = U D). On return column k of a holds U's strict lower part
+// from row k+1 on and zeros from the start of its chunk of four through row k (what
+// unit_forward_solve_each and unit_backward_solve_transposed read); inv_diag[k] =
+// 1/L_kk. False when a pivot is not above min_pivot (or is NaN).
 inline bool cholesky_lower(double* a, int ld, int n, double min_pivot, double* inv_diag) noexcept {
   const int np = padded(n);
   for (int k0 = 0; k0 < n; k0 += 4) {
     const int k1 = k0 + 4 < n ? k0 + 4 : n;
+    double pivots[4] = {0.0, 0.0, 0.0, 0.0};
     for (int k = k0; k < k1; ++k) {  // the panel
       double* col_k = a + k * ld;
       const double pivot = col_k[k];
       if (!(pivot > min_pivot)) return false;
+      pivots[k - k0] = pivot;
       // The panel's next columns are updated from the unscaled column with
       // a_ik a_jk / pivot = l_ik l_jk, so the next pivot waits on one division,
-      // not on a square root and a division; the scaling runs alongside.
+      // not on a square root; the scaling runs alongside.
       const double inv_pivot = 1.0 / pivot;
       for (int j = k + 1; j < k1; ++j) {
         double* col_j = a + j * ld;
         const double a_jk = col_k[j] * inv_pivot;
         for (int i = chunk_start(j); i < np; ++i) col_j[i] -= col_k[i] * a_jk;
       }
-      const double inv = 1.0 / std::sqrt(pivot);
-      inv_diag[k] = inv;
-      for (int i = chunk_start(k + 1); i < np; ++i) col_k[i] *= inv;
+      inv_diag[k] = 1.0 / std::sqrt(pivot);
+      for (int i = chunk_start(k); i < np; ++i) col_k[i] = i > k ? col_k[i] * inv_pivot : 0.0;  // u_ik = a_ik / pivot
     }
-    const double* c0 = a + k0 * ld;  // panel columns; missing ones (n not a multiple of 4) count as zero
+    // Trailing update with l_ik l_jk = u_ik (u_jk pivot_k); missing panel columns (n
+    // not a multiple of 4) count as zero.
+    const double* c0 = a + k0 * ld;
     const double* c1 = k0 + 1 < k1 ? c0 + ld : c0;
     const double* c2 = k0 + 2 < k1 ? c0 + 2 * ld : c0;
     const double* c3 = k0 + 3 < k1 ? c0 + 3 * ld : c0;
     for (int j = k1; j < n; ++j) {
       double* col_j = a + j * ld;
-      const double l0 = c0[j], l1 = k0 + 1 < k1 ? c1[j] : 0.0, l2 = k0 + 2 < k1 ? c2[j] : 0.0,
-                   l3 = k0 + 3 < k1 ? c3[j] : 0.0;
+      const double l0 = c0[j] * pivots[0], l1 = c1[j] * pivots[1], l2 = c2[j] * pivots[2], l3 = c3[j] * pivots[3];
       for (int i = chunk_start(j); i < np; ++i) col_j[i] -= (c0[i] * l0 + c1[i] * l1) + (c2[i] * l2 + c3[i] * l3);
     }
   }
   return true;
-}
-
-// From the factor left in a by cholesky_lower, with L = U D (U unit lower,
-// D = diag(L)): lower = strict lower part of U, zero elsewhere up to padded(n).
-inline void split_factor(const double* a, int ld, int n, const double* inv_diag, double* lower) noexcept {
-  const int np = padded(n);
-  for (int k = 0; k < n; ++k) {  // whole padded columns, selected branch-free (no memset calls)
-    const double* src = a + k * ld;
-    double* lo = lower + k * ld;
-    const double scale = inv_diag[k];
-    for (int i = 0; i < np; ++i) lo[i] = i > k ? src[i] * scale : 0.0;
-  }
 }
 
 // y <- U^-1 y for cols vectors (padded) at once, U unit lower (L = U D): forward
@@ -252,6 +243,12 @@ inline double tail_squared_norm(const double* c, int from, int np) noexcept {
 // two NEON registers on aarch64), moved by memcpy so no alignment is assumed. Chunks
 // never cross a function boundary (that would depend on the ABI's vector support).
 using Chunk = double __attribute__((vector_size(32)));
+
+// y[0..3] = {a, b, c, d} as one chunk store.
+inline void store4(double* y, double a, double b, double c, double d) noexcept {
+  const Chunk v = {a, b, c, d};
+  std::memcpy(y, &v, sizeof v);
+}
 
 // a . b over n entries, n a multiple of four (padded vectors from a chunk start).
 inline double dot_chunks(const double* a, const double* b, int n) noexcept {
@@ -405,11 +402,10 @@ inline void apply_reflector(const double* v, double tau, int k, int np, double* 
 }
 
 // Householder reflector P = I - tau v v' with v = [1; scale * x[1..]] so that
-// P x = [beta; 0]. x has len entries; only x[0] changes (to beta): the caller
-// writes the scaled tail where it wants it. Returns tau (0: P = I, scale 0).
-inline double make_householder(double* x, int len, double& scale) noexcept {
+// P x = [beta; 0], given tail2 = |x[1..]|^2. Only x[0] changes (to beta): the
+// caller writes the scaled tail where it wants it. Returns tau (0: P = I, scale 0).
+inline double make_householder(double* x, double tail2, double& scale) noexcept {
   const double alpha = x[0];
-  const double tail2 = squared_norm(x + 1, len - 1);
   scale = 0.0;
   if (tail2 == 0.0) return 0.0;  // already reduced: P = I
   const double beta = (alpha >= 0.0 ? -1.0 : 1.0) * std::sqrt(alpha * alpha + tail2);

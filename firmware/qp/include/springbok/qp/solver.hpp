@@ -211,19 +211,27 @@ class Solver {
     const int ncp = dense::padded(nc_);
     double max_diag = 0.0;
     for (int k = 0; k < n_; ++k) max_diag = std::max(max_diag, std::abs(source[idx(perm_[k], perm_[k], N)]));
-    // The coupled block, permuted, into the scratch (rows past nc_ zero).
-    for (int b = 0; b < nc_; ++b) {
-      double* col = lcol(b);
-      const double* src = source + idx(0, perm_[b], N);
-      for (int a = dense::chunk_start(b); a < ncp; ++a) col[a] = a >= b && a < nc_ ? src[perm_[a]] : 0.0;
-    }
+    // The coupled block, permuted, into l_ (rows past nc_ zero); Cholesky in place,
+    // or the caller's L scaled to U = L D^-1 with zeros from the chunk start to the
+    // diagonal (the layout cholesky_lower leaves).
     if (given_lower != nullptr) {
       for (int k = 0; k < n_; ++k) {
         const double diag = source[idx(perm_[k], perm_[k], N)];
         if (!(diag > 0.0)) return Status::bad_input;
         inv_diag_[k] = 1.0 / diag;
       }
+      for (int b = 0; b < nc_; ++b) {
+        double* col = lcol(b);
+        const double* src = source + idx(0, perm_[b], N);
+        const double scale = inv_diag_[b];
+        for (int a = dense::chunk_start(b); a < ncp; ++a) col[a] = a > b && a < nc_ ? src[perm_[a]] * scale : 0.0;
+      }
     } else {
+      for (int b = 0; b < nc_; ++b) {
+        double* col = lcol(b);
+        const double* src = source + idx(0, perm_[b], N);
+        for (int a = dense::chunk_start(b); a < ncp; ++a) col[a] = a >= b && a < nc_ ? src[perm_[a]] : 0.0;
+      }
       const double min_pivot = static_cast<double>(n_) * kEps * max_diag;
       if (!dense::cholesky_lower(l_.data(), kLd, nc_, min_pivot, inv_diag_.data()))
         return Status::not_positive_definite;
@@ -238,7 +246,6 @@ class Solver {
         have_factored_h_ = true;
       }
     }
-    dense::split_factor(l_.data(), kLd, nc_, inv_diag_.data(), lo_.data());
     std::fill(inv_diag_.begin() + n_, inv_diag_.begin() + np_, 0.0);  // keeps padding zero
     return Status::optimal;
   }
@@ -247,7 +254,7 @@ class Solver {
   // unit forward substitution, then D^-1 on every variable (the separable ones' L).
   template <class Column>
   void solve_lower_each(int cols, Column column) noexcept {
-    dense::unit_forward_solve_each(lo_.data(), kLd, nc_, cols, column);
+    dense::unit_forward_solve_each(l_.data(), kLd, nc_, cols, column);
     for (int c = 0; c < cols; ++c) dense::scale_chunks(inv_diag_.data(), column(c), np_);
   }
   void solve_lower(double* y, int ldy = 0, int cols = 1) noexcept {
@@ -263,13 +270,25 @@ class Solver {
   // ---- step 2: the equality block --------------------------------------------
   Status eliminate_equalities() noexcept {
     const ProblemType& p = *p_;
-    me_ = 0;
-    for (int k = 0; k < meq_; ++k) {
-      gather(p.aeq.data() + k, ME, bcol(me_));
-      eq_row_norm_[me_] = std::sqrt(eq_row_sq_[k]);
-      eq_rhs_[me_] = p.beq_values[k];
-      eq_src_[me_] = k;
-      ++me_;
+    // Aeq's rows, permuted, into columns 0 .. meq_-1 of b_: a transposing copy that
+    // reads each column of Aeq once, contiguously.
+    int k = 0;
+    for (; k + 4 <= n_; k += 4) {  // four variables at a time: one chunk store per row
+      const double* c0 = p.aeq.data() + idx(0, perm_[k], ME);
+      const double* c1 = p.aeq.data() + idx(0, perm_[k + 1], ME);
+      const double* c2 = p.aeq.data() + idx(0, perm_[k + 2], ME);
+      const double* c3 = p.aeq.data() + idx(0, perm_[k + 3], ME);
+      for (int r = 0; r < meq_; ++r) dense::store4(bcol(r) + k, c0[r], c1[r], c2[r], c3[r]);
+    }
+    for (; k < n_; ++k) {
+      const double* col = p.aeq.data() + idx(0, perm_[k], ME);
+      for (int r = 0; r < meq_; ++r) bcol(r)[k] = col[r];
+    }
+    for (me_ = 0; me_ < meq_; ++me_) {
+      std::fill(bcol(me_) + n_, bcol(me_) + np_, 0.0);
+      eq_row_norm_[me_] = std::sqrt(eq_row_sq_[me_]);
+      eq_rhs_[me_] = p.beq_values[me_];
+      eq_src_[me_] = me_;
     }
     for (int i = 0; i < mi_; ++i) {
       if (kind_[i] != RowKind::equal) continue;
@@ -284,7 +303,7 @@ class Solver {
     gather(p.gradient.data(), 1, gcol);
     solve_lower(bcol(0), kLd, me_ + 1);
     for (int k = 0; k < me_; ++k) {
-      eq_norm2_[k] = dense::squared_norm(bcol(k), n_);
+      eq_norm2_[k] = dense::dot_chunks(bcol(k), bcol(k), np_);
       eq_left2_[k] = eq_norm2_[k];
     }
     // Householder QR with column pivoting on the relative remaining norm.
@@ -313,7 +332,7 @@ class Solver {
       }
       double* bk = bcol(k);
       double scale = 0.0;
-      tau_[k] = dense::make_householder(bk + k, n_ - k, scale);
+      tau_[k] = dense::make_householder(bk + k, dense::tail_squared_norm(bk, k + 1, np_), scale);
       double* vk = vcol(k);  // the full padded reflector: zeros above k, 1 at k (bk's tail is left unused)
       for (int i = 0; i < np_; ++i) vk[i] = i > k ? bk[i] * scale : (i == k ? 1.0 : 0.0);
       if (tau_[k] != 0.0) {  // the reflector on columns k+1 .. me_ (g last) at once
@@ -489,7 +508,7 @@ class Solver {
     std::fill(y + n_, y + np_, 0.0);
     apply_q(y);
     dense::scale_chunks(inv_diag_.data(), y, np_);
-    dense::unit_backward_solve_transposed(lo_.data(), kLd, nc_, y);
+    dense::unit_backward_solve_transposed(l_.data(), kLd, nc_, y);
     for (int k = 0; k < n_; ++k) x_[perm_[k]] = y[k];
     x_norm_ = std::sqrt(dense::squared_norm(x_.data(), n_));
   }
@@ -829,8 +848,7 @@ class Solver {
   bool slack_current_ = false;  // slack_ = Ain x_ (set by finish() when x_ is the one most_violated used)  // x_ = L^-T Q [v1; w] for the current w (set when run() ends optimal)
 
   // factor of H
-  alignas(64) Buf<double, kLd * N> l_{};   // Cholesky scratch
-  alignas(64) Buf<double, kLd * N> lo_{};  // L = U D: strict lower part of U (coupled block), zero-padded
+  alignas(64) Buf<double, kLd * N> l_{};  // H's coupled block = U D^2 U': U's strict lower part (cholesky_lower)
   alignas(64) Buf<double, kLd> inv_diag_{};  // 1 / L_kk, zero past n_
   Buf<double, N * N> factored_h_{};  // lower triangle of the H last factored with reuse_factor
   int factored_n_ = 0;
