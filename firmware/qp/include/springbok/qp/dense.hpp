@@ -152,6 +152,61 @@ inline void add_row_squares(const double* a, int ld, int m, int n, double* __res
 inline constexpr int padded(int n) noexcept { return (n + 3) & ~3; }
 inline constexpr int chunk_start(int i) noexcept { return i & ~3; }
 
+// Whole chunks of four as one value (GCC/Clang vector extension: AVX2 on x86-64,
+// two NEON registers on aarch64), moved by memcpy so no alignment is assumed. Chunks
+// never cross a function boundary (that would depend on the ABI's vector support).
+using Chunk = double __attribute__((vector_size(32)));
+
+// y[0..3] = {a, b, c, d} as one chunk store.
+inline void store4(double* y, double a, double b, double c, double d) noexcept {
+  const Chunk v = {a, b, c, d};
+  std::memcpy(y, &v, sizeof v);
+}
+
+// a . b over n entries, n a multiple of four (padded vectors from a chunk start).
+inline double dot_chunks(const double* a, const double* b, int n) noexcept {
+  Chunk s0 = {0.0, 0.0, 0.0, 0.0}, s1 = s0, x, y, u, v;
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    std::memcpy(&x, a + i, sizeof x);
+    std::memcpy(&y, b + i, sizeof y);
+    std::memcpy(&u, a + i + 4, sizeof u);
+    std::memcpy(&v, b + i + 4, sizeof v);
+    s0 += x * y;
+    s1 += u * v;
+  }
+  if (i < n) {
+    std::memcpy(&x, a + i, sizeof x);
+    std::memcpy(&y, b + i, sizeof y);
+    s0 += x * y;
+  }
+  s0 += s1;
+  return (s0[0] + s0[1]) + (s0[2] + s0[3]);
+}
+
+// sum_{i >= from} c[i]^2 over a padded vector (np entries): scalar head to the next
+// chunk, then whole chunks.
+inline double tail_squared_norm(const double* c, int from, int np) noexcept {
+  const int aligned = chunk_start(from + 3);
+  double head = 0.0;
+  for (int i = from; i < aligned && i < np; ++i) head += c[i] * c[i];
+  return aligned < np ? head + dot_chunks(c + aligned, c + aligned, np - aligned) : head;
+}
+
+// y[i] = i > k ? x[i] * scale : (i == k ? diag : 0) over the padded range [chunk_start(k),
+// np): the chunk holding k entry by entry, the rest whole chunks. (x may be y.)
+inline void scaled_below(const double* x, int k, int np, double scale, double diag, double* y) noexcept {
+  const int start = chunk_start(k);
+  for (int i = start; i < start + 4; ++i) y[i] = i > k ? x[i] * scale : (i == k ? diag : 0.0);
+  const Chunk s = {scale, scale, scale, scale};
+  Chunk c;
+  for (int i = start + 4; i < np; i += 4) {
+    std::memcpy(&c, x + i, sizeof c);
+    c *= s;
+    std::memcpy(y + i, &c, sizeof c);
+  }
+}
+
 // Right-looking Cholesky of the lower triangle of a (column-major, leading
 // dimension ld >= padded(n), rows [n, padded(n)) zero), in panels of four
 // columns with one rank-4 update of the trailing columns per panel, as H = U D^2 U'
@@ -179,7 +234,7 @@ inline bool cholesky_lower(double* a, int ld, int n, double min_pivot, double* i
         for (int i = chunk_start(j); i < np; ++i) col_j[i] -= col_k[i] * a_jk;
       }
       inv_diag[k] = 1.0 / std::sqrt(pivot);
-      for (int i = chunk_start(k); i < np; ++i) col_k[i] = i > k ? col_k[i] * inv_pivot : 0.0;  // u_ik = a_ik / pivot
+      scaled_below(col_k, k, np, inv_pivot, 0.0, col_k);  // u_ik = a_ik / pivot, zeros through row k
     }
     // Trailing update with l_ik l_jk = u_ik (u_jk pivot_k); missing panel columns (n
     // not a multiple of 4) count as zero.
@@ -229,46 +284,6 @@ inline void unit_forward_solve_each(const double* lower, int ld, int n, int cols
       for (int i = k0 + 4; i < np; ++i) yc[i] -= (c0[i] * y0 + c1[i] * y1) + (c2[i] * y2 + c3[i] * y3);
     }
   }
-}
-
-// sum_{i >= from} c[i]^2 over a padded vector: scalar head to the next chunk, then chunks.
-inline double tail_squared_norm(const double* c, int from, int np) noexcept {
-  const int aligned = chunk_start(from + 3);
-  double head = 0.0;
-  for (int i = from; i < aligned && i < np; ++i) head += c[i] * c[i];
-  return aligned < np ? head + squared_norm(c + aligned, np - aligned) : head;
-}
-
-// Whole chunks of four as one value (GCC/Clang vector extension: AVX2 on x86-64,
-// two NEON registers on aarch64), moved by memcpy so no alignment is assumed. Chunks
-// never cross a function boundary (that would depend on the ABI's vector support).
-using Chunk = double __attribute__((vector_size(32)));
-
-// y[0..3] = {a, b, c, d} as one chunk store.
-inline void store4(double* y, double a, double b, double c, double d) noexcept {
-  const Chunk v = {a, b, c, d};
-  std::memcpy(y, &v, sizeof v);
-}
-
-// a . b over n entries, n a multiple of four (padded vectors from a chunk start).
-inline double dot_chunks(const double* a, const double* b, int n) noexcept {
-  Chunk s0 = {0.0, 0.0, 0.0, 0.0}, s1 = s0, x, y, u, v;
-  int i = 0;
-  for (; i + 8 <= n; i += 8) {
-    std::memcpy(&x, a + i, sizeof x);
-    std::memcpy(&y, b + i, sizeof y);
-    std::memcpy(&u, a + i + 4, sizeof u);
-    std::memcpy(&v, b + i + 4, sizeof v);
-    s0 += x * y;
-    s1 += u * v;
-  }
-  if (i < n) {
-    std::memcpy(&x, a + i, sizeof x);
-    std::memcpy(&y, b + i, sizeof y);
-    s0 += x * y;
-  }
-  s0 += s1;
-  return (s0[0] + s0[1]) + (s0[2] + s0[3]);
 }
 
 // y += alpha x over n entries, n a multiple of four.

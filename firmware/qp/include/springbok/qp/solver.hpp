@@ -230,7 +230,9 @@ class Solver {
       for (int b = 0; b < nc_; ++b) {
         double* col = lcol(b);
         const double* src = source + idx(0, perm_[b], N);
-        for (int a = dense::chunk_start(b); a < ncp; ++a) col[a] = a >= b && a < nc_ ? src[perm_[a]] : 0.0;
+        for (int a = dense::chunk_start(b); a < b; ++a) col[a] = 0.0;
+        for (int a = b; a < nc_; ++a) col[a] = src[perm_[a]];
+        for (int a = nc_; a < ncp; ++a) col[a] = 0.0;
       }
       const double min_pivot = static_cast<double>(n_) * kEps * max_diag;
       if (!dense::cholesky_lower(l_.data(), kLd, nc_, min_pivot, inv_diag_.data()))
@@ -334,7 +336,8 @@ class Solver {
       double scale = 0.0;
       tau_[k] = dense::make_householder(bk + k, dense::tail_squared_norm(bk, k + 1, np_), scale);
       double* vk = vcol(k);  // the full padded reflector: zeros above k, 1 at k (bk's tail is left unused)
-      for (int i = 0; i < np_; ++i) vk[i] = i > k ? bk[i] * scale : (i == k ? 1.0 : 0.0);
+      std::fill(vk, vk + dense::chunk_start(k), 0.0);
+      dense::scaled_below(bk, k, np_, scale, 1.0, vk);
       if (tau_[k] != 0.0) {  // the reflector on columns k+1 .. me_ (g last) at once
         const int start = dense::chunk_start(k), len = np_ - start, cols = me_ - k;
         dense::gemv_t_chunks(bcol(k + 1) + start, kLd, len, cols, vk + start, eq_w_.data());
@@ -829,10 +832,8 @@ class Solver {
     for (int j = 0; j < q_; ++j) result.active.push(act_row_[j], act_sigma_[j] > 0 ? Side::lower : Side::upper);
     for (int i = 0; i < mi_; ++i)
       if (kind_[i] == RowKind::equal) result.active.push(i, Side::equal);
-    bool ok = finite(objective);
-    for (int i = 0; i < n_; ++i) ok = ok && finite(result.x[i]);
-    for (int i = 0; i < meq_; ++i) ok = ok && finite(result.lambda_eq[i]);
-    for (int i = 0; i < mi_; ++i) ok = ok && finite(result.lambda_in[i]);
+    const bool ok = finite(objective) && dense::all_finite(result.x.data(), n_) &&
+                    dense::all_finite(result.lambda_eq.data(), meq_) && dense::all_finite(result.lambda_in.data(), mi_);
     (void)p;
     return ok;
   }
