@@ -298,6 +298,19 @@ inline void axpy_chunks(double alpha, const double* x, double* y, int n) noexcep
   }
 }
 
+// [a; b] <- [c s; -s c] [a; b] entrywise over n entries, n a multiple of four.
+inline void rotate_chunks(double c, double s, double* a, double* b, int n) noexcept {
+  const Chunk cc = {c, c, c, c}, sc = {s, s, s, s};
+  Chunk ac, bc;
+  for (int i = 0; i < n; i += 4) {
+    std::memcpy(&ac, a + i, sizeof ac);
+    std::memcpy(&bc, b + i, sizeof bc);
+    const Chunk na = cc * ac + sc * bc, nb = cc * bc - sc * ac;
+    std::memcpy(a + i, &na, sizeof na);
+    std::memcpy(b + i, &nb, sizeof nb);
+  }
+}
+
 // y[i] *= s[i] over n entries, n a multiple of four.
 inline void scale_chunks(const double* s, double* y, int n) noexcept {
   Chunk sc, yc;
@@ -431,7 +444,10 @@ inline double make_householder(double* x, double tail2, double& scale) noexcept 
 
 // Givens rotation (c, s) with [c s; -s c] [a; b] = [r; 0]; returns r >= 0.
 inline double givens(double a, double b, double& c, double& s) noexcept {
-  const double r = std::hypot(a, b);
+  const double big = std::fmax(std::abs(a), std::abs(b));
+  // sqrt(a^2 + b^2) cannot overflow or lose the small one to underflow in this range;
+  // hypot (several times slower) outside it.
+  const double r = big < 1e150 && big > 1e-150 ? std::sqrt(a * a + b * b) : std::hypot(a, b);
   if (r == 0.0) {
     c = 1.0;
     s = 0.0;

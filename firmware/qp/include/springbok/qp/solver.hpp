@@ -132,8 +132,9 @@ class Solver {
       }
     }
     for (int j = 0; j < n_; ++j) coupled_[j] = row_bits_[j] != 0 ? 1 : 0;
-    for (int i = 0; i < mi_; ++i)
-      if (std::isnan(p.lower[i]) || std::isnan(p.upper[i])) return Status::bad_input;
+    bool nan_bound = false;
+    for (int i = 0; i < mi_; ++i) nan_bound |= std::isnan(p.lower[i]) | std::isnan(p.upper[i]);
+    if (nan_bound) return Status::bad_input;
 
     // Row norms (Ain is column-major: accumulate column by column). A finite sum of
     // squares proves the row finite; only a non-finite one (NaN, inf, or overflow
@@ -158,10 +159,16 @@ class Solver {
         kind = RowKind::dead;
       }
       kind_[i] = kind;
-      active_side_[i] = 0;
-      have_t_[i] = false;
-      skipped_epoch_[i] = -1;
+      // What most_violated() reads: the bounds it can violate (+-inf where the row has
+      // no such side, is dead, or is an equality of the block) and their magnitudes.
+      const bool lower_side = kind == RowKind::lower || kind == RowKind::both;
+      const bool upper_side = kind == RowKind::upper || kind == RowKind::both;
+      lo_eff_[i] = lower_side ? lo : -kInf;
+      hi_eff_[i] = upper_side ? hi : kInf;
+      lo_abs_[i] = lower_side ? std::abs(lo) : 0.0;
+      hi_abs_[i] = upper_side ? std::abs(hi) : 0.0;
     }
+    std::fill_n(have_t_.begin(), mi_, false);
     return infeasible ? Status::infeasible : Status::optimal;
   }
 
@@ -481,13 +488,7 @@ class Solver {
         rc[j] = c * a + s * b;
         rc[j + 1] = c * b - s * a;
       }
-      double* qa = q1col(j);
-      double* qb = q1col(j + 1);
-      for (int i = 0; i < m_; ++i) {
-        const double a = qa[i], b = qb[i];
-        qa[i] = c * a + s * b;
-        qb[i] = c * b - s * a;
-      }
+      dense::rotate_chunks(c, s, q1col(j), q1col(j + 1), mp_);  // zero padding stays zero
     }
     --q_;
   }
@@ -499,7 +500,9 @@ class Solver {
       const double* rj = rcol(j);
       const double v = out[j] / rj[j];
       out[j] = v;
-      dense::axpy(-v, rj, out, j);
+      const int whole = dense::chunk_start(j);  // rows [0, whole) by chunks, the rest one by one
+      dense::axpy_chunks(-v, rj, out, whole);
+      for (int i = whole; i < j; ++i) out[i] -= v * rj[i];
     }
   }
 
@@ -516,34 +519,25 @@ class Solver {
     x_norm_ = std::sqrt(dense::squared_norm(x_.data(), n_));
   }
 
-  // The most violated inactive row (violation / |a_i|), or -1.
+  // The most violated inactive row (violation / |a_i|), or -1. A violation counts
+  // beyond feasibility_tol max(|a_i| |x|, |bound|).
   int most_violated(int& sigma) noexcept {
     const ProblemType& p = *p_;
     std::fill_n(slack_.begin(), mi_, 0.0);
     dense::gemv_add(p.ain.data(), MI, mi_, n_, x_.data(), slack_.data());  // Ain x for every row
-    const double tol = options_.feasibility_tol;
+    const double tol = options_.feasibility_tol, xn = x_norm_;
     int best = -1;
     double best_score = 0.0;
     for (int i = 0; i < mi_; ++i) {
-      const RowKind kind = kind_[i];
-      if (kind == RowKind::dead || kind == RowKind::equal || active_side_[i] != 0 || skipped_epoch_[i] == epoch_)
-        continue;
-      const double s = slack_[i], ax_scale = row_norm_[i] * x_norm_;
-      if (kind != RowKind::upper) {
-        const double viol = p.lower[i] - s;
-        if (viol > tol * std::max(ax_scale, std::abs(p.lower[i])) && viol > best_score * row_norm_[i]) {
-          best_score = viol / row_norm_[i];
-          best = i;
-          sigma = 1;
-        }
-      }
-      if (kind != RowKind::lower) {
-        const double viol = s - p.upper[i];
-        if (viol > tol * std::max(ax_scale, std::abs(p.upper[i])) && viol > best_score * row_norm_[i]) {
-          best_score = viol / row_norm_[i];
-          best = i;
-          sigma = -1;
-        }
+      const double s = slack_[i];
+      const double below = lo_eff_[i] - s, above = s - hi_eff_[i];  // at most one is > 0
+      const bool lower_side = below >= above;
+      const double viol = lower_side ? below : above;
+      const double limit = tol * std::max(row_norm_[i] * xn, lower_side ? lo_abs_[i] : hi_abs_[i]);
+      if (viol > limit && viol > best_score * row_norm_[i] && active_side_[i] == 0 && skipped_epoch_[i] != epoch_) {
+        best_score = viol / row_norm_[i];
+        best = i;
+        sigma = lower_side ? 1 : -1;
       }
     }
     return best;
@@ -880,6 +874,7 @@ class Solver {
   Buf<std::uint64_t, N> row_bits_{};  // off-diagonal non-zero bits per row of H (or of a given factor)
   Buf<double, ME> eq_row_sq_{};  // and of Aeq (finiteness check, row norms)
   Buf<RowKind, MI> kind_{};
+  Buf<double, MI> lo_eff_{}, hi_eff_{}, lo_abs_{}, hi_abs_{};  // violable bounds (most_violated)
   Buf<std::int8_t, MI> active_side_{};
   Buf<bool, MI> have_t_{};
   Buf<int, MI> skipped_epoch_{};
