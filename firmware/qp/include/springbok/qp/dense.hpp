@@ -207,6 +207,35 @@ inline void scaled_below(const double* x, int k, int np, double scale, double di
   }
 }
 
+// y += alpha x over n entries, n a multiple of four.
+inline void axpy_chunks(double alpha, const double* x, double* y, int n) noexcept {
+  const Chunk a = {alpha, alpha, alpha, alpha};
+  Chunk xc, yc;
+  for (int i = 0; i < n; i += 4) {
+    std::memcpy(&xc, x + i, sizeof xc);
+    std::memcpy(&yc, y + i, sizeof yc);
+    yc += a * xc;
+    std::memcpy(y + i, &yc, sizeof yc);
+  }
+}
+
+// y[i] -= (c0[i] e0 + c1[i] e1) + (c2[i] e2 + c3[i] e3) for i in [from, np), from a
+// chunk start, np a multiple of four: a rank-4 update by whole chunks.
+inline void sub_rank4_chunks(const double* c0, const double* c1, const double* c2, const double* c3, double e0,
+                             double e1, double e2, double e3, double* y, int from, int np) noexcept {
+  const Chunk f0 = {e0, e0, e0, e0}, f1 = {e1, e1, e1, e1}, f2 = {e2, e2, e2, e2}, f3 = {e3, e3, e3, e3};
+  Chunk yc, a0, a1, a2, a3;
+  for (int i = from; i < np; i += 4) {
+    std::memcpy(&yc, y + i, sizeof yc);
+    std::memcpy(&a0, c0 + i, sizeof a0);
+    std::memcpy(&a1, c1 + i, sizeof a1);
+    std::memcpy(&a2, c2 + i, sizeof a2);
+    std::memcpy(&a3, c3 + i, sizeof a3);
+    yc -= (a0 * f0 + a1 * f1) + (a2 * f2 + a3 * f3);
+    std::memcpy(y + i, &yc, sizeof yc);
+  }
+}
+
 // Right-looking Cholesky of the lower triangle of a (column-major, leading
 // dimension ld >= padded(n), rows [n, padded(n)) zero), in panels of four
 // columns with one rank-4 update of the trailing columns per panel, as H = U D^2 U'
@@ -231,7 +260,7 @@ inline bool cholesky_lower(double* a, int ld, int n, double min_pivot, double* i
       for (int j = k + 1; j < k1; ++j) {
         double* col_j = a + j * ld;
         const double a_jk = col_k[j] * inv_pivot;
-        for (int i = chunk_start(j); i < np; ++i) col_j[i] -= col_k[i] * a_jk;
+        axpy_chunks(-a_jk, col_k + chunk_start(j), col_j + chunk_start(j), np - chunk_start(j));
       }
       inv_diag[k] = 1.0 / std::sqrt(pivot);
       scaled_below(col_k, k, np, inv_pivot, 0.0, col_k);  // u_ik = a_ik / pivot, zeros through row k
@@ -245,7 +274,7 @@ inline bool cholesky_lower(double* a, int ld, int n, double min_pivot, double* i
     for (int j = k1; j < n; ++j) {
       double* col_j = a + j * ld;
       const double l0 = c0[j] * pivots[0], l1 = c1[j] * pivots[1], l2 = c2[j] * pivots[2], l3 = c3[j] * pivots[3];
-      for (int i = chunk_start(j); i < np; ++i) col_j[i] -= (c0[i] * l0 + c1[i] * l1) + (c2[i] * l2 + c3[i] * l3);
+      sub_rank4_chunks(c0, c1, c2, c3, l0, l1, l2, l3, col_j, chunk_start(j), np);
     }
   }
   return true;
@@ -281,20 +310,8 @@ inline void unit_forward_solve_each(const double* lower, int ld, int n, int cols
       yc[k0 + 2] = y2;
       yc[k0 + 3] = y3;
       if (!below) continue;
-      for (int i = k0 + 4; i < np; ++i) yc[i] -= (c0[i] * y0 + c1[i] * y1) + (c2[i] * y2 + c3[i] * y3);
+      sub_rank4_chunks(c0, c1, c2, c3, y0, y1, y2, y3, yc, k0 + 4, np);
     }
-  }
-}
-
-// y += alpha x over n entries, n a multiple of four.
-inline void axpy_chunks(double alpha, const double* x, double* y, int n) noexcept {
-  const Chunk a = {alpha, alpha, alpha, alpha};
-  Chunk xc, yc;
-  for (int i = 0; i < n; i += 4) {
-    std::memcpy(&xc, x + i, sizeof xc);
-    std::memcpy(&yc, y + i, sizeof yc);
-    yc += a * xc;
-    std::memcpy(y + i, &yc, sizeof yc);
   }
 }
 
