@@ -390,7 +390,7 @@ class Solver {
     }
     // c = Q' L^-1 g; the unconstrained reduced minimiser is w0 = -c[r:].
     std::copy_n(gcol, np_, c_.data());
-    c_norm_ = std::sqrt(dense::squared_norm(c_.data(), n_));
+    c_norm_ = std::sqrt(dense::dot_chunks(c_.data(), c_.data(), np_));
     return Status::optimal;
   }
 
@@ -427,7 +427,7 @@ class Solver {
   // full_norm_; returns rhs.
   double reduced_row(int row, int sigma) noexcept {
     const double* t = t_of(row);
-    full_norm_ = std::sqrt(dense::squared_norm(t, n_));
+    full_norm_ = std::sqrt(dense::dot_chunks(t, t, np_));
     const double h = dense::dot(t, v1_.data(), rank_);
     const double* at = t + rank_;
     const double s = static_cast<double>(sigma);
@@ -545,7 +545,7 @@ class Solver {
 
   // |[v1; w]| = |L' x|.
   double v_norm() const noexcept {
-    return std::sqrt(dense::squared_norm(v1_.data(), rank_) + dense::squared_norm(w_.data(), m_));
+    return std::sqrt(dense::squared_norm(v1_.data(), rank_) + dense::dot_chunks(w_.data(), w_.data(), mp_));
   }
 
   bool count_iteration() noexcept { return ++iterations_ <= max_iterations_; }
@@ -587,7 +587,7 @@ class Solver {
       const double rhs = reduced_row(row, sigma);
       const double np_norm = full_norm_;
       project();
-      const double z_norm = std::sqrt(dense::squared_norm(z_.data(), m_));
+      const double z_norm = std::sqrt(dense::dot_chunks(z_.data(), z_.data(), mp_));
       if (q_ >= m_ || !(z_norm > dependence_tol() * np_norm)) continue;
       append(row, sigma, rhs, np_norm, z_norm, 0.0);
     }
@@ -599,7 +599,7 @@ class Solver {
         for (int l = 0; l < j; ++l) v -= rj[l] * beta_[l];
         beta_[j] = v / rj[j];
       }
-      for (int j = 0; j < q_; ++j) beta_[j] -= dense::dot(q1col(j), w_.data(), m_);
+      for (int j = 0; j < q_; ++j) beta_[j] -= dense::dot_chunks(q1col(j), w_.data(), mp_);
       solve_r(beta_.data(), u_.data());
       int worst = -1;
       double worst_u = 0.0;
@@ -645,7 +645,7 @@ class Solver {
       }
       const double rhs = reduced_row(p, sigma);
       const double np_norm = full_norm_;
-      double slack = dense::dot(np_vec_.data(), w_.data(), m_) - rhs;  // < 0 when violated
+      double slack = dense::dot_chunks(np_vec_.data(), w_.data(), mp_) - rhs;  // < 0 when violated
       double u_plus = 0.0;
       for (;;) {
         if (!count_iteration()) return Status::maxiter;
