@@ -358,6 +358,43 @@ TEST_F(QpProperties, RandomInfeasibleQpsAreDetected) {
   }
 }
 
+// Ain is first read together with the first Ain x: its checks must still come first
+// whatever else ends the solve early, and zero rows must still be settled.
+TEST_F(QpProperties, ConstraintRowChecksHoldOnEveryExit) {
+  Rng rng(777);
+  for (int trial = 0; trial < 200; ++trial) {
+    const DenseQp base = make_optimal(rng).qp;
+    if (base.mi < 2) continue;
+    const int row = rng.integer(0, base.mi - 1), other = (row + 1) % base.mi;
+    auto solve = [&](const DenseQp& q) {
+      load(q, *problem);
+      return solver->solve(*problem, *result);
+    };
+    DenseQp q = base;
+    q.Ain[static_cast<std::size_t>(row * q.n + rng.integer(0, q.n - 1))] = std::nan("");
+    EXPECT_EQ(solve(q), Status::bad_input) << "trial " << trial;
+    q.lb[static_cast<std::size_t>(other)] = 1.0;  // crossed bounds elsewhere: still bad input
+    q.ub[static_cast<std::size_t>(other)] = -1.0;
+    EXPECT_EQ(solve(q), Status::bad_input) << "trial " << trial;
+    q = base;
+    q.Ain[static_cast<std::size_t>(row * q.n + rng.integer(0, q.n - 1))] = kInf;
+    for (int i = 0; i < q.n; ++i) q.H[static_cast<std::size_t>(i * q.n + i)] = -1.0;  // and H indefinite
+    EXPECT_EQ(solve(q), Status::bad_input) << "trial " << trial;
+    // A zero row: harmless when 0 lies within its bounds (also as an equality), a
+    // proof of infeasibility when it does not.
+    q = base;
+    std::fill_n(q.Ain.begin() + row * q.n, q.n, 0.0);
+    q.lb[static_cast<std::size_t>(row)] = -1.0;
+    q.ub[static_cast<std::size_t>(row)] = 2.0;
+    EXPECT_EQ(solve(q), Status::optimal) << "trial " << trial;
+    q.lb[static_cast<std::size_t>(row)] = q.ub[static_cast<std::size_t>(row)] = 0.0;
+    EXPECT_EQ(solve(q), Status::optimal) << "trial " << trial;
+    q.lb[static_cast<std::size_t>(row)] = 0.5;
+    q.ub[static_cast<std::size_t>(row)] = rng.chance(0.5) ? 0.5 : kInf;
+    EXPECT_EQ(solve(q), Status::infeasible) << "trial " << trial;
+  }
+}
+
 TEST_F(QpProperties, RandomBadInputsNeverCrash) {
   Rng rng(4242);
   const double poison[] = {std::nan(""), kInf, -kInf};

@@ -144,6 +144,32 @@ inline void add_row_squares(const double* a, int ld, int m, int n, double* __res
   }
 }
 
+// y += A x and sq[i] += sum_j a_ij^2 in one pass over a column-major A (m rows,
+// leading dimension ld, n columns), four columns per pass as in gemv_add.
+inline void gemv_add_and_row_squares(const double* a, int ld, int m, int n, const double* x, double* __restrict y,
+                                     double* __restrict sq) noexcept {
+  int j = 0;
+  for (; j + 4 <= n; j += 4) {
+    const double* __restrict a0 = a + static_cast<std::ptrdiff_t>(j) * ld;
+    const double* __restrict a1 = a0 + ld;
+    const double* __restrict a2 = a1 + ld;
+    const double* __restrict a3 = a2 + ld;
+    const double x0 = x[j], x1 = x[j + 1], x2 = x[j + 2], x3 = x[j + 3];
+    for (int i = 0; i < m; ++i) {
+      y[i] += (a0[i] * x0 + a1[i] * x1) + (a2[i] * x2 + a3[i] * x3);
+      sq[i] += (a0[i] * a0[i] + a1[i] * a1[i]) + (a2[i] * a2[i] + a3[i] * a3[i]);
+    }
+  }
+  for (; j < n; ++j) {
+    const double* __restrict aj = a + static_cast<std::ptrdiff_t>(j) * ld;
+    const double xj = x[j];
+    for (int i = 0; i < m; ++i) {
+      y[i] += aj[i] * xj;
+      sq[i] += aj[i] * aj[i];
+    }
+  }
+}
+
 // The kernels below work on whole aligned chunks of four doubles: every vector
 // is zero-padded to padded(n) entries and every loop starts at a multiple of
 // four, so a chunk is always loaded where it was stored (store-to-load

@@ -136,28 +136,17 @@ class Solver {
     for (int i = 0; i < mi_; ++i) nan_bound |= std::isnan(p.lower[i]) | std::isnan(p.upper[i]);
     if (nan_bound) return Status::bad_input;
 
-    // Row norms (Ain is column-major: accumulate column by column). A finite sum of
-    // squares proves the row finite; only a non-finite one (NaN, inf, or overflow
-    // of huge entries) needs the entries checked.
-    std::fill_n(row_norm_.begin(), mi_, 0.0);
-    dense::add_row_squares(p.ain.data(), MI, mi_, n_, row_norm_.data());
-    if (!dense::all_finite(row_norm_.data(), mi_)) {
-      for (int j = 0; j < n_; ++j)
-        if (!dense::all_finite(p.ain.data() + idx(0, j, MI), mi_)) return Status::bad_input;
-    }
+    // The rows' kinds from their bounds. Ain itself is read first by the first
+    // most_violated(), which computes its row norms together with Ain x and settles
+    // zero rows (rows_checked_); the exits before that check it here (check_rows()).
     bool infeasible = false;
     for (int i = 0; i < mi_; ++i) {
-      row_norm_[i] = std::sqrt(row_norm_[i]);
       const double lo = p.lower[i], hi = p.upper[i];
       if (lo >= kInfiniteBound || hi <= -kInfiniteBound) infeasible = true;  // bound at +-infinity
       const bool has_lo = lo > -kInfiniteBound, has_hi = hi < kInfiniteBound;
       if (has_lo && has_hi && lo > hi) infeasible = true;
-      RowKind kind = has_lo ? (has_hi ? (lo == hi ? RowKind::equal : RowKind::both) : RowKind::lower)
-                            : (has_hi ? RowKind::upper : RowKind::dead);
-      if (row_norm_[i] == 0.0 && kind != RowKind::dead) {  // zero row: 0 must lie in [lb, ub]
-        if ((has_lo && lo > 0.0) || (has_hi && hi < 0.0)) infeasible = true;
-        kind = RowKind::dead;
-      }
+      const RowKind kind = has_lo ? (has_hi ? (lo == hi ? RowKind::equal : RowKind::both) : RowKind::lower)
+                                  : (has_hi ? RowKind::upper : RowKind::dead);
       kind_[i] = kind;
       // What most_violated() reads: the bounds it can violate (+-inf where the row has
       // no such side, is dead, or is an equality of the block) and their magnitudes.
@@ -168,6 +157,7 @@ class Solver {
       lo_abs_[i] = lower_side ? std::abs(lo) : 0.0;
       hi_abs_[i] = upper_side ? std::abs(hi) : 0.0;
     }
+    rows_checked_ = false;
     std::fill_n(have_t_.begin(), mi_, false);
     return infeasible ? Status::infeasible : Status::optimal;
   }
@@ -302,7 +292,6 @@ class Solver {
     for (int i = 0; i < mi_; ++i) {
       if (kind_[i] != RowKind::equal) continue;
       gather(p.ain.data() + i, MI, bcol(me_));
-      eq_row_norm_[me_] = row_norm_[i];
       eq_rhs_[me_] = p.lower[i];
       eq_src_[me_] = -1 - i;
       ++me_;
@@ -403,10 +392,45 @@ class Solver {
 
   Status prepare(const Hint& hint) noexcept {
     Status s = classify();
-    if (s != Status::optimal) return s;
-    s = factor(hint);
-    if (s != Status::optimal) return s;
-    return eliminate_equalities();
+    if (s == Status::optimal) s = factor(hint);
+    if (s == Status::optimal) s = eliminate_equalities();
+    // Non-finite entries of Ain are bad input whatever else is wrong with the problem.
+    if ((s == Status::infeasible || s == Status::not_positive_definite) && check_rows(nullptr) == Status::bad_input)
+      return Status::bad_input;
+    return s;
+  }
+
+  // Row norms of Ain, with Ain x when x is given (one pass over Ain for both), zero
+  // rows settled: a zero row is dead, or proves the problem infeasible when 0 lies
+  // outside its bounds. Returns bad_input when Ain has a non-finite entry (a finite
+  // sum of squares proves a row finite: only a non-finite one needs its entries
+  // checked), infeasible for such a zero row, else optimal.
+  Status check_rows(const double* x) noexcept {
+    const ProblemType& p = *p_;
+    std::fill_n(row_norm_.begin(), mi_, 0.0);
+    if (x != nullptr) {
+      std::fill_n(slack_.begin(), mi_, 0.0);
+      dense::gemv_add_and_row_squares(p.ain.data(), MI, mi_, n_, x, slack_.data(), row_norm_.data());
+    } else {
+      dense::add_row_squares(p.ain.data(), MI, mi_, n_, row_norm_.data());
+    }
+    if (!dense::all_finite(row_norm_.data(), mi_)) {
+      for (int j = 0; j < n_; ++j)
+        if (!dense::all_finite(p.ain.data() + idx(0, j, MI), mi_)) return Status::bad_input;
+    }
+    bool infeasible = false;
+    for (int i = 0; i < mi_; ++i) {
+      row_norm_[i] = std::sqrt(row_norm_[i]);
+      if (row_norm_[i] == 0.0 && kind_[i] != RowKind::dead) {  // zero row: 0 must lie in [lb, ub]
+        const double lo = p.lower[i], hi = p.upper[i];
+        if ((lo > -kInfiniteBound && lo > 0.0) || (hi < kInfiniteBound && hi < 0.0)) infeasible = true;
+        if (kind_[i] != RowKind::equal) kind_[i] = RowKind::dead;  // an equal one is in the block already
+        lo_eff_[i] = -kInf;
+        hi_eff_[i] = kInf;
+      }
+    }
+    rows_checked_ = true;
+    return infeasible ? Status::infeasible : Status::optimal;
   }
 
   // t_i = Q' L^-1 a_i, cached per solve.
@@ -521,10 +545,18 @@ class Solver {
 
   // The most violated inactive row (violation / |a_i|), or -1. A violation counts
   // beyond feasibility_tol max(|a_i| |x|, |bound|).
+  // The first call of a solve reads Ain once for its row norms and Ain x
+  // (check_rows()); it returns kStop with stop_status_ when Ain is bad input or a zero
+  // row makes the problem infeasible.
   int most_violated(int& sigma) noexcept {
     const ProblemType& p = *p_;
-    std::fill_n(slack_.begin(), mi_, 0.0);
-    dense::gemv_add(p.ain.data(), MI, mi_, n_, x_.data(), slack_.data());  // Ain x for every row
+    if (!rows_checked_) {
+      stop_status_ = check_rows(x_.data());
+      if (stop_status_ != Status::optimal) return kStop;
+    } else {
+      std::fill_n(slack_.begin(), mi_, 0.0);
+      dense::gemv_add(p.ain.data(), MI, mi_, n_, x_.data(), slack_.data());  // Ain x for every row
+    }
     const double tol = options_.feasibility_tol, xn = x_norm_;
     int best = -1;
     double best_score = 0.0;
@@ -639,6 +671,7 @@ class Solver {
       compute_x();
       int sigma = 0;
       const int p = most_violated(sigma);
+      if (p == kStop) return stop_status_;
       if (p < 0) {
         x_current_ = true;  // x_ is that of the final w
         return Status::optimal;
@@ -757,7 +790,8 @@ class Solver {
       const int src = eq_src_[k];
       const double ax = src >= 0 ? eq_ax_[src] : slack_[-1 - src];
       eq_res_[k] = eq_rhs_[k] - ax;
-      worst = std::max(worst, std::abs(eq_res_[k]) / std::max(eq_row_norm_[k] * x_norm_, std::abs(eq_rhs_[k])));
+      const double norm = src >= 0 ? eq_row_norm_[k] : row_norm_[-1 - src];  // Ain's norms come late
+      worst = std::max(worst, std::abs(eq_res_[k]) / std::max(norm * x_norm_, std::abs(eq_rhs_[k])));
     }
     for (int j = 0; j < q_; ++j) {
       const int row = act_row_[j];
@@ -840,6 +874,9 @@ class Solver {
   double x_norm_ = 0.0, full_norm_ = 0.0, c_norm_ = 0.0;
   double eq_cond_ = 1.0;  // max/min |diagonal| of the equality block's R (a condition estimate)
   bool x_current_ = false;
+  bool rows_checked_ = false;  // Ain's row norms known, zero rows settled (check_rows())
+  static constexpr int kStop = -2;       // most_violated(): stop with stop_status_
+  Status stop_status_ = Status::optimal;
   bool slack_current_ = false;  // slack_ = Ain x_ (set by finish() when x_ is the one most_violated used)  // x_ = L^-T Q [v1; w] for the current w (set when run() ends optimal)
 
   // factor of H
