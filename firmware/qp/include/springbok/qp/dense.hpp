@@ -107,6 +107,18 @@ inline bool scan_lower_triangle(const double* a, int ld, int n, std::uint64_t* _
   return bad == 0;
 }
 
+// sum_j a[j * stride] x[j] over n entries (a row of a column-major matrix).
+inline double dot_strided(const double* a, int stride, const double* x, int n) noexcept {
+  double s0 = 0.0, s1 = 0.0;
+  int j = 0;
+  for (; j + 2 <= n; j += 2) {
+    s0 += a[static_cast<std::ptrdiff_t>(j) * stride] * x[j];
+    s1 += a[static_cast<std::ptrdiff_t>(j + 1) * stride] * x[j + 1];
+  }
+  if (j < n) s0 += a[static_cast<std::ptrdiff_t>(j) * stride] * x[j];
+  return s0 + s1;
+}
+
 // y += alpha x
 inline void axpy(double alpha, const double* __restrict x, double* __restrict y, int n) noexcept {
   for (int i = 0; i < n; ++i) y[i] += alpha * x[i];

@@ -59,7 +59,7 @@ class Solver {
     iterations_ = 0;
     Status status = prepare(hint);
     if (status == Status::optimal) {
-      status = run(hint.active_set);
+      status = attempt(hint.active_set);
       // A warm start is only a guess: a capped run from it is re-run from the cold
       // start (same factorization). An infeasible verdict stands: the warm start
       // leaves a valid dual state (the minimiser on a set of tight rows, multipliers
@@ -67,7 +67,7 @@ class Solver {
       // a Farkas certificate however the state was reached.
       if (hint.active_set != nullptr && status == Status::maxiter) {
         iterations_ = 0;
-        status = run(nullptr);
+        status = attempt(nullptr);
       }
     }
     if (status == Status::optimal || status == Status::maxiter) {
@@ -76,7 +76,7 @@ class Solver {
       if (status == Status::inaccurate && hint.active_set != nullptr) {
         iterations_ = 0;
         result.active.clear();
-        status = run(nullptr);
+        status = attempt(nullptr);
         if (status == Status::optimal || status == Status::maxiter) status = finish_checked(result, status);
       }
     }
@@ -566,7 +566,8 @@ class Solver {
       const bool lower_side = below >= above;
       const double viol = lower_side ? below : above;
       const double limit = tol * std::max(row_norm_[i] * xn, lower_side ? lo_abs_[i] : hi_abs_[i]);
-      if (viol > limit && viol > best_score * row_norm_[i] && active_side_[i] == 0 && skipped_epoch_[i] != epoch_) {
+      if (viol > limit && viol > best_score * row_norm_[i] && active_side_[i] == 0 && skipped_epoch_[i] != epoch_ &&
+          i != ignored_row_) {
         best_score = viol / row_norm_[i];
         best = i;
         sigma = lower_side ? 1 : -1;
@@ -648,15 +649,44 @@ class Solver {
     for (int j = 0; j < q_; ++j) dense::axpy(beta_[j], q1col(j), w_.data(), m_);
   }
 
-  double dependence_tol() const noexcept { return 1e-11; }
+  double dependence_tol() const noexcept { return 1e-8; }
   // Relative size of a violation that the reduced coordinates cannot resolve: 1e-11,
   // or more (at most 1e-9) when an ill-conditioned equality block pins x down less
   // accurately.
   double rounding_level() const noexcept { return std::clamp(64.0 * kEps * eq_cond_, 1e-11, 1e-9); }
 
+  // An infeasible verdict whose gap (the violation the active rows cannot trade away)
+  // is within 1e-6 of the path it was measured on may be rounding that beat a
+  // degenerate vertex. Such a verdict gets a second, cold run that leaves the row
+  // out; its answer stands only if it satisfies that row after all (violation at most
+  // 1e-9 max(1, |a| |x|, |bound|)); otherwise the problem is infeasible.
+  Status attempt(const ActiveSet<MI>* warm) noexcept {
+    ignored_row_ = -1;
+    const Status status = run(warm);
+    return status == Status::infeasible ? second_opinion() : status;
+  }
+  Status second_opinion() noexcept {
+    if (!(verdict_gap_ <= 1e-6) || verdict_row_ < 0) return Status::infeasible;
+    ignored_row_ = verdict_row_;
+    const int spent = iterations_;
+    iterations_ = 0;
+    Status status = run(nullptr);
+    iterations_ += spent;
+    if (status != Status::optimal) return Status::infeasible;
+    const ProblemType& p = *p_;
+    const int row = ignored_row_;
+    const double ax = dense::dot_strided(p.ain.data() + row, MI, x_.data(), n_);
+    const double viol = std::max(p.lower[row] - ax, ax - p.upper[row]);
+    const double scale = std::max({1.0, row_norm_[row] * x_norm_, std::abs(p.lower[row]) < kInfiniteBound ? std::abs(p.lower[row]) : 0.0,
+                                   std::abs(p.upper[row]) < kInfiniteBound ? std::abs(p.upper[row]) : 0.0});
+    return viol <= 1e-9 * scale ? Status::optimal : Status::infeasible;
+  }
+
   // ---- step 3: Goldfarb-Idnani on the reduced problem -------------------------
   Status run(const ActiveSet<MI>* warm) noexcept {
     x_current_ = false;
+    verdict_row_ = -1;
+    verdict_gap_ = kInf;
     q_ = 0;
     epoch_ = 0;
     for (int i = 0; i < m_; ++i) w_[i] = -c_[rank_ + i];
@@ -714,7 +744,11 @@ class Solver {
         }
         const double t2 = dependent ? kInf : std::max(0.0, -slack / zz);
         const double t = std::min(t1, t2);
-        if (!(t < kInf)) return Status::infeasible;  // dependent, no multiplier to trade
+        if (!(t < kInf)) {  // dependent, no multiplier to trade
+          verdict_row_ = p;
+          verdict_gap_ = -slack / (full_norm_ * path + std::abs(rhs));
+          return Status::infeasible;
+        }
         for (int j = 0; j < q_; ++j) u_[j] = std::max(0.0, u_[j] - t * rdir_[j]);
         u_plus += t;
         if (!dependent) {
@@ -871,6 +905,8 @@ class Solver {
   int n_ = 0, np_ = 0, meq_ = 0, mi_ = 0;  // np_: n padded to whole chunks of four
   int me_ = 0, rank_ = 0, m_ = 0, mp_ = 0, q_ = 0;  // mp_: m_ padded to whole chunks
   int iterations_ = 0, max_iterations_ = 0, epoch_ = 0;
+  int verdict_row_ = -1, ignored_row_ = -1;  // the row of an infeasible verdict; the row a second run leaves out
+  double verdict_gap_ = kInf;                 // that verdict's violation relative to its path
   double x_norm_ = 0.0, full_norm_ = 0.0, c_norm_ = 0.0;
   double eq_cond_ = 1.0;  // max/min |diagonal| of the equality block's R (a condition estimate)
   bool x_current_ = false;
