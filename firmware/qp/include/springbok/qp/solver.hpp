@@ -194,6 +194,7 @@ class Solver {
     int k = nc_;
     for (int j = 0; j < n_; ++j)
       if (coupled_[j] == 0) perm_[k++] = j;
+    for (k = 0; k < n_; ++k) ain_offset_[k] = idx(0, perm_[k], MI);
   }
 
   Status factor(const Hint& hint) noexcept {
@@ -261,6 +262,12 @@ class Solver {
   }
 
   // dst[k] = src[perm_[k] * stride] for the n_ variables, zero padding to np_.
+  // Row `row` of Ain in the variable order (offsets of its entries precomputed).
+  void gather_ain_row(int row, double* dst) const noexcept {
+    const double* src = p_->ain.data() + row;
+    for (int k = 0; k < n_; ++k) dst[k] = src[ain_offset_[k]];
+    std::fill(dst + n_, dst + np_, 0.0);
+  }
   void gather(const double* src, int stride, double* dst) const noexcept {
     for (int k = 0; k < n_; ++k) dst[k] = src[static_cast<std::size_t>(perm_[k]) * static_cast<std::size_t>(stride)];
     std::fill(dst + n_, dst + np_, 0.0);
@@ -291,7 +298,7 @@ class Solver {
     }
     for (int i = 0; i < mi_; ++i) {
       if (kind_[i] != RowKind::equal) continue;
-      gather(p.ain.data() + i, MI, bcol(me_));
+      gather_ain_row(i, bcol(me_));
       eq_rhs_[me_] = p.lower[i];
       eq_src_[me_] = -1 - i;
       ++me_;
@@ -437,7 +444,7 @@ class Solver {
   const double* t_of(int row) noexcept {
     double* t = tvec(row);
     if (!have_t_[row]) {
-      gather(p_->ain.data() + row, MI, t);
+      gather_ain_row(row, t);
       solve_lower(t);
       apply_qt(t);
       have_t_[row] = true;
@@ -599,7 +606,7 @@ class Solver {
     for (int e = 0; e < count; ++e) {
       const int row = hint.row[static_cast<std::size_t>(e)];
       if (hinted_sigma(row, hint.side[static_cast<std::size_t>(e)]) == 0 || have_t_[row]) continue;
-      gather(p_->ain.data() + row, MI, tvec(row));
+      gather_ain_row(row, tvec(row));
       have_t_[row] = true;
       batch_row_[rows++] = row;
     }
@@ -879,10 +886,11 @@ class Solver {
       result.lambda_in[static_cast<std::size_t>(act_row_[j])] = lambda;
       dense::axpy(-lambda, tvec(act_row_[j]), y_.data(), rank_);
     }
-    for (int k = rank_ - 1; k >= 0; --k) {
-      double v = y_[k];
-      for (int l = k + 1; l < rank_; ++l) v -= bcol(l)[k] * y_[l];
-      y_[k] = v / bcol(k)[k];
+    for (int k = rank_ - 1; k >= 0; --k) {  // back substitution with Re by columns
+      const double* ck = bcol(k);
+      const double v = y_[k] / ck[k];
+      y_[k] = v;
+      dense::axpy(-v, ck, y_.data(), k);
     }
     for (int k = 0; k < rank_; ++k) {
       const int src = eq_src_[k];
@@ -892,8 +900,8 @@ class Solver {
         result.lambda_in[static_cast<std::size_t>(-1 - src)] = y_[k];
     }
     for (int j = 0; j < q_; ++j) result.active.push(act_row_[j], act_sigma_[j] > 0 ? Side::lower : Side::upper);
-    for (int i = 0; i < mi_; ++i)
-      if (kind_[i] == RowKind::equal) result.active.push(i, Side::equal);
+    for (int k = 0; k < me_; ++k)  // the lb == ub rows of Ain (in the equality block)
+      if (eq_src_[k] < 0) result.active.push(-1 - eq_src_[k], Side::equal);
     const bool ok = finite(objective) && dense::all_finite(result.x.data(), n_) &&
                     dense::all_finite(result.lambda_eq.data(), meq_) && dense::all_finite(result.lambda_in.data(), mi_);
     (void)p;
@@ -920,6 +928,7 @@ class Solver {
   alignas(64) Buf<double, kLd> inv_diag_{};  // 1 / L_kk, zero past n_
   Buf<double, N * N> factored_h_{};  // lower triangle of the H last factored with reuse_factor
   int factored_n_ = 0;
+  Buf<std::size_t, N> ain_offset_{};  // offset of Ain's column perm_[k]
   Buf<int, N> perm_{};               // variable order: original index of position k
   Buf<std::uint8_t, N> coupled_{};   // H couples variable j to another one
   int nc_ = 0;                       // coupled variables (the first nc_ positions)
