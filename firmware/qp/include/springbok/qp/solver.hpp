@@ -2,8 +2,9 @@
 // Idnani (1983) for strictly convex dense QPs, sized at compile time.
 //
 // The method, as built here:
-//  1. H = L L' (Cholesky once; or the caller's factor; or, when asked, the previous
-//     solve's factor again after checking that H has not changed). Variables that H
+//  1. H = L L', kept as L = U D with U unit lower (Cholesky once; or the caller's
+//     factor; or, when asked, the previous solve's factor again after checking that
+//     H has not changed). Variables that H
 //     couples to no other (a diagonal row: contact forces, regularised accelerations
 //     in the WBC) are ordered last; in that order L = [Lc 0; 0 D^1/2], so the factor
 //     costs nc^3/3 and every solve with L nc^2/2 + n for the nc coupled variables.
@@ -20,7 +21,10 @@
 //     Gram-Schmidt with re-orthogonalisation on additions and Givens rotations on
 //     drops; the step direction is z = n - Q1 Q1'n. The reduced normal t_i of a
 //     row is computed only when the row is picked (rows that never become
-//     violated cost one dot product per outer iteration, in Ain x).
+//     violated cost one dot product per outer iteration, in Ain x). A row within
+//     1e-8 of the span of the active rows counts as dependent (dual steps only);
+//     an "infeasible" verdict whose gap is near rounding gets a second run without
+//     that row, which stands only if the row holds after all.
 //  4. Multipliers of the equalities are recovered at the end from Re.
 //
 // Every loop is bounded (iteration cap), every division guarded; solve() is
