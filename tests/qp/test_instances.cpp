@@ -157,6 +157,22 @@ std::string test_name(const ::testing::TestParamInfo<std::string>& info) {
 INSTANTIATE_TEST_SUITE_P(Shared, SharedInstance, ::testing::ValuesIn(instance_files()), test_name);
 INSTANTIATE_TEST_SUITE_P(Regression, SharedInstance, ::testing::ValuesIn(regression_files()), test_name);
 
+// The soak's QP whose warm start from this junk set ended with a refinement step through a
+// nearly singular R that pushed inactive row 6 2.4e-7 past its bound (x* known to ~1e-5).
+TEST(RegressionInstances, RefinementKeepsRowsInside) {
+  std::string error;
+  const auto in = qpfile::read_instance(
+      (fs::path(SPRINGBOK_SOURCE_DIR) / "tests" / "qp" / "instances" / "soak_refine_23_4275.qp").string(), error);
+  ASSERT_TRUE(in.has_value()) << error;
+  const std::vector<std::pair<int, Side>> junk = {{19, Side::lower}, {10, Side::lower}, {20, Side::upper}, {6, Side::lower},
+                                                  {8, Side::upper},  {16, Side::upper}, {3, Side::upper},  {14, Side::lower},
+                                                  {4, Side::upper},  {15, Side::lower}};
+  Sized<24, 12, 48> s;
+  ASSERT_TRUE(s.load(*in));
+  check_outcome(*in, s.solve(nullptr), "cold");
+  check_outcome(*in, s.solve(&junk), "warm from the soak's junk set");
+}
+
 TEST(SharedInstances, DirectoryIsNotEmpty) {
   EXPECT_GE(instance_files().size(), 10u);
   EXPECT_GE(regression_files().size(), 1u);

@@ -587,6 +587,21 @@ class Solver {
     return best;
   }
 
+  // Every inactive row within most_violated()'s tolerance at x_ (slack_ must be Ain x_).
+  // Off the per-iteration path: only after a refinement.
+  [[gnu::noinline]] bool inactive_rows_inside() const noexcept {
+    const double tol = options_.feasibility_tol, xn = x_norm_;
+    for (int i = 0; i < mi_; ++i) {
+      if (active_side_[i] != 0 || skipped_epoch_[i] == epoch_ || i == ignored_row_) continue;
+      const double s = slack_[i];
+      const double below = lo_eff_[i] - s, above = s - hi_eff_[i];
+      const bool lower_side = below >= above;
+      const double viol = lower_side ? below : above;
+      if (viol > tol * std::max(row_norm_[i] * xn, lower_side ? lo_abs_[i] : hi_abs_[i])) return false;
+    }
+    return true;
+  }
+
   // |[v1; w]| = |L' x|.
   double v_norm() const noexcept {
     return std::sqrt(dense::squared_norm(v1_.data(), rank_) + dense::dot_chunks(w_.data(), w_.data(), mp_));
@@ -874,7 +889,27 @@ class Solver {
     const ProblemType& p = *p_;
     slack_current_ = x_current_;
     if (!x_current_) compute_x();
-    if (active_residuals() > 1e-13) refine();
+    const double before = active_residuals();
+    if (before > 1e-13) {
+      // Refinement goes through R^-T: with nearly dependent active rows it can move x
+      // along a direction the active rows barely see and push an inactive row out of
+      // its bounds. It is kept only if it lowers the active residual and (for an
+      // optimal run) leaves every row inside its tolerance.
+      std::copy_n(w_.data(), mp_, keep_w_.data());
+      std::copy_n(v1_.data(), rank_, keep_v1_.data());
+      std::copy_n(u_.data(), q_, keep_u_.data());
+      std::copy_n(x_.data(), n_, keep_x_.data());
+      const double keep_x_norm = x_norm_;
+      refine();
+      slack_current_ = false;
+      if (!(active_residuals() < before) || (x_current_ && !inactive_rows_inside())) {
+        std::copy_n(keep_w_.data(), mp_, w_.data());
+        std::copy_n(keep_v1_.data(), rank_, v1_.data());
+        std::copy_n(keep_u_.data(), q_, u_.data());
+        std::copy_n(keep_x_.data(), n_, x_.data());
+        x_norm_ = keep_x_norm;
+      }
+    }
     std::copy_n(x_.data(), n_, result.x.begin());
     // v = [v1; w] = Q' L' x, f = 1/2 |v|^2 + c'v.
     double objective = 0.0;
@@ -949,6 +984,8 @@ class Solver {
   alignas(64) Buf<double, kLd * N> q1_{};
   alignas(64) Buf<double, kLd * N> r_{};
   Buf<double, N> u_{}, act_rhs_{}, act_norm_{}, act_res_{};
+  alignas(64) Buf<double, kLd> keep_w_{}, keep_v1_{};  // the state before refine()
+  Buf<double, N> keep_u_{}, keep_x_{};
   Buf<int, N> act_row_{};
   Buf<std::int8_t, N> act_sigma_{};
   // per inequality row
