@@ -679,13 +679,14 @@ class Solver {
   // Relative size of a violation that the reduced coordinates cannot resolve: 1e-11,
   // or more (at most 1e-9) when an ill-conditioned equality block pins x down less
   // accurately.
-  double rounding_level() const noexcept { return std::clamp(64.0 * kEps * eq_cond_, 1e-11, 1e-9); }
+  double rounding_level() const noexcept { return std::clamp(64.0 * kEps * eq_cond_, 1e-13, 1e-9); }
 
   // An infeasible verdict whose gap (the violation the active rows cannot trade away)
   // is within 1e-6 of the path it was measured on may be rounding that beat a
   // degenerate vertex. Such a verdict gets a second, cold run that leaves the row
   // out; its answer stands only if it satisfies that row after all (violation at most
-  // 1e-9 max(1, |a| |x|, |bound|)); otherwise the problem is infeasible.
+  // 1e-9 max(1, |a| |x|, |bound|), or 1e-11 of the reduced path's scale); otherwise the
+  // problem is infeasible.
   Status attempt(const ActiveSet<MI>* warm) noexcept {
     ignored_row_ = -1;
     const Status status = run(warm);
@@ -703,9 +704,15 @@ class Solver {
     const int row = ignored_row_;
     const double ax = dense::dot_strided(p.ain.data() + row, MI, x_.data(), n_);
     const double viol = std::max(p.lower[row] - ax, ax - p.upper[row]);
-    const double scale = std::max({1.0, row_norm_[row] * x_norm_, std::abs(p.lower[row]) < kInfiniteBound ? std::abs(p.lower[row]) : 0.0,
-                                   std::abs(p.upper[row]) < kInfiniteBound ? std::abs(p.upper[row]) : 0.0});
-    return viol <= 1e-9 * scale ? Status::optimal : Status::infeasible;
+    const double bound = std::max(std::abs(p.lower[row]) < kInfiniteBound ? std::abs(p.lower[row]) : 0.0,
+                                  std::abs(p.upper[row]) < kInfiniteBound ? std::abs(p.upper[row]) : 0.0);
+    // Within 1e-9 of the row's scale, or within what the reduced coordinates resolve
+    // along the path this answer was computed on (|L^-1 a| max(|v|, |c|)).
+    const double* t = tvec(row);  // reduced when the first run picked the row
+    const double t_norm = have_t_[row] ? std::sqrt(dense::dot_chunks(t, t, np_)) : 0.0;
+    const double reduced_scale = t_norm * std::max(v_norm(), c_norm_) + bound;
+    const double limit = std::max(1e-9 * std::max({1.0, row_norm_[row] * x_norm_, bound}), 1e-11 * reduced_scale);
+    return viol <= limit ? Status::optimal : Status::infeasible;
   }
 
   // ---- step 3: Goldfarb-Idnani on the reduced problem -------------------------
