@@ -107,79 +107,55 @@ inline bool scan_lower_triangle(const double* a, int ld, int n, std::uint64_t* _
   return bad == 0;
 }
 
-// sum_j a[j * stride] x[j] over n entries (a row of a column-major matrix).
-inline double dot_strided(const double* a, int stride, const double* x, int n) noexcept {
-  double s0 = 0.0, s1 = 0.0;
-  int j = 0;
-  for (; j + 2 <= n; j += 2) {
-    s0 += a[static_cast<std::ptrdiff_t>(j) * stride] * x[j];
-    s1 += a[static_cast<std::ptrdiff_t>(j + 1) * stride] * x[j + 1];
-  }
-  if (j < n) s0 += a[static_cast<std::ptrdiff_t>(j) * stride] * x[j];
-  return s0 + s1;
-}
-
 // y += alpha x
 inline void axpy(double alpha, const double* __restrict x, double* __restrict y, int n) noexcept {
   for (int i = 0; i < n; ++i) y[i] += alpha * x[i];
 }
 
-// y += A x for a column-major A (m rows, leading dimension ld, n columns): four
-// columns per pass, so each entry of y is loaded and stored once per four columns.
-inline void gemv_add(const double* a, int ld, int m, int n, const double* x, double* __restrict y) noexcept {
+// One pass over a column-major A (m rows, leading dimension ld, n columns), four
+// columns at a time so each entry of the outputs is loaded and stored once per four
+// columns: y += A x (kProduct) and/or sq[i] += sum_j a_ij^2 (kSquares).
+template <bool kProduct, bool kSquares>
+inline void column_pass(const double* a, int ld, int m, int n, const double* x, double* __restrict y,
+                        double* __restrict sq) noexcept {
   int j = 0;
   for (; j + 4 <= n; j += 4) {
     const double* __restrict a0 = a + static_cast<std::ptrdiff_t>(j) * ld;
     const double* __restrict a1 = a0 + ld;
     const double* __restrict a2 = a1 + ld;
     const double* __restrict a3 = a2 + ld;
-    const double x0 = x[j], x1 = x[j + 1], x2 = x[j + 2], x3 = x[j + 3];
-    for (int i = 0; i < m; ++i) y[i] += (a0[i] * x0 + a1[i] * x1) + (a2[i] * x2 + a3[i] * x3);
-  }
-  for (; j < n; ++j) axpy(x[j], a + static_cast<std::ptrdiff_t>(j) * ld, y, m);
-}
-
-// y[i] += sum_j a_ij^2 (row sums of squares) for a column-major A (m rows,
-// leading dimension ld, n columns), four columns per pass as in gemv_add.
-inline void add_row_squares(const double* a, int ld, int m, int n, double* __restrict y) noexcept {
-  int j = 0;
-  for (; j + 4 <= n; j += 4) {
-    const double* __restrict a0 = a + static_cast<std::ptrdiff_t>(j) * ld;
-    const double* __restrict a1 = a0 + ld;
-    const double* __restrict a2 = a1 + ld;
-    const double* __restrict a3 = a2 + ld;
-    for (int i = 0; i < m; ++i) y[i] += (a0[i] * a0[i] + a1[i] * a1[i]) + (a2[i] * a2[i] + a3[i] * a3[i]);
-  }
-  for (; j < n; ++j) {
-    const double* __restrict aj = a + static_cast<std::ptrdiff_t>(j) * ld;
-    for (int i = 0; i < m; ++i) y[i] += aj[i] * aj[i];
-  }
-}
-
-// y += A x and sq[i] += sum_j a_ij^2 in one pass over a column-major A (m rows,
-// leading dimension ld, n columns), four columns per pass as in gemv_add.
-inline void gemv_add_and_row_squares(const double* a, int ld, int m, int n, const double* x, double* __restrict y,
-                                     double* __restrict sq) noexcept {
-  int j = 0;
-  for (; j + 4 <= n; j += 4) {
-    const double* __restrict a0 = a + static_cast<std::ptrdiff_t>(j) * ld;
-    const double* __restrict a1 = a0 + ld;
-    const double* __restrict a2 = a1 + ld;
-    const double* __restrict a3 = a2 + ld;
-    const double x0 = x[j], x1 = x[j + 1], x2 = x[j + 2], x3 = x[j + 3];
+    double x0 = 0.0, x1 = 0.0, x2 = 0.0, x3 = 0.0;
+    if constexpr (kProduct) x0 = x[j], x1 = x[j + 1], x2 = x[j + 2], x3 = x[j + 3];
     for (int i = 0; i < m; ++i) {
-      y[i] += (a0[i] * x0 + a1[i] * x1) + (a2[i] * x2 + a3[i] * x3);
-      sq[i] += (a0[i] * a0[i] + a1[i] * a1[i]) + (a2[i] * a2[i] + a3[i] * a3[i]);
+      if constexpr (kProduct) y[i] += (a0[i] * x0 + a1[i] * x1) + (a2[i] * x2 + a3[i] * x3);
+      if constexpr (kSquares) sq[i] += (a0[i] * a0[i] + a1[i] * a1[i]) + (a2[i] * a2[i] + a3[i] * a3[i]);
     }
   }
   for (; j < n; ++j) {
     const double* __restrict aj = a + static_cast<std::ptrdiff_t>(j) * ld;
-    const double xj = x[j];
+    double xj = 0.0;
+    if constexpr (kProduct) xj = x[j];
     for (int i = 0; i < m; ++i) {
-      y[i] += aj[i] * xj;
-      sq[i] += aj[i] * aj[i];
+      if constexpr (kProduct) y[i] += aj[i] * xj;
+      if constexpr (kSquares) sq[i] += aj[i] * aj[i];
     }
   }
+}
+
+// y += A x.
+inline void gemv_add(const double* a, int ld, int m, int n, const double* x, double* y) noexcept {
+  column_pass<true, false>(a, ld, m, n, x, y, nullptr);
+}
+
+// y[i] += sum_j a_ij^2 (row sums of squares).
+inline void add_row_squares(const double* a, int ld, int m, int n, double* y) noexcept {
+  column_pass<false, true>(a, ld, m, n, nullptr, nullptr, y);
+}
+
+// y += A x and sq[i] += sum_j a_ij^2 in one pass over A.
+inline void gemv_add_and_row_squares(const double* a, int ld, int m, int n, const double* x, double* y,
+                                     double* sq) noexcept {
+  column_pass<true, true>(a, ld, m, n, x, y, sq);
 }
 
 // The kernels below work on whole aligned chunks of four doubles: every vector

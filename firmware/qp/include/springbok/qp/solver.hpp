@@ -265,15 +265,16 @@ class Solver {
     solve_lower_each(cols, [y, ldy](int c) noexcept { return y + c * ldy; });
   }
 
-  // dst[k] = src[perm_[k] * stride] for the n_ variables, zero padding to np_.
-  // Row `row` of Ain in the variable order (offsets of its entries precomputed).
+  // Row `row` of Ain in the variable order (offsets of its entries precomputed), zero
+  // padding to np_.
   void gather_ain_row(int row, double* dst) const noexcept {
     const double* src = p_->ain.data() + row;
     for (int k = 0; k < n_; ++k) dst[k] = src[ain_offset_[k]];
     std::fill(dst + n_, dst + np_, 0.0);
   }
-  void gather(const double* src, int stride, double* dst) const noexcept {
-    for (int k = 0; k < n_; ++k) dst[k] = src[static_cast<std::size_t>(perm_[k]) * static_cast<std::size_t>(stride)];
+  // dst[k] = src[perm_[k]] for the n_ variables, zero padding to np_.
+  void gather(const double* src, double* dst) const noexcept {
+    for (int k = 0; k < n_; ++k) dst[k] = src[perm_[k]];
     std::fill(dst + n_, dst + np_, 0.0);
   }
 
@@ -309,7 +310,7 @@ class Solver {
     }
     // g rides along as column me_: the same solve and reflectors give c = Q' L^-1 g.
     double* gcol = bcol(me_);
-    gather(p.gradient.data(), 1, gcol);
+    gather(p.gradient.data(), gcol);
     solve_lower(bcol(0), kLd, me_ + 1);
     for (int k = 0; k < me_; ++k) {
       eq_norm2_[k] = dense::dot_chunks(bcol(k), bcol(k), np_);
@@ -572,11 +573,9 @@ class Solver {
     int best = -1;
     double best_score = 0.0;
     for (int i = 0; i < mi_; ++i) {
-      const double s = slack_[i];
-      const double below = lo_eff_[i] - s, above = s - hi_eff_[i];  // at most one is > 0
-      const bool lower_side = below >= above;
-      const double viol = lower_side ? below : above;
-      const double limit = tol * std::max(row_norm_[i] * xn, lower_side ? lo_abs_[i] : hi_abs_[i]);
+      bool lower_side = false;
+      double limit = 0.0;
+      const double viol = violation(i, xn, tol, lower_side, limit);
       if (viol > limit && viol > best_score * row_norm_[i] && active_side_[i] == 0 && skipped_epoch_[i] != epoch_ &&
           i != ignored_row_) {
         best_score = viol / row_norm_[i];
@@ -590,16 +589,25 @@ class Solver {
   // Every inactive row within most_violated()'s tolerance at x_ (slack_ must be Ain x_).
   // Off the per-iteration path: only after a refinement.
   [[gnu::noinline]] bool inactive_rows_inside() const noexcept {
-    const double tol = options_.feasibility_tol, xn = x_norm_;
+    const double tol = options_.feasibility_tol;
     for (int i = 0; i < mi_; ++i) {
       if (active_side_[i] != 0 || skipped_epoch_[i] == epoch_ || i == ignored_row_) continue;
-      const double s = slack_[i];
-      const double below = lo_eff_[i] - s, above = s - hi_eff_[i];
-      const bool lower_side = below >= above;
-      const double viol = lower_side ? below : above;
-      if (viol > tol * std::max(row_norm_[i] * xn, lower_side ? lo_abs_[i] : hi_abs_[i])) return false;
+      bool lower_side = false;
+      double limit = 0.0;
+      if (violation(i, x_norm_, tol, lower_side, limit) > limit) return false;
     }
     return true;
+  }
+
+  // Row i's violation at slack_[i] (> 0 outside its bounds; at most one side can be
+  // violated), the side, and the tolerance it must exceed to count: tol max(|a_i| |x|,
+  // |bound|) for |x| = xn.
+  double violation(int i, double xn, double tol, bool& lower_side, double& limit) const noexcept {
+    const double s = slack_[i];
+    const double below = lo_eff_[i] - s, above = s - hi_eff_[i];
+    lower_side = below >= above;
+    limit = tol * std::max(row_norm_[i] * xn, lower_side ? lo_abs_[i] : hi_abs_[i]);
+    return lower_side ? below : above;
   }
 
   // |[v1; w]| = |L' x|.
@@ -700,12 +708,10 @@ class Solver {
     Status status = run(nullptr);
     iterations_ += spent;
     if (status != Status::optimal) return Status::infeasible;
-    const ProblemType& p = *p_;
     const int row = ignored_row_;
-    const double ax = dense::dot_strided(p.ain.data() + row, MI, x_.data(), n_);
-    const double viol = std::max(p.lower[row] - ax, ax - p.upper[row]);
-    const double bound = std::max(std::abs(p.lower[row]) < kInfiniteBound ? std::abs(p.lower[row]) : 0.0,
-                                  std::abs(p.upper[row]) < kInfiniteBound ? std::abs(p.upper[row]) : 0.0);
+    // slack_ is Ain x for this answer (its last most_violated() ignored only the choice).
+    const double viol = std::max(lo_eff_[row] - slack_[row], slack_[row] - hi_eff_[row]);
+    const double bound = std::max(lo_abs_[row], hi_abs_[row]);
     // Within 1e-9 of the row's scale, or within what the reduced coordinates resolve
     // along the path this answer was computed on (|L^-1 a| max(|v|, |c|)).
     const double* t = tvec(row);  // reduced when the first run picked the row
@@ -963,11 +969,11 @@ class Solver {
   double verdict_gap_ = kInf;                 // that verdict's violation relative to its path
   double x_norm_ = 0.0, full_norm_ = 0.0, c_norm_ = 0.0;
   double eq_cond_ = 1.0;  // max/min |diagonal| of the equality block's R (a condition estimate)
-  bool x_current_ = false;
+  bool x_current_ = false;     // x_ = L^-T Q [v1; w] for the current w (set when run() ends optimal)
   bool rows_checked_ = false;  // Ain's row norms known, zero rows settled (check_rows())
   static constexpr int kStop = -2;       // most_violated(): stop with stop_status_
   Status stop_status_ = Status::optimal;
-  bool slack_current_ = false;  // slack_ = Ain x_ (set by finish() when x_ is the one most_violated used)  // x_ = L^-T Q [v1; w] for the current w (set when run() ends optimal)
+  bool slack_current_ = false;  // slack_ = Ain x_ (set by finish() when x_ is the one most_violated used)
 
   // factor of H
   alignas(64) Buf<double, kLd * N> l_{};  // H's coupled block = U D^2 U': U's strict lower part (cholesky_lower)
