@@ -194,7 +194,7 @@ struct QpProperties : ::testing::Test {
 
 TEST_F(QpProperties, RandomKktConstructedQpsAreSolvedExactly) {
   Rng rng(20240611);
-  int warm_checked = 0, warm_without_change = 0;
+  int warm_checked = 0, warm_without_change = 0, warm_from_hint = 0;
   for (int trial = 0; trial < 3000; ++trial) {
     const Generated gen = make_optimal(rng);
     const DenseQp& q = gen.qp;
@@ -219,11 +219,24 @@ TEST_F(QpProperties, RandomKktConstructedQpsAreSolvedExactly) {
     const std::array<double, kN> cold_x = result->x;
     ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal) << "trial " << trial;
     if (result->iterations == 0) ++warm_without_change;
+    if (result->from_hint) ++warm_from_hint;
     for (int i = 0; i < q.n; ++i)
       ASSERT_NEAR(result->x[static_cast<std::size_t>(i)], cold_x[static_cast<std::size_t>(i)], 1e-8 * std::max(1.0, xs));
+    const auto warm_kkt = kkt_check(q, result->x.data(), result->lambda_eq.data(), result->lambda_in.data());
+    ASSERT_LE(warm_kkt.primal, 1e-8) << "trial " << trial;
+    ASSERT_LE(warm_kkt.stationarity, 1e-7) << "trial " << trial;
+    ASSERT_LE(warm_kkt.wrong_sign, 1e-8) << "trial " << trial;
+    ASSERT_LE(warm_kkt.complementarity, 1e-8) << "trial " << trial;
     ++warm_checked;
   }
   EXPECT_EQ(warm_checked, 3000);
+  // The found set, given back, is solved on directly (the shortcut) unless its rows are
+  // dependent or nearly so: the generator makes most draws degenerate on purpose (more
+  // equality rows than variables, duplicated rows, active sets that fill the space);
+  // those take the full method. This seed: 932 direct.
+  std::printf("warm from the found set: %d of 3000 solved on the hint directly, %d without a change\n", warm_from_hint,
+              warm_without_change);
+  EXPECT_GE(warm_from_hint, 800);
   // Degenerate vertices (zero multipliers, dependent rows) may cost a step or two;
   // nearly always the found set is taken as is.
   EXPECT_GE(warm_without_change, 2900);
@@ -243,7 +256,7 @@ TEST_F(QpProperties, SoakRandomKktConstructedQps) {
   const int seeds = std::atoi(seeds_env), trials = std::atoi(trials_env);
   const char* first_env = std::getenv("SPRINGBOK_QP_SOAK_FIRST");
   const int first = first_env != nullptr ? std::atoi(first_env) : 1;
-  int failures = 0, far_from_xstar = 0;
+  int failures = 0, far_from_xstar = 0, from_hint = 0;
   for (int seed = first; seed < first + seeds; ++seed) {
     Rng rng(static_cast<std::uint64_t>(seed));
     for (int trial = 0; trial < trials; ++trial) {
@@ -266,8 +279,24 @@ TEST_F(QpProperties, SoakRandomKktConstructedQps) {
       } else if (!(err <= 1e-6 * std::max(1.0, xs))) {
         ++far_from_xstar;
       }
-      // The same QP warm-started from a junk active set must agree with the cold solve.
       const std::array<double, kN> cold_x = result->x;
+      // Warm-started from its own active set (the shortcut's case): the same status and
+      // its own KKT residuals within the criteria.
+      if (status == Status::optimal) {
+        const springbok::qp::ActiveSet<kMI> own = result->active;
+        Solver::Hint own_hint;
+        own_hint.active_set = &own;
+        const Status own_status = solver->solve(*problem, *result, own_hint);
+        const auto own_kkt = kkt_check(gen.qp, result->x.data(), result->lambda_eq.data(), result->lambda_in.data());
+        if (own_status != status || !(own_kkt.primal <= 1e-8 && own_kkt.stationarity <= 1e-7 && own_kkt.wrong_sign <= 1e-8)) {
+          ++failures;
+          ADD_FAILURE() << "seed " << seed << " trial " << trial << " warm from its own set: "
+                        << springbok::qp::to_string(own_status) << " (from hint " << result->from_hint << "), kkt primal "
+                        << own_kkt.primal << " stationarity " << own_kkt.stationarity << " wrong_sign " << own_kkt.wrong_sign;
+        }
+        if (result->from_hint) ++from_hint;
+      }
+      // The same QP warm-started from a junk active set must agree with the cold solve.
       springbok::qp::ActiveSet<kMI> junk;
       for (int k = 0; k < 10; ++k) junk.push(rng.integer(0, std::max(0, gen.qp.mi - 1)), static_cast<Side>(rng.integer(0, 1)));
       Solver::Hint hint;
@@ -286,8 +315,8 @@ TEST_F(QpProperties, SoakRandomKktConstructedQps) {
       }
     }
   }
-  std::printf("soak: %d seeds x %d trials: %d failures, %d KKT points farther than 1e-6 from x*\n", seeds, trials,
-              failures, far_from_xstar);
+  std::printf("soak: %d seeds x %d trials: %d failures, %d KKT points farther than 1e-6 from x*, %d warm starts from "
+              "their own set solved on it directly\n", seeds, trials, failures, far_from_xstar, from_hint);
 }
 
 // Appends a contradiction to an otherwise feasible random QP.

@@ -44,44 +44,6 @@ inline bool all_finite(const double* v, int count) noexcept {
   return bad == 0;
 }
 
-// For a column-major n x n matrix with leading dimension ld, four columns per pass
-// (as add_row_squares): sq[i] += sum_j a_ij^2 (finite sums prove the row finite) and
-// bits[i] |= the OR over j != i of the magnitude bits of a_ij, so bits[i] == 0 exactly
-// when row i has no non-zero entry off the diagonal (a zero of either sign is zero).
-inline void add_row_squares_and_offdiagonal_bits(const double* a, int ld, int n, double* __restrict sq,
-                                                 std::uint64_t* __restrict bits) noexcept {
-  auto magnitude = [](double v) noexcept {
-    std::uint64_t b;
-    std::memcpy(&b, &v, sizeof b);
-    return b << 1;  // drop the sign
-  };
-  int j = 0;
-  for (; j + 4 <= n; j += 4) {
-    const double* __restrict a0 = a + static_cast<std::ptrdiff_t>(j) * ld;
-    const double* __restrict a1 = a0 + ld;
-    const double* __restrict a2 = a1 + ld;
-    const double* __restrict a3 = a2 + ld;
-    auto row = [&](int i) noexcept {
-      sq[i] += (a0[i] * a0[i] + a1[i] * a1[i]) + (a2[i] * a2[i] + a3[i] * a3[i]);
-      bits[i] |= (magnitude(a0[i]) | magnitude(a1[i])) | (magnitude(a2[i]) | magnitude(a3[i]));
-    };
-    for (int i = 0; i < j; ++i) row(i);
-    for (int i = j + 4; i < n; ++i) row(i);
-    for (int i = j; i < j + 4; ++i) {  // the diagonal block: skip a_ii in the bits
-      sq[i] += (a0[i] * a0[i] + a1[i] * a1[i]) + (a2[i] * a2[i] + a3[i] * a3[i]);
-      bits[i] |= (i != j ? magnitude(a0[i]) : 0u) | (i != j + 1 ? magnitude(a1[i]) : 0u) |
-                 (i != j + 2 ? magnitude(a2[i]) : 0u) | (i != j + 3 ? magnitude(a3[i]) : 0u);
-    }
-  }
-  for (; j < n; ++j) {
-    const double* __restrict aj = a + static_cast<std::ptrdiff_t>(j) * ld;
-    for (int i = 0; i < n; ++i) {
-      sq[i] += aj[i] * aj[i];
-      if (i != j) bits[i] |= magnitude(aj[i]);
-    }
-  }
-}
-
 // all_finite over the lower triangle (diagonal included) of a column-major n x n
 // matrix with leading dimension ld; coupled[j] = 1 when column j has a non-zero
 // entry below the diagonal or row j one left of it.
@@ -112,52 +74,6 @@ inline void axpy(double alpha, const double* __restrict x, double* __restrict y,
   for (int i = 0; i < n; ++i) y[i] += alpha * x[i];
 }
 
-// One pass over a column-major A (m rows, leading dimension ld, n columns), four
-// columns at a time so each entry of the outputs is loaded and stored once per four
-// columns: y += A x (kProduct) and/or sq[i] += sum_j a_ij^2 (kSquares).
-template <bool kProduct, bool kSquares>
-inline void column_pass(const double* a, int ld, int m, int n, const double* x, double* __restrict y,
-                        double* __restrict sq) noexcept {
-  int j = 0;
-  for (; j + 4 <= n; j += 4) {
-    const double* __restrict a0 = a + static_cast<std::ptrdiff_t>(j) * ld;
-    const double* __restrict a1 = a0 + ld;
-    const double* __restrict a2 = a1 + ld;
-    const double* __restrict a3 = a2 + ld;
-    double x0 = 0.0, x1 = 0.0, x2 = 0.0, x3 = 0.0;
-    if constexpr (kProduct) x0 = x[j], x1 = x[j + 1], x2 = x[j + 2], x3 = x[j + 3];
-    for (int i = 0; i < m; ++i) {
-      if constexpr (kProduct) y[i] += (a0[i] * x0 + a1[i] * x1) + (a2[i] * x2 + a3[i] * x3);
-      if constexpr (kSquares) sq[i] += (a0[i] * a0[i] + a1[i] * a1[i]) + (a2[i] * a2[i] + a3[i] * a3[i]);
-    }
-  }
-  for (; j < n; ++j) {
-    const double* __restrict aj = a + static_cast<std::ptrdiff_t>(j) * ld;
-    double xj = 0.0;
-    if constexpr (kProduct) xj = x[j];
-    for (int i = 0; i < m; ++i) {
-      if constexpr (kProduct) y[i] += aj[i] * xj;
-      if constexpr (kSquares) sq[i] += aj[i] * aj[i];
-    }
-  }
-}
-
-// y += A x.
-inline void gemv_add(const double* a, int ld, int m, int n, const double* x, double* y) noexcept {
-  column_pass<true, false>(a, ld, m, n, x, y, nullptr);
-}
-
-// y[i] += sum_j a_ij^2 (row sums of squares).
-inline void add_row_squares(const double* a, int ld, int m, int n, double* y) noexcept {
-  column_pass<false, true>(a, ld, m, n, nullptr, nullptr, y);
-}
-
-// y += A x and sq[i] += sum_j a_ij^2 in one pass over A.
-inline void gemv_add_and_row_squares(const double* a, int ld, int m, int n, const double* x, double* y,
-                                     double* sq) noexcept {
-  column_pass<true, true>(a, ld, m, n, x, y, sq);
-}
-
 // The kernels below work on whole aligned chunks of four doubles: every vector
 // is zero-padded to padded(n) entries and every loop starts at a multiple of
 // four, so a chunk is always loaded where it was stored (store-to-load
@@ -170,11 +86,191 @@ inline constexpr int chunk_start(int i) noexcept { return i & ~3; }
 // two NEON registers on aarch64), moved by memcpy so no alignment is assumed. Chunks
 // never cross a function boundary (that would depend on the ABI's vector support).
 using Chunk = double __attribute__((vector_size(32)));
+inline constexpr Chunk kZeroChunk = {0.0, 0.0, 0.0, 0.0};
+using ChunkBits = std::uint64_t __attribute__((vector_size(32)));
+
+// out = the bits of c shifted left by one: its magnitude bits, the sign dropped (so
+// out == 0 exactly for a zero of either sign). References: no vector crosses the ABI.
+inline void magnitude_bits(const Chunk& c, ChunkBits& out) noexcept {
+  std::memcpy(&out, &c, sizeof out);
+  out <<= 1;
+}
 
 // y[0..3] = {a, b, c, d} as one chunk store.
 inline void store4(double* y, double a, double b, double c, double d) noexcept {
   const Chunk v = {a, b, c, d};
   std::memcpy(y, &v, sizeof v);
+}
+
+// ---- column passes over a matrix of the problem --------------------------------
+// One pass over a column-major m x n matrix A (leading dimension ld), four columns at a
+// time by whole chunks of four rows, so each chunk of the outputs is loaded and stored
+// once per four columns. The outputs are assigned, not accumulated; they hold the
+// first whole_rows(m, ld) >= m entries, rows past m being the storage of A below its
+// live rows (read, used only in their own lanes, never in a live row's). Rows a whole
+// chunk would read past the column (ld not a multiple of four) go one by one.
+inline constexpr int whole_rows(int m, int ld) noexcept { return padded(m) < (ld & ~3) ? padded(m) : (ld & ~3); }
+
+// y = A x (kProduct) and/or sq[i] = sum_j a_ij^2 (kSquares).
+template <bool kProduct, bool kSquares>
+inline void column_pass(const double* a, int ld, int m, int n, const double* x, double* __restrict y,
+                        double* __restrict sq) noexcept {
+  const int whole = whole_rows(m, ld);
+  const std::ptrdiff_t step = ld;
+  for (int i = 0; i < whole; i += 4) {
+    if constexpr (kProduct) std::memcpy(y + i, &kZeroChunk, sizeof kZeroChunk);
+    if constexpr (kSquares) std::memcpy(sq + i, &kZeroChunk, sizeof kZeroChunk);
+  }
+  int j = 0;
+  for (; j + 4 <= n; j += 4) {
+    const double* a0 = a + j * step;
+    const double* a1 = a0 + step;
+    const double* a2 = a1 + step;
+    const double* a3 = a2 + step;
+    Chunk x0 = kZeroChunk, x1 = x0, x2 = x0, x3 = x0;
+    if constexpr (kProduct) x0 += x[j], x1 += x[j + 1], x2 += x[j + 2], x3 += x[j + 3];
+    for (int i = 0; i < whole; i += 4) {
+      Chunk c0, c1, c2, c3, out;
+      std::memcpy(&c0, a0 + i, sizeof c0);
+      std::memcpy(&c1, a1 + i, sizeof c1);
+      std::memcpy(&c2, a2 + i, sizeof c2);
+      std::memcpy(&c3, a3 + i, sizeof c3);
+      if constexpr (kProduct) {
+        std::memcpy(&out, y + i, sizeof out);
+        out += (c0 * x0 + c1 * x1) + (c2 * x2 + c3 * x3);
+        std::memcpy(y + i, &out, sizeof out);
+      }
+      if constexpr (kSquares) {
+        std::memcpy(&out, sq + i, sizeof out);
+        out += (c0 * c0 + c1 * c1) + (c2 * c2 + c3 * c3);
+        std::memcpy(sq + i, &out, sizeof out);
+      }
+    }
+  }
+  for (; j < n; ++j) {
+    const double* aj = a + j * step;
+    Chunk xj = kZeroChunk;
+    if constexpr (kProduct) xj += x[j];
+    for (int i = 0; i < whole; i += 4) {
+      Chunk c, out;
+      std::memcpy(&c, aj + i, sizeof c);
+      if constexpr (kProduct) {
+        std::memcpy(&out, y + i, sizeof out);
+        out += c * xj;
+        std::memcpy(y + i, &out, sizeof out);
+      }
+      if constexpr (kSquares) {
+        std::memcpy(&out, sq + i, sizeof out);
+        out += c * c;
+        std::memcpy(sq + i, &out, sizeof out);
+      }
+    }
+  }
+  for (int i = whole; i < m; ++i) {  // ld not a multiple of four: the last rows
+    double yi = 0.0, si = 0.0;
+    for (int jj = 0; jj < n; ++jj) {
+      const double v = a[jj * step + i];
+      if constexpr (kProduct) yi += v * x[jj];
+      if constexpr (kSquares) si += v * v;
+    }
+    if constexpr (kProduct) y[i] = yi;
+    if constexpr (kSquares) sq[i] = si;
+  }
+}
+
+// y = A x.
+inline void gemv(const double* a, int ld, int m, int n, const double* x, double* y) noexcept {
+  column_pass<true, false>(a, ld, m, n, x, y, nullptr);
+}
+
+// sq[i] = sum_j a_ij^2 (row sums of squares: a finite one proves the row finite).
+inline void row_squares(const double* a, int ld, int m, int n, double* sq) noexcept {
+  column_pass<false, true>(a, ld, m, n, nullptr, nullptr, sq);
+}
+
+// y = A x and sq[i] = sum_j a_ij^2 in one pass over A.
+inline void gemv_and_row_squares(const double* a, int ld, int m, int n, const double* x, double* y,
+                                 double* sq) noexcept {
+  column_pass<true, true>(a, ld, m, n, x, y, sq);
+}
+
+// For a column-major n x n matrix A (leading dimension ld), as row_squares, with
+// bits[i] = the OR over j != i of the magnitude bits of a_ij (sign dropped), so
+// bits[i] == 0 exactly when row i has no non-zero entry off the diagonal (a zero of
+// either sign is zero). Outputs as column_pass (whole_rows(n, ld) entries).
+inline void row_squares_and_offdiagonal_bits(const double* a, int ld, int n, double* __restrict sq,
+                                             std::uint64_t* __restrict bits) noexcept {
+  using Bits = ChunkBits;
+  // keep[l]: every lane but lane l (the diagonal entry of a column in its own chunk).
+  constexpr std::uint64_t ones = ~std::uint64_t{0};
+  const Bits keep[4] = {Bits{0, ones, ones, ones}, Bits{ones, 0, ones, ones}, Bits{ones, ones, 0, ones},
+                        Bits{ones, ones, ones, 0}};
+  const Bits all = {ones, ones, ones, ones};
+  const int whole = whole_rows(n, ld);
+  const std::ptrdiff_t step = ld;
+  for (int i = 0; i < whole; i += 4) {
+    std::memcpy(sq + i, &kZeroChunk, sizeof kZeroChunk);
+    std::memset(bits + i, 0, 4 * sizeof(std::uint64_t));
+  }
+  int j = 0;
+  for (; j + 4 <= n; j += 4) {
+    const double* a0 = a + j * step;
+    const double* a1 = a0 + step;
+    const double* a2 = a1 + step;
+    const double* a3 = a2 + step;
+    for (int i = 0; i < whole; i += 4) {
+      Chunk c0, c1, c2, c3, s;
+      std::memcpy(&c0, a0 + i, sizeof c0);
+      std::memcpy(&c1, a1 + i, sizeof c1);
+      std::memcpy(&c2, a2 + i, sizeof c2);
+      std::memcpy(&c3, a3 + i, sizeof c3);
+      Bits m0, m1, m2, m3, b;
+      magnitude_bits(c0, m0);
+      magnitude_bits(c1, m1);
+      magnitude_bits(c2, m2);
+      magnitude_bits(c3, m3);
+      const bool diagonal = i == j;  // the chunk holding the four diagonal entries (j is a chunk start)
+      m0 &= diagonal ? keep[0] : all;
+      m1 &= diagonal ? keep[1] : all;
+      m2 &= diagonal ? keep[2] : all;
+      m3 &= diagonal ? keep[3] : all;
+      std::memcpy(&s, sq + i, sizeof s);
+      s += (c0 * c0 + c1 * c1) + (c2 * c2 + c3 * c3);
+      std::memcpy(sq + i, &s, sizeof s);
+      std::memcpy(&b, bits + i, sizeof b);
+      b |= (m0 | m1) | (m2 | m3);
+      std::memcpy(bits + i, &b, sizeof b);
+    }
+  }
+  for (; j < n; ++j) {
+    const double* aj = a + j * step;
+    for (int i = 0; i < whole; i += 4) {
+      Chunk c, s;
+      std::memcpy(&c, aj + i, sizeof c);
+      Bits m, b;
+      magnitude_bits(c, m);
+      m &= i == chunk_start(j) ? keep[j & 3] : all;
+      std::memcpy(&s, sq + i, sizeof s);
+      s += c * c;
+      std::memcpy(sq + i, &s, sizeof s);
+      std::memcpy(&b, bits + i, sizeof b);
+      b |= m;
+      std::memcpy(bits + i, &b, sizeof b);
+    }
+  }
+  for (int i = whole; i < n; ++i) {  // ld not a multiple of four: the last rows
+    double si = 0.0;
+    std::uint64_t bi = 0;
+    for (int jj = 0; jj < n; ++jj) {
+      const double v = a[jj * step + i];
+      si += v * v;
+      std::uint64_t vb;
+      std::memcpy(&vb, &v, sizeof vb);
+      if (jj != i) bi |= vb << 1;
+    }
+    sq[i] = si;
+    bits[i] = bi;
+  }
 }
 
 // a . b over n entries, n a multiple of four (padded vectors from a chunk start).

@@ -58,31 +58,19 @@ class Solver {
   [[gnu::noinline]] Status solve(const ProblemType& problem, ResultType& result, const Hint& hint = {}) noexcept {
     p_ = &problem;
     result.iterations = 0;
+    result.from_hint = false;
     result.active.clear();
     result.objective = std::numeric_limits<double>::quiet_NaN();
     iterations_ = 0;
-    Status status = prepare(hint);
-    if (status == Status::optimal) {
-      status = attempt(hint.active_set);
-      // A warm start is only a guess: a capped run from it is re-run from the cold
-      // start (same factorization). An infeasible verdict stands: the warm start
-      // leaves a valid dual state (the minimiser on a set of tight rows, multipliers
-      // >= 0), and from such a state "violated, dependent, no multiplier to trade" is
-      // a Farkas certificate however the state was reached.
-      if (hint.active_set != nullptr && status == Status::maxiter) {
-        iterations_ = 0;
-        status = attempt(nullptr);
-      }
-    }
-    if (status == Status::optimal || status == Status::maxiter) {
-      status = finish_checked(result, status);
-      // A warm start's answer that fails the check: the cold start once more.
-      if (status == Status::inaccurate && hint.active_set != nullptr) {
-        iterations_ = 0;
-        result.active.clear();
-        status = attempt(nullptr);
-        if (status == Status::optimal || status == Status::maxiter) status = finish_checked(result, status);
-      }
+    Status status = classify();
+    if (status == Status::optimal) status = factor(hint);
+    // The hinted set first, as equalities: when it is the active set of this problem,
+    // that is the answer (a tick whose active set did not change); else the full method.
+    const bool shortcut = status == Status::optimal && hint.active_set != nullptr &&
+                          solve_on_hinted_set(*hint.active_set, result, status) == Shortcut::solved;
+    if (!shortcut) {
+      if (status == Status::optimal) status = eliminate_equalities();
+      status = full_method(unless_ain_bad(status), hint.active_set, result);
     }
     if (status != Status::optimal && status != Status::maxiter) {
       const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -124,11 +112,8 @@ class Solver {
     // the entries checked. The same pass over H finds the variables it couples (a
     // row with an off-diagonal non-zero on either side of the diagonal: for a
     // symmetric H exactly the coupled ones, otherwise more, never fewer).
-    std::fill_n(h_row_sq_.begin(), n_, 0.0);
-    std::fill_n(row_bits_.begin(), n_, std::uint64_t{0});
-    std::fill_n(eq_row_sq_.begin(), meq_, 0.0);
-    dense::add_row_squares_and_offdiagonal_bits(p.hessian.data(), N, n_, h_row_sq_.data(), row_bits_.data());
-    dense::add_row_squares(p.aeq.data(), ME, meq_, n_, eq_row_sq_.data());
+    dense::row_squares_and_offdiagonal_bits(p.hessian.data(), N, n_, h_row_sq_.data(), row_bits_.data());
+    dense::row_squares(p.aeq.data(), ME, meq_, n_, eq_row_sq_.data());
     if (!dense::all_finite(h_row_sq_.data(), n_) || !dense::all_finite(eq_row_sq_.data(), meq_)) {
       for (int j = 0; j < n_; ++j) {
         if (!dense::all_finite(p.hessian.data() + idx(0, j, N), n_)) return Status::bad_input;
@@ -175,6 +160,7 @@ class Solver {
   double* q1col(int j) noexcept { return q1_.data() + idx(0, j, kLd); }
   double* rcol(int j) noexcept { return r_.data() + idx(0, j, kLd); }
   double* tvec(int row) noexcept { return t_.data() + idx(0, row, kLd); }
+  double* gcol(int j) noexcept { return gram_.data() + idx(0, j, kLd); }
 
   // ---- step 1: Cholesky ----------------------------------------------------
   // The lower triangle of H equals the one last factored with reuse_factor set.
@@ -279,10 +265,11 @@ class Solver {
   }
 
   // ---- step 2: the equality block --------------------------------------------
-  Status eliminate_equalities() noexcept {
+  // The equality rows (Aeq's, then the lb == ub rows of Ain), permuted, into columns
+  // 0 .. me_-1 of b_ (zero-padded), their right-hand sides, sources and row norms.
+  void load_equalities() noexcept {
     const ProblemType& p = *p_;
-    // Aeq's rows, permuted, into columns 0 .. meq_-1 of b_: a transposing copy that
-    // reads each column of Aeq once, contiguously.
+    // Aeq's rows: a transposing copy that reads each column of Aeq once, contiguously.
     int k = 0;
     for (; k + 4 <= n_; k += 4) {  // four variables at a time: one chunk store per row
       const double* c0 = p.aeq.data() + idx(0, perm_[k], ME);
@@ -308,6 +295,11 @@ class Solver {
       eq_src_[me_] = -1 - i;
       ++me_;
     }
+  }
+
+  Status eliminate_equalities() noexcept {
+    const ProblemType& p = *p_;
+    load_equalities();
     // g rides along as column me_: the same solve and reflectors give c = Q' L^-1 g.
     double* gcol = bcol(me_);
     gather(p.gradient.data(), gcol);
@@ -402,11 +394,9 @@ class Solver {
     for (int k = rank_ - 1; k >= 0; --k) dense::apply_reflector(vcol(k), tau_[k], k, np_, y);
   }
 
-  Status prepare(const Hint& hint) noexcept {
-    Status s = classify();
-    if (s == Status::optimal) s = factor(hint);
-    if (s == Status::optimal) s = eliminate_equalities();
-    // Non-finite entries of Ain are bad input whatever else is wrong with the problem.
+  // Non-finite entries of Ain are bad input whatever else is wrong with the problem:
+  // the exits before Ain is first read check it here.
+  Status unless_ain_bad(Status s) noexcept {
     if ((s == Status::infeasible || s == Status::not_positive_definite) && check_rows(nullptr) == Status::bad_input)
       return Status::bad_input;
     return s;
@@ -419,13 +409,10 @@ class Solver {
   // checked), infeasible for such a zero row, else optimal.
   Status check_rows(const double* x) noexcept {
     const ProblemType& p = *p_;
-    std::fill_n(row_norm_.begin(), mi_, 0.0);
-    if (x != nullptr) {
-      std::fill_n(slack_.begin(), mi_, 0.0);
-      dense::gemv_add_and_row_squares(p.ain.data(), MI, mi_, n_, x, slack_.data(), row_norm_.data());
-    } else {
-      dense::add_row_squares(p.ain.data(), MI, mi_, n_, row_norm_.data());
-    }
+    if (x != nullptr)
+      dense::gemv_and_row_squares(p.ain.data(), MI, mi_, n_, x, slack_.data(), row_norm_.data());
+    else
+      dense::row_squares(p.ain.data(), MI, mi_, n_, row_norm_.data());
     if (!dense::all_finite(row_norm_.data(), mi_)) {
       for (int j = 0; j < n_; ++j)
         if (!dense::all_finite(p.ain.data() + idx(0, j, MI), mi_)) return Status::bad_input;
@@ -566,8 +553,7 @@ class Solver {
       stop_status_ = check_rows(x_.data());
       if (stop_status_ != Status::optimal) return kStop;
     } else {
-      std::fill_n(slack_.begin(), mi_, 0.0);
-      dense::gemv_add(p.ain.data(), MI, mi_, n_, x_.data(), slack_.data());  // Ain x for every row
+      dense::gemv(p.ain.data(), MI, mi_, n_, x_.data(), slack_.data());  // Ain x for every row
     }
     const double tol = options_.feasibility_tol, xn = x_norm_;
     int best = -1;
@@ -721,6 +707,147 @@ class Solver {
     return viol <= limit ? Status::optimal : Status::infeasible;
   }
 
+  // ---- the hinted set as equalities (a warm start's first try) ----------------
+  // A controller's active set rarely changes from one tick to the next. With the
+  // hinted rows (on their hinted sides) and the equalities taken as active, the
+  // minimiser solves
+  //   S lam = b + B'c,  S = B'B,  B = L^-1 [E' A_h'],  c = L^-1 g,
+  //   v = B lam - c,    x = L^-T v        (so H x + g = [E' A_h'] lam)
+  // by a Cholesky factor of S and one refinement step (corrected semi-normal
+  // equations). That x is the answer when every hinted row's multiplier has its
+  // side's sign, every row holds within the full method's tolerance, the active rows
+  // are met to it, and the stationarity check passes; the multipliers are -lam. Any
+  // thing else - nearly dependent rows (a pivot of S below 1e-8 of its diagonal: S
+  // squares B's conditioning), a wrong sign, a violated row - falls back to the full
+  // method (which starts from the same hint). On a tick whose active set did not
+  // change this skips the QR of the equality block and the GI machinery.
+  enum class Shortcut : std::uint8_t { solved, fallback };
+  Shortcut solve_on_hinted_set(const ActiveSet<MI>& hint, ResultType& result, Status& status) noexcept {
+    const ProblemType& p = *p_;
+    load_equalities();
+    if (me_ > n_) return Shortcut::fallback;
+    int cols = me_;
+    const int count = std::min(hint.size, MI);
+    for (int e = 0; e < count; ++e) {
+      const int row = hint.row[static_cast<std::size_t>(e)];
+      const int sigma = hinted_sigma(row, hint.side[static_cast<std::size_t>(e)]);
+      if (sigma == 0) continue;
+      if (cols >= n_) return Shortcut::fallback;  // more active rows than variables
+      gather_ain_row(row, bcol(cols));
+      eq_rhs_[cols] = sigma > 0 ? p.lower[row] : p.upper[row];
+      eq_src_[cols] = -1 - row;
+      hinted_side_[cols] = static_cast<std::int8_t>(sigma);
+      ++cols;
+    }
+    double* c = bcol(cols);  // g rides along: c = L^-1 g
+    gather(p.gradient.data(), c);
+    solve_lower(bcol(0), kLd, cols + 1);
+    // S's lower triangle into gram_, equilibrated to a unit diagonal (Ds S Ds), and
+    // its Cholesky factor in the layout of H's: a pivot is the part of a column's
+    // squared norm left after the columns before it.
+    const int cp = dense::padded(cols);
+    for (int j = 0; j < cols; ++j) {
+      double* sj = gcol(j);
+      dense::gemv_t_chunks(bcol(j), kLd, np_, cols - j, bcol(j), sj + j);
+      std::fill(sj + cols, sj + cp, 0.0);
+      if (!(sj[j] > 0.0)) return Shortcut::fallback;
+      gram_scale_[j] = 1.0 / std::sqrt(sj[j]);
+    }
+    std::fill(gram_scale_.begin() + cols, gram_scale_.begin() + cp, 0.0);
+    for (int j = 0; j < cols; ++j) {
+      double* sj = gcol(j);
+      for (int i = j; i < cols; ++i) sj[i] *= gram_scale_[i] * gram_scale_[j];
+    }
+    if (!dense::cholesky_lower(gram_.data(), kLd, cols, 1e-8, gram_inv_diag_.data())) return Shortcut::fallback;
+    for (int j = 0; j < cols; ++j) gram_inv_diag_[j] *= gram_inv_diag_[j];
+    std::fill(gram_inv_diag_.begin() + cols, gram_inv_diag_.begin() + cp, 0.0);
+    dense::gemv_t_chunks(bcol(0), kLd, np_, cols, c, lam_.data());
+    for (int j = 0; j < cols; ++j) lam_[j] += eq_rhs_[j];
+    solve_gram(lam_.data(), cols);
+    // v = B lam - c, then the refinement: lam += S^-1 (b - B'v), v += B (that step).
+    double* v = hinted_v_.data();
+    for (int j = 0; j < cols; ++j) step_[j] = -lam_[j];
+    for (int i = 0; i < np_; ++i) v[i] = -c[i];
+    dense::gemv_sub_chunks(bcol(0), kLd, np_, cols, step_.data(), v);
+    dense::gemv_t_chunks(bcol(0), kLd, np_, cols, v, step_.data());
+    for (int j = 0; j < cols; ++j) step_[j] = eq_rhs_[j] - step_[j];
+    solve_gram(step_.data(), cols);
+    for (int j = 0; j < cols; ++j) {
+      lam_[j] += step_[j];
+      step_[j] = -step_[j];
+    }
+    dense::gemv_sub_chunks(bcol(0), kLd, np_, cols, step_.data(), v);
+    for (int j = me_; j < cols; ++j)
+      if (static_cast<double>(hinted_side_[j]) * lam_[j] < 0.0) return Shortcut::fallback;
+    // x = L^-T v (permuted back).
+    double* y = xp_.data();
+    std::copy_n(v, np_, y);
+    dense::scale_chunks(inv_diag_.data(), y, np_);
+    dense::unit_backward_solve_transposed(l_.data(), kLd, nc_, y);
+    for (int k = 0; k < n_; ++k) x_[perm_[k]] = y[k];
+    x_norm_ = std::sqrt(dense::squared_norm(x_.data(), n_));
+    // Every row within the tolerance (Ain read here for the first time: bad input or a
+    // zero row outside its bounds ends the solve as in the full method), every active
+    // row met to it.
+    const Status rows = check_rows(x_.data());
+    if (rows != Status::optimal) {
+      status = rows;
+      return Shortcut::solved;
+    }
+    const double tol = options_.feasibility_tol;
+    for (int i = 0; i < mi_; ++i) {
+      bool lower_side = false;
+      double limit = 0.0;
+      if (violation(i, x_norm_, tol, lower_side, limit) > limit) return Shortcut::fallback;
+    }
+    dense::gemv(p.aeq.data(), ME, meq_, n_, x_.data(), eq_ax_.data());
+    for (int k = 0; k < cols; ++k) {
+      const int src = eq_src_[k];
+      const double ax = src >= 0 ? eq_ax_[src] : slack_[-1 - src];
+      const double norm = src >= 0 ? eq_row_norm_[k] : row_norm_[-1 - src];
+      if (!(std::abs(eq_rhs_[k] - ax) <= tol * std::max(norm * x_norm_, std::abs(eq_rhs_[k]))))
+        return Shortcut::fallback;
+    }
+    // The result: f = 1/2 |v|^2 + c'v, multipliers -lam, the hinted rows and the
+    // lb == ub rows active.
+    double objective = 0.0;
+    for (int i = 0; i < np_; ++i) objective += v[i] * (0.5 * v[i] + c[i]);
+    std::copy_n(x_.data(), n_, result.x.begin());
+    result.objective = objective;
+    std::fill_n(result.lambda_eq.begin(), meq_, 0.0);
+    std::fill_n(result.lambda_in.begin(), mi_, 0.0);
+    for (int k = 0; k < cols; ++k) {
+      const int src = eq_src_[k];
+      if (src >= 0)
+        result.lambda_eq[static_cast<std::size_t>(src)] = -lam_[k];
+      else
+        result.lambda_in[static_cast<std::size_t>(-1 - src)] = -lam_[k];
+    }
+    for (int k = me_; k < cols; ++k) result.active.push(-1 - eq_src_[k], hinted_side_[k] > 0 ? Side::lower : Side::upper);
+    for (int k = 0; k < me_; ++k)
+      if (eq_src_[k] < 0) result.active.push(-1 - eq_src_[k], Side::equal);
+    if (!std::isfinite(objective) || !dense::all_finite(result.lambda_eq.data(), meq_) ||
+        !dense::all_finite(result.lambda_in.data(), mi_) || check_stationarity(result) != Status::optimal) {
+      result.active.clear();
+      return Shortcut::fallback;
+    }
+    status = Status::optimal;
+    result.from_hint = true;
+    return Shortcut::solved;
+  }
+
+  // y <- S^-1 y = Ds (U D^2 U')^-1 Ds y (the factor of solve_on_hinted_set); y padded
+  // to whole chunks.
+  void solve_gram(double* y, int cols) noexcept {
+    const int cp = dense::padded(cols);
+    std::fill(y + cols, y + cp, 0.0);
+    dense::scale_chunks(gram_scale_.data(), y, cp);
+    dense::unit_forward_solve_each(gram_.data(), kLd, cols, 1, [y](int) noexcept { return y; });
+    dense::scale_chunks(gram_inv_diag_.data(), y, cp);
+    dense::unit_backward_solve_transposed(gram_.data(), kLd, cols, y);
+    dense::scale_chunks(gram_scale_.data(), y, cp);
+  }
+
   // ---- step 3: Goldfarb-Idnani on the reduced problem -------------------------
   Status run(const ActiveSet<MI>* warm) noexcept {
     x_current_ = false;
@@ -803,6 +930,34 @@ class Solver {
     }
   }
 
+  // Steps 3 and 4 after the equality block: GI from the warm set (or cold), the
+  // result and its check.
+  Status full_method(Status status, const ActiveSet<MI>* warm, ResultType& result) noexcept {
+    if (status == Status::optimal) {
+      status = attempt(warm);
+      // A warm start is only a guess: a capped run from it is re-run from the cold
+      // start (same factorization). An infeasible verdict stands: the warm start
+      // leaves a valid dual state (the minimiser on a set of tight rows, multipliers
+      // >= 0), and from such a state "violated, dependent, no multiplier to trade" is
+      // a Farkas certificate however the state was reached.
+      if (warm != nullptr && status == Status::maxiter) {
+        iterations_ = 0;
+        status = attempt(nullptr);
+      }
+    }
+    if (status == Status::optimal || status == Status::maxiter) {
+      status = finish_checked(result, status);
+      // A warm start's answer that fails the check: the cold start once more.
+      if (status == Status::inaccurate && warm != nullptr) {
+        iterations_ = 0;
+        result.active.clear();
+        status = attempt(nullptr);
+        if (status == Status::optimal || status == Status::maxiter) status = finish_checked(result, status);
+      }
+    }
+    return status;
+  }
+
   // ---- step 4: x, objective, multipliers, active set --------------------------
   // finish(), then the solver's own check of an optimal answer: stationarity
   // |H x + g + Aeq' lambda_eq + Ain' lambda_in|_inf <= 1e-6 max(1, |H| |x|, |g|) (H from the
@@ -812,7 +967,9 @@ class Solver {
   // |a_i| > 1e3 of it): only then can rounding in them reach the threshold.
   Status finish_checked(ResultType& result, Status status) noexcept {
     if (!finish(result)) return Status::bad_input;  // non-finite result from finite (huge) data
-    if (status != Status::optimal) return status;
+    return status == Status::optimal ? check_stationarity(result) : status;
+  }
+  Status check_stationarity(const ResultType& result) noexcept {
     const ProblemType& p = *p_;
     const double* x = result.x.data();
     double x_max = 0.0, g_max = 0.0, h_sq_max = 0.0;
@@ -852,12 +1009,9 @@ class Solver {
   // max(|a_i| |x|, |bound|). Ill-conditioned H (cond 1e10) leaves ~1e-8 here.
   double active_residuals() noexcept {
     const ProblemType& p = *p_;
-    if (!slack_current_) {  // Ain x; most_violated left it for the final x otherwise
-      std::fill_n(slack_.begin(), mi_, 0.0);
-      dense::gemv_add(p.ain.data(), MI, mi_, n_, x_.data(), slack_.data());
-    }
-    std::fill_n(eq_ax_.begin(), meq_, 0.0);
-    dense::gemv_add(p.aeq.data(), ME, meq_, n_, x_.data(), eq_ax_.data());
+    if (!slack_current_)  // Ain x; most_violated left it for the final x otherwise
+      dense::gemv(p.ain.data(), MI, mi_, n_, x_.data(), slack_.data());
+    dense::gemv(p.aeq.data(), ME, meq_, n_, x_.data(), eq_ax_.data());
     double worst = 0.0;
     for (int k = 0; k < rank_; ++k) {
       const int src = eq_src_[k];
@@ -1014,7 +1168,12 @@ class Solver {
   Buf<std::int8_t, MI> active_side_{};
   Buf<bool, MI> have_t_{};
   Buf<int, MI> skipped_epoch_{};
-  Buf<int, MI> batch_row_{};      // rows whose t_i one multi-column solve computes  // row skipped as a rounding-level violation while epoch_ holds
+  Buf<int, MI> batch_row_{};
+  // the hinted set as equalities (solve_on_hinted_set)
+  alignas(64) Buf<double, kLd * N> gram_{};  // factor of Ds S Ds = U D^2 U', S = B'B
+  alignas(64) Buf<double, kLd> gram_scale_{}, gram_inv_diag_{};  // Ds; D^-2 (zero-padded)
+  alignas(64) Buf<double, kLd> lam_{}, step_{}, hinted_v_{};
+  Buf<std::int8_t, N> hinted_side_{};  // side of column k >= me_ of b_ (+1 lower, -1 upper)      // rows whose t_i one multi-column solve computes  // row skipped as a rounding-level violation while epoch_ holds
 };
 
 }  // namespace springbok::qp

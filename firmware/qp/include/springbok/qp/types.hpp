@@ -110,6 +110,7 @@ struct Result {
   std::array<double, MI> lambda_in{};
   ActiveSet<MI> active;  // Ain rows at a bound (lower/upper), and every lb == ub row (equal)
   int iterations = 0;    // active-set changes (additions and drops; a warm start's own rows not counted)
+  bool from_hint = false;  // the hinted active set held: solved on it directly, no iterations
 
   Eigen::Map<const Eigen::VectorXd> x_vector(int n) const noexcept { return {x.data(), n}; }
 };
