@@ -1,5 +1,6 @@
 // A full solve, cold and warm, at the firmware size and the controller's tight
 // size, allocates nothing (counting operator new + Eigen's malloc trap).
+#include <algorithm>
 #include <memory>
 #include <string>
 
@@ -26,18 +27,33 @@ void expect_no_allocation(const std::string& file) {
   ASSERT_TRUE(springbok::qpfile::load_problem(*in, *problem));
   typename S::Hint hint;
   hint.active_set = warm.get();
-  Status cold = Status::bad_input, warm_status = Status::bad_input;
+  Status cold = Status::bad_input, warm_status = Status::bad_input, short_status = Status::bad_input;
   int active = 0;
+  bool warm_direct = false, short_direct = true;
+  springbok::qp::Side first_side = springbok::qp::Side::equal;
   {
     springbok::test::AllocationTrap trap;
     cold = solver->solve(*problem, *result);
     *warm = result->active;
     active = warm->size;
-    warm_status = solver->solve(*problem, *result, hint);
+    warm_status = solver->solve(*problem, *result, hint);  // the hinted set holds: solved on it directly
+    warm_direct = result->from_hint;
+    // The hint short of its first row (an inequality row: those come first): that row
+    // is violated on the rest, the full method runs.
+    first_side = warm->side[0];
+    std::copy(warm->row.begin() + 1, warm->row.begin() + warm->size, warm->row.begin());
+    std::copy(warm->side.begin() + 1, warm->side.begin() + warm->size, warm->side.begin());
+    --warm->size;
+    short_status = solver->solve(*problem, *result, hint);
+    short_direct = result->from_hint;
     EXPECT_EQ(trap.disarm(), 0u);
   }
   EXPECT_EQ(cold, Status::optimal);
   EXPECT_EQ(warm_status, Status::optimal);
+  EXPECT_TRUE(warm_direct);
+  EXPECT_NE(first_side, springbok::qp::Side::equal);
+  EXPECT_EQ(short_status, Status::optimal);
+  EXPECT_FALSE(short_direct);
   EXPECT_GT(active, 0) << "pick an instance with active rows";
 }
 

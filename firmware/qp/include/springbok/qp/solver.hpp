@@ -121,16 +121,14 @@ class Solver {
       }
     }
     for (int j = 0; j < n_; ++j) coupled_[j] = row_bits_[j] != 0 ? 1 : 0;
-    bool nan_bound = false;
-    for (int i = 0; i < mi_; ++i) nan_bound |= std::isnan(p.lower[i]) | std::isnan(p.upper[i]);
-    if (nan_bound) return Status::bad_input;
 
     // The rows' kinds from their bounds. Ain itself is read first by the first
     // most_violated(), which computes its row norms together with Ain x and settles
     // zero rows (rows_checked_); the exits before that check it here (check_rows()).
-    bool infeasible = false;
+    bool infeasible = false, nan_bound = false;
     for (int i = 0; i < mi_; ++i) {
       const double lo = p.lower[i], hi = p.upper[i];
+      nan_bound |= std::isnan(lo) | std::isnan(hi);
       if (lo >= kInfiniteBound || hi <= -kInfiniteBound) infeasible = true;  // bound at +-infinity
       const bool has_lo = lo > -kInfiniteBound, has_hi = hi < kInfiniteBound;
       if (has_lo && has_hi && lo > hi) infeasible = true;
@@ -146,6 +144,7 @@ class Solver {
       lo_abs_[i] = lower_side ? std::abs(lo) : 0.0;
       hi_abs_[i] = upper_side ? std::abs(hi) : 0.0;
     }
+    if (nan_bound) return Status::bad_input;
     rows_checked_ = false;
     std::fill_n(have_t_.begin(), mi_, false);
     return infeasible ? Status::infeasible : Status::optimal;
@@ -764,19 +763,29 @@ class Solver {
     dense::gemv_t_chunks(bcol(0), kLd, np_, cols, c, lam_.data());
     for (int j = 0; j < cols; ++j) lam_[j] += eq_rhs_[j];
     solve_gram(lam_.data(), cols);
-    // v = B lam - c, then the refinement: lam += S^-1 (b - B'v), v += B (that step).
+    // v = B lam - c. Stationarity holds by construction whatever lam's rounding; the
+    // rows' residual b - B'v is what the normal equations can leave large (they square
+    // B's conditioning): beyond 1e-14 of a row's scale (|b_j| |v| + |b|), one
+    // refinement step, lam += S^-1 (b - B'v), v += B (that step).
     double* v = hinted_v_.data();
     for (int j = 0; j < cols; ++j) step_[j] = -lam_[j];
     for (int i = 0; i < np_; ++i) v[i] = -c[i];
     dense::gemv_sub_chunks(bcol(0), kLd, np_, cols, step_.data(), v);
     dense::gemv_t_chunks(bcol(0), kLd, np_, cols, v, step_.data());
-    for (int j = 0; j < cols; ++j) step_[j] = eq_rhs_[j] - step_[j];
-    solve_gram(step_.data(), cols);
+    const double v_norm = std::sqrt(dense::dot_chunks(v, v, np_));
+    bool refine = false;
     for (int j = 0; j < cols; ++j) {
-      lam_[j] += step_[j];
-      step_[j] = -step_[j];
+      step_[j] = eq_rhs_[j] - step_[j];
+      refine |= !(std::abs(step_[j]) <= 1e-14 * (v_norm / gram_scale_[j] + std::abs(eq_rhs_[j])));
     }
-    dense::gemv_sub_chunks(bcol(0), kLd, np_, cols, step_.data(), v);
+    if (refine) {
+      solve_gram(step_.data(), cols);
+      for (int j = 0; j < cols; ++j) {
+        lam_[j] += step_[j];
+        step_[j] = -step_[j];
+      }
+      dense::gemv_sub_chunks(bcol(0), kLd, np_, cols, step_.data(), v);
+    }
     for (int j = me_; j < cols; ++j)
       if (static_cast<double>(hinted_side_[j]) * lam_[j] < 0.0) return Shortcut::fallback;
     // x = L^-T v (permuted back).
