@@ -27,6 +27,13 @@
 //     that row, which stands only if the row holds after all.
 //  4. Multipliers of the equalities are recovered at the end from Re.
 //
+// A warm start first tries the hinted set as it is (solve_on_hinted_set): with the
+// hinted rows and the equalities taken as active, the minimiser comes from the
+// Cholesky factor of the small Gram matrix of L^-1 [E' A_h'] (corrected semi-normal
+// equations); it is the answer when the hinted multipliers have their sides' signs
+// and every row holds, which is the common case of a controller whose active set did
+// not change since the last tick. Otherwise steps 2-4 run from the same hint.
+//
 // Every loop is bounded (iteration cap), every division guarded; solve() is
 // noexcept and never allocates: the workspace lives in the object.
 #pragma once
@@ -476,6 +483,7 @@ class Solver {
     double* rc = rcol(q_);
     std::copy_n(d_.data(), q_, rc);
     rc[q_] = z_norm;
+    std::fill(rc + q_ + 1, rc + dense::padded(q_ + 1), 0.0);  // column j of R: zero below j in its chunk
     u_[q_] = multiplier;
     act_row_[q_] = row;
     act_sigma_[q_] = static_cast<std::int8_t>(sigma);
@@ -515,16 +523,16 @@ class Solver {
     --q_;
   }
 
-  // r = R^-1 d (back substitution by columns: R is stored by columns).
+  // r = R^-1 d (back substitution by columns: R is stored by columns, each zero below
+  // its diagonal to the end of the diagonal's chunk, so whole chunks are used: the
+  // entries after j in that chunk, final already, lose v * 0).
   void solve_r(const double* d, double* out) noexcept {
     std::copy_n(d, q_, out);
     for (int j = q_ - 1; j >= 0; --j) {
       const double* rj = rcol(j);
       const double v = out[j] / rj[j];
+      dense::axpy_chunks(-v, rj, out, dense::chunk_start(j) + 4);
       out[j] = v;
-      const int whole = dense::chunk_start(j);  // rows [0, whole) by chunks, the rest one by one
-      dense::axpy_chunks(-v, rj, out, whole);
-      for (int i = whole; i < j; ++i) out[i] -= v * rj[i];
     }
   }
 
@@ -763,29 +771,23 @@ class Solver {
     dense::gemv_t_chunks(bcol(0), kLd, np_, cols, c, lam_.data());
     for (int j = 0; j < cols; ++j) lam_[j] += eq_rhs_[j];
     solve_gram(lam_.data(), cols);
-    // v = B lam - c. Stationarity holds by construction whatever lam's rounding; the
-    // rows' residual b - B'v is what the normal equations can leave large (they square
-    // B's conditioning): beyond 1e-14 of a row's scale (|b_j| |v| + |b|), one
-    // refinement step, lam += S^-1 (b - B'v), v += B (that step).
+    // v = B lam - c (stationarity holds by construction whatever lam's rounding), then
+    // one refinement step, lam += S^-1 (b - B'v), v += B (that step): the normal
+    // equations square B's conditioning, the corrected ones recover what a QR of B
+    // would give. (Skipping it when b - B'v is already at 1e-14 of the rows' scale left
+    // x 1e-12 off: rows of norm 1e3 |x| then violated by 1e-8 in the soak.)
     double* v = hinted_v_.data();
     for (int j = 0; j < cols; ++j) step_[j] = -lam_[j];
     for (int i = 0; i < np_; ++i) v[i] = -c[i];
     dense::gemv_sub_chunks(bcol(0), kLd, np_, cols, step_.data(), v);
     dense::gemv_t_chunks(bcol(0), kLd, np_, cols, v, step_.data());
-    const double v_norm = std::sqrt(dense::dot_chunks(v, v, np_));
-    bool refine = false;
+    for (int j = 0; j < cols; ++j) step_[j] = eq_rhs_[j] - step_[j];
+    solve_gram(step_.data(), cols);
     for (int j = 0; j < cols; ++j) {
-      step_[j] = eq_rhs_[j] - step_[j];
-      refine |= !(std::abs(step_[j]) <= 1e-14 * (v_norm / gram_scale_[j] + std::abs(eq_rhs_[j])));
+      lam_[j] += step_[j];
+      step_[j] = -step_[j];
     }
-    if (refine) {
-      solve_gram(step_.data(), cols);
-      for (int j = 0; j < cols; ++j) {
-        lam_[j] += step_[j];
-        step_[j] = -step_[j];
-      }
-      dense::gemv_sub_chunks(bcol(0), kLd, np_, cols, step_.data(), v);
-    }
+    dense::gemv_sub_chunks(bcol(0), kLd, np_, cols, step_.data(), v);
     for (int j = me_; j < cols; ++j)
       if (static_cast<double>(hinted_side_[j]) * lam_[j] < 0.0) return Shortcut::fallback;
     // x = L^-T v (permuted back).
@@ -1159,7 +1161,8 @@ class Solver {
   alignas(64) Buf<double, kLd> v1_{}, c_{}, w_{}, x_{}, xp_{}, y_{}, np_vec_{}, z_{}, d_{}, e_{}, rdir_{}, beta_{};
   alignas(64) Buf<double, kLd * N> q1_{};
   alignas(64) Buf<double, kLd * N> r_{};
-  Buf<double, N> u_{}, act_rhs_{}, act_norm_{}, act_res_{};
+  alignas(64) Buf<double, kLd> u_{};  // multipliers of the active rows (padded: solve_r's chunks)
+  Buf<double, N> act_rhs_{}, act_norm_{}, act_res_{};
   alignas(64) Buf<double, kLd> keep_w_{}, keep_v1_{};  // the state before refine()
   Buf<double, N> keep_u_{}, keep_x_{};
   Buf<int, N> act_row_{};
