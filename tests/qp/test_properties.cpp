@@ -467,6 +467,41 @@ TEST_F(QpProperties, RandomBadInputsNeverCrash) {
   }
 }
 
+// A hint that repeats a row (here as often as the hint holds entries) on a solver whose
+// equality block has no room for more rows than ME + MI: the shortcut must see the
+// dependence (or the lack of room) and leave it to the full method, which skips repeats.
+TEST(QpHint, RepeatedRowsInTheHintAreHarmless) {
+  using Tiny = springbok::qp::Solver<4, 1, 2>;
+  auto solver = std::make_unique<Tiny>();
+  auto problem = std::make_unique<Tiny::ProblemType>();
+  auto result = std::make_unique<Tiny::ResultType>();
+  problem->resize(4, 1, 2);
+  for (int i = 0; i < 4; ++i) problem->H()(i, i) = 1.0 + i;
+  problem->g() << 1.0, -2.0, 0.5, 3.0;
+  problem->Aeq() << 1.0, 1.0, 0.0, 0.0;
+  problem->beq() << 1.0;
+  problem->Ain() << 0.0, 0.0, 1.0, 1.0,  // lb == ub: in the equality block
+      1.0, 0.0, 0.0, -1.0;               // x0 - x3 >= 2: active at the optimum
+  problem->lb() << 0.5, 2.0;
+  problem->ub() << 0.5, springbok::qp::kInfiniteBound;
+  ASSERT_EQ(solver->solve(*problem, *result), Status::optimal);
+  const std::array<double, 4> cold_x = result->x;
+  springbok::qp::ActiveSet<2> hint_set;
+  hint_set.push(1, Side::lower);
+  hint_set.push(1, Side::lower);
+  Tiny::Hint hint;
+  hint.active_set = &hint_set;
+  ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal);
+  EXPECT_FALSE(result->from_hint);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(result->x[static_cast<std::size_t>(i)], cold_x[static_cast<std::size_t>(i)], 1e-12);
+  // The same row once: the shortcut holds and agrees.
+  hint_set.clear();
+  hint_set.push(1, Side::lower);
+  ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal);
+  EXPECT_TRUE(result->from_hint);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(result->x[static_cast<std::size_t>(i)], cold_x[static_cast<std::size_t>(i)], 1e-12);
+}
+
 TEST_F(QpProperties, SizesOutOfRangeAreBadInput) {
   problem->resize(kN + 1, 0, 0);
   EXPECT_EQ(solver->solve(*problem, *result), Status::bad_input);

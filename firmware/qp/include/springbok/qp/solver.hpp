@@ -739,7 +739,9 @@ class Solver {
       const int row = hint.row[static_cast<std::size_t>(e)];
       const int sigma = hinted_sigma(row, hint.side[static_cast<std::size_t>(e)]);
       if (sigma == 0) continue;
-      if (cols >= n_) return Shortcut::fallback;  // more active rows than variables
+      // More active rows than variables are dependent; a hint that repeats rows could
+      // also outgrow the block's columns (kMaxEqRows, g after them).
+      if (cols >= n_ || cols >= kMaxEqRows) return Shortcut::fallback;
       gather_ain_row(row, bcol(cols));
       eq_rhs_[cols] = sigma > 0 ? p.lower[row] : p.upper[row];
       eq_src_[cols] = -1 - row;
