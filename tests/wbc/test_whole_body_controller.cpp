@@ -138,6 +138,28 @@ TEST_F(Fixture, QpFailureGivesSafeTorquesAndIsCounted) {
   EXPECT_LT((out.tau_nm - forces.tau_gravity_nm).cwiseAbs().maxCoeff(), 1e-9);
 }
 
+// Tick after tick with the same contacts, the last tick's active set is this tick's:
+// the solver takes it directly (its shortcut), and the answer is the cold one.
+TEST_F(Fixture, SteadyTicksAreSolvedOnTheLastActiveSet) {
+  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(50.0, 0.0, 0.0);
+  const wbc::WbcOutput first = wbc->tick(in);  // cold
+  ASSERT_EQ(first.qp_status, qp::Status::optimal);
+  EXPECT_FALSE(first.qp_from_hint);
+  for (int i = 0; i < 3; ++i) {
+    const auto& out = wbc->tick(in);
+    ASSERT_EQ(out.qp_status, qp::Status::optimal);
+    EXPECT_TRUE(out.qp_from_hint) << "tick " << i;
+    EXPECT_EQ(out.qp_iterations, 0);
+    EXPECT_LT((out.udot - first.udot).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_LT((out.tau_nm - first.tau_nm).cwiseAbs().maxCoeff(), 1e-8);
+  }
+  // A change of contacts: the set is not carried over (cold start).
+  in.stance = {true, false, true, true};
+  const auto& out = wbc->tick(in);
+  ASSERT_EQ(out.qp_status, qp::Status::optimal);
+  EXPECT_FALSE(out.qp_from_hint);
+}
+
 TEST_F(Fixture, TicksDoNotAllocate) {
   wbc->tick(in);  // warm up
   in.wrist_force_n = Vec3(10.0, -5.0, 3.0);

@@ -239,6 +239,7 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   }
   tick_us_all_.push_back(tick_us_);
   if (o.fallback) ++fallback_ticks_;
+  if (o.qp_from_hint) ++qp_from_hint_ticks_;
   for (int j = 0; j < kNj; ++j) {
     const auto& lim = robot::kJoints[j].limits;
     max_torque_ratio_ = std::max(max_torque_ratio_, std::abs(truth.tau_applied_nm[j]) / lim.effort_nm);
@@ -342,6 +343,7 @@ std::string WbcAdapter::summary_fields() const {
   j += fmt::format("  \"chirp_gain_db_error\": {},\n", chirp_ ? json_axes(chirp_db) : std::string("null"));
   j += fmt::format("  \"qp_failures\": {},\n", wbc_->qp_failures());
   j += fmt::format("  \"fallback_ticks\": {},\n", fallback_ticks_);
+  j += fmt::format("  \"qp_from_hint_ticks\": {},\n", qp_from_hint_ticks_);
   j += fmt::format("  \"max_torque_ratio\": {:.6g},\n", max_torque_ratio_);
   j += fmt::format("  \"joint_limit_hit\": {},\n", joint_limit_hit_ ? "\"" + joint_limit_joint_ + "\"" : "null");
   if (gait_) {

@@ -86,6 +86,7 @@ class WbcAdapter final : public Controller {
   std::vector<double> tick_us_all_;
   double max_torque_ratio_ = 0.0;
   std::uint64_t fallback_ticks_ = 0;
+  std::uint64_t qp_from_hint_ticks_ = 0;  // ticks whose QP was solved on the last tick's active set
   bool joint_limit_hit_ = false;
   std::string joint_limit_joint_;
 };

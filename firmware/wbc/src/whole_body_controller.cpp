@@ -361,6 +361,7 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in) noexcept {
   const qp::Status status = solver_->solve(*problem_, *result_, hint);
   out_.qp_status = status;
   out_.qp_iterations = result_->iterations;
+  out_.qp_from_hint = result_->from_hint;
   last_stance_ = in.stance;
   if (status == qp::Status::optimal) {
     *warm_start_ = result_->active;

@@ -128,6 +128,7 @@ struct WbcOutput {
   std::array<Vec3, kFeet> foot_force_n{};     // world axes; zero in swing
   qp::Status qp_status = qp::Status::bad_input;
   int qp_iterations = 0;
+  bool qp_from_hint = false;                   // solved directly on the last tick's active set
   bool fallback = false;                       // true when the QP failed this tick
   // What the tasks asked for, for logs and plots.
   Vec6 base_wrench_desired = Vec6::Zero();     // [F_b^d; T_b^d], world
