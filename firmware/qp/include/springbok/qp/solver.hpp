@@ -66,6 +66,7 @@ class Solver {
     p_ = &problem;
     result.iterations = 0;
     result.from_hint = false;
+    g_reduced_at_ = -1;
     result.active.clear();
     result.objective = std::numeric_limits<double>::quiet_NaN();
     iterations_ = 0;
@@ -305,11 +306,16 @@ class Solver {
 
   Status eliminate_equalities() noexcept {
     const ProblemType& p = *p_;
-    load_equalities();
     // g rides along as column me_: the same solve and reflectors give c = Q' L^-1 g.
     double* gcol = bcol(me_);
-    gather(p.gradient.data(), gcol);
-    solve_lower(bcol(0), kLd, me_ + 1);
+    if (g_reduced_at_ >= 0) {  // solve_on_hinted_set left L^-1 E' in place, L^-1 g at that column
+      if (g_reduced_at_ != me_) std::copy_n(bcol(g_reduced_at_), np_, gcol);
+    } else {
+      load_equalities();
+      gcol = bcol(me_);
+      gather(p.gradient.data(), gcol);
+      solve_lower(bcol(0), kLd, me_ + 1);
+    }
     for (int k = 0; k < me_; ++k) {
       eq_norm2_[k] = dense::dot_chunks(bcol(k), bcol(k), np_);
       eq_left2_[k] = eq_norm2_[k];
@@ -751,6 +757,7 @@ class Solver {
     double* c = bcol(cols);  // g rides along: c = L^-1 g
     gather(p.gradient.data(), c);
     solve_lower(bcol(0), kLd, cols + 1);
+    g_reduced_at_ = cols;  // a fallback's equality block starts from these columns
     // S's lower triangle into gram_, equilibrated to a unit diagonal (Ds S Ds), and
     // its Cholesky factor in the layout of H's: a pivot is the part of a column's
     // squared norm left after the columns before it.
@@ -1132,6 +1139,7 @@ class Solver {
   int n_ = 0, np_ = 0, meq_ = 0, mi_ = 0;  // np_: n padded to whole chunks of four
   int me_ = 0, rank_ = 0, m_ = 0, mp_ = 0, q_ = 0;  // mp_: m_ padded to whole chunks
   int iterations_ = 0, max_iterations_ = 0, epoch_ = 0;
+  int g_reduced_at_ = -1;  // column of L^-1 g when solve_on_hinted_set reduced E and g (-1: not this solve)
   int verdict_row_ = -1, ignored_row_ = -1;  // the row of an infeasible verdict; the row a second run leaves out
   double verdict_gap_ = kInf;                 // that verdict's violation relative to its path
   double x_norm_ = 0.0, full_norm_ = 0.0, c_norm_ = 0.0;
