@@ -846,8 +846,9 @@ class Solver {
     for (int k = me_; k < cols; ++k) result.active.push(-1 - eq_src_[k], hinted_side_[k] > 0 ? Side::lower : Side::upper);
     for (int k = 0; k < me_; ++k)
       if (eq_src_[k] < 0) result.active.push(-1 - eq_src_[k], Side::equal);
-    if (!std::isfinite(objective) || !dense::all_finite(result.lambda_eq.data(), meq_) ||
-        !dense::all_finite(result.lambda_in.data(), mi_) || check_stationarity(result) != Status::optimal) {
+    if (!std::isfinite(objective) || !dense::all_finite(result.x.data(), n_) ||
+        !dense::all_finite(result.lambda_eq.data(), meq_) || !dense::all_finite(result.lambda_in.data(), mi_) ||
+        check_stationarity(result) != Status::optimal) {
       result.active.clear();
       return Shortcut::fallback;
     }
