@@ -102,6 +102,23 @@ inline void store4(double* y, double a, double b, double c, double d) noexcept {
   std::memcpy(y, &v, sizeof v);
 }
 
+// Rows [i, i + 4) of four adjacent columns (the first at a, leading dimension step).
+inline void load_four_columns(const double* a, std::ptrdiff_t step, int i, Chunk& c0, Chunk& c1, Chunk& c2,
+                              Chunk& c3) noexcept {
+  std::memcpy(&c0, a + i, sizeof c0);
+  std::memcpy(&c1, a + step + i, sizeof c1);
+  std::memcpy(&c2, a + 2 * step + i, sizeof c2);
+  std::memcpy(&c3, a + 3 * step + i, sizeof c3);
+}
+
+// y[0..3] += v (one chunk load and store).
+inline void add_chunk(double* y, const Chunk& v) noexcept {
+  Chunk c;
+  std::memcpy(&c, y, sizeof c);
+  c += v;
+  std::memcpy(y, &c, sizeof c);
+}
+
 // ---- column passes over a matrix of the problem --------------------------------
 // One pass over a column-major m x n matrix A (leading dimension ld), four columns at a
 // time by whole chunks of four rows, so each chunk of the outputs is loaded and stored
@@ -123,28 +140,13 @@ inline void column_pass(const double* a, int ld, int m, int n, const double* x, 
   }
   int j = 0;
   for (; j + 4 <= n; j += 4) {
-    const double* a0 = a + j * step;
-    const double* a1 = a0 + step;
-    const double* a2 = a1 + step;
-    const double* a3 = a2 + step;
     Chunk x0 = kZeroChunk, x1 = x0, x2 = x0, x3 = x0;
     if constexpr (kProduct) x0 += x[j], x1 += x[j + 1], x2 += x[j + 2], x3 += x[j + 3];
     for (int i = 0; i < whole; i += 4) {
-      Chunk c0, c1, c2, c3, out;
-      std::memcpy(&c0, a0 + i, sizeof c0);
-      std::memcpy(&c1, a1 + i, sizeof c1);
-      std::memcpy(&c2, a2 + i, sizeof c2);
-      std::memcpy(&c3, a3 + i, sizeof c3);
-      if constexpr (kProduct) {
-        std::memcpy(&out, y + i, sizeof out);
-        out += (c0 * x0 + c1 * x1) + (c2 * x2 + c3 * x3);
-        std::memcpy(y + i, &out, sizeof out);
-      }
-      if constexpr (kSquares) {
-        std::memcpy(&out, sq + i, sizeof out);
-        out += (c0 * c0 + c1 * c1) + (c2 * c2 + c3 * c3);
-        std::memcpy(sq + i, &out, sizeof out);
-      }
+      Chunk c0, c1, c2, c3;
+      load_four_columns(a + j * step, step, i, c0, c1, c2, c3);
+      if constexpr (kProduct) add_chunk(y + i, (c0 * x0 + c1 * x1) + (c2 * x2 + c3 * x3));
+      if constexpr (kSquares) add_chunk(sq + i, (c0 * c0 + c1 * c1) + (c2 * c2 + c3 * c3));
     }
   }
   for (; j < n; ++j) {
@@ -152,18 +154,10 @@ inline void column_pass(const double* a, int ld, int m, int n, const double* x, 
     Chunk xj = kZeroChunk;
     if constexpr (kProduct) xj += x[j];
     for (int i = 0; i < whole; i += 4) {
-      Chunk c, out;
+      Chunk c;
       std::memcpy(&c, aj + i, sizeof c);
-      if constexpr (kProduct) {
-        std::memcpy(&out, y + i, sizeof out);
-        out += c * xj;
-        std::memcpy(y + i, &out, sizeof out);
-      }
-      if constexpr (kSquares) {
-        std::memcpy(&out, sq + i, sizeof out);
-        out += c * c;
-        std::memcpy(sq + i, &out, sizeof out);
-      }
+      if constexpr (kProduct) add_chunk(y + i, c * xj);
+      if constexpr (kSquares) add_chunk(sq + i, c * c);
     }
   }
   for (int i = whole; i < m; ++i) {  // ld not a multiple of four: the last rows
@@ -214,16 +208,9 @@ inline void row_squares_and_offdiagonal_bits(const double* a, int ld, int n, dou
   }
   int j = 0;
   for (; j + 4 <= n; j += 4) {
-    const double* a0 = a + j * step;
-    const double* a1 = a0 + step;
-    const double* a2 = a1 + step;
-    const double* a3 = a2 + step;
     for (int i = 0; i < whole; i += 4) {
-      Chunk c0, c1, c2, c3, s;
-      std::memcpy(&c0, a0 + i, sizeof c0);
-      std::memcpy(&c1, a1 + i, sizeof c1);
-      std::memcpy(&c2, a2 + i, sizeof c2);
-      std::memcpy(&c3, a3 + i, sizeof c3);
+      Chunk c0, c1, c2, c3;
+      load_four_columns(a + j * step, step, i, c0, c1, c2, c3);
       Bits m0, m1, m2, m3, b;
       magnitude_bits(c0, m0);
       magnitude_bits(c1, m1);
@@ -234,9 +221,7 @@ inline void row_squares_and_offdiagonal_bits(const double* a, int ld, int n, dou
       m1 &= diagonal ? keep[1] : all;
       m2 &= diagonal ? keep[2] : all;
       m3 &= diagonal ? keep[3] : all;
-      std::memcpy(&s, sq + i, sizeof s);
-      s += (c0 * c0 + c1 * c1) + (c2 * c2 + c3 * c3);
-      std::memcpy(sq + i, &s, sizeof s);
+      add_chunk(sq + i, (c0 * c0 + c1 * c1) + (c2 * c2 + c3 * c3));
       std::memcpy(&b, bits + i, sizeof b);
       b |= (m0 | m1) | (m2 | m3);
       std::memcpy(bits + i, &b, sizeof b);
@@ -245,14 +230,12 @@ inline void row_squares_and_offdiagonal_bits(const double* a, int ld, int n, dou
   for (; j < n; ++j) {
     const double* aj = a + j * step;
     for (int i = 0; i < whole; i += 4) {
-      Chunk c, s;
+      Chunk c;
       std::memcpy(&c, aj + i, sizeof c);
       Bits m, b;
       magnitude_bits(c, m);
       m &= i == chunk_start(j) ? keep[j & 3] : all;
-      std::memcpy(&s, sq + i, sizeof s);
-      s += c * c;
-      std::memcpy(sq + i, &s, sizeof s);
+      add_chunk(sq + i, c * c);
       std::memcpy(&b, bits + i, sizeof b);
       b |= m;
       std::memcpy(bits + i, &b, sizeof b);

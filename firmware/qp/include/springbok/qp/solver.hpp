@@ -822,11 +822,8 @@ class Solver {
     }
     dense::gemv(p.aeq.data(), ME, meq_, n_, x_.data(), eq_ax_.data());
     for (int k = 0; k < cols; ++k) {
-      const int src = eq_src_[k];
-      const double ax = src >= 0 ? eq_ax_[src] : slack_[-1 - src];
-      const double norm = src >= 0 ? eq_row_norm_[k] : row_norm_[-1 - src];
-      if (!(std::abs(eq_rhs_[k] - ax) <= tol * std::max(norm * x_norm_, std::abs(eq_rhs_[k]))))
-        return Shortcut::fallback;
+      double scale = 0.0;
+      if (!(std::abs(block_residual(k, scale)) <= tol * scale)) return Shortcut::fallback;
     }
     // The result: f = 1/2 |v|^2 + c'v, multipliers -lam, the hinted rows and the
     // lb == ub rows active.
@@ -1035,11 +1032,9 @@ class Solver {
     dense::gemv(p.aeq.data(), ME, meq_, n_, x_.data(), eq_ax_.data());
     double worst = 0.0;
     for (int k = 0; k < rank_; ++k) {
-      const int src = eq_src_[k];
-      const double ax = src >= 0 ? eq_ax_[src] : slack_[-1 - src];
-      eq_res_[k] = eq_rhs_[k] - ax;
-      const double norm = src >= 0 ? eq_row_norm_[k] : row_norm_[-1 - src];  // Ain's norms come late
-      worst = std::max(worst, std::abs(eq_res_[k]) / std::max(norm * x_norm_, std::abs(eq_rhs_[k])));
+      double scale = 0.0;
+      eq_res_[k] = block_residual(k, scale);
+      worst = std::max(worst, std::abs(eq_res_[k]) / scale);
     }
     for (int j = 0; j < q_; ++j) {
       const int row = act_row_[j];
@@ -1048,6 +1043,16 @@ class Solver {
       worst = std::max(worst, std::abs(act_res_[j]) / std::max(row_norm_[row] * x_norm_, std::abs(bound)));
     }
     return worst;
+  }
+
+  // Residual e_k - a_k'x of column k of the equality block (an Aeq row or an Ain row, by
+  // eq_src_; Aeq x in eq_ax_, Ain x in slack_) and its scale max(|a_k| |x|, |e_k|).
+  double block_residual(int k, double& scale) const noexcept {
+    const int src = eq_src_[k];
+    const double ax = src >= 0 ? eq_ax_[src] : slack_[-1 - src];
+    const double norm = src >= 0 ? eq_row_norm_[k] : row_norm_[-1 - src];  // Ain's norms come late
+    scale = std::max(norm * x_norm_, std::abs(eq_rhs_[k]));
+    return eq_rhs_[k] - ax;
   }
 
   // One step of iterative refinement on the final active set: the minimum-norm
