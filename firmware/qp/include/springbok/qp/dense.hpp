@@ -335,8 +335,10 @@ inline void sub_rank4_chunks(const double* c0, const double* c1, const double* c
 // with U unit lower (L = U D). On return column k of a holds U's strict lower part
 // from row k+1 on and zeros from the start of its chunk of four through row k (what
 // unit_forward_solve_each and unit_backward_solve_transposed read); inv_diag[k] =
-// 1/L_kk. False when a pivot is not above min_pivot (or is NaN).
-inline bool cholesky_lower(double* a, int ld, int n, double min_pivot, double* inv_diag) noexcept {
+// 1/L_kk. False when a pivot is not above min_pivot, or min_pivots[k] for column k when
+// given (or is NaN).
+inline bool cholesky_lower(double* a, int ld, int n, double min_pivot, double* inv_diag,
+                           const double* min_pivots = nullptr) noexcept {
   const int np = padded(n);
   for (int k0 = 0; k0 < n; k0 += 4) {
     const int k1 = k0 + 4 < n ? k0 + 4 : n;
@@ -344,7 +346,7 @@ inline bool cholesky_lower(double* a, int ld, int n, double min_pivot, double* i
     for (int k = k0; k < k1; ++k) {  // the panel
       double* col_k = a + k * ld;
       const double pivot = col_k[k];
-      if (!(pivot > min_pivot)) return false;
+      if (!(pivot > (min_pivots != nullptr ? min_pivots[k] : min_pivot))) return false;
       pivots[k - k0] = pivot;
       // The panel's next columns are updated from the unscaled column with
       // a_ik a_jk / pivot = l_ik l_jk, so the next pivot waits on one division,

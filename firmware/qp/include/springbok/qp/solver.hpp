@@ -98,7 +98,7 @@ class Solver {
   static constexpr double kInf = std::numeric_limits<double>::infinity();
   static constexpr double kEps = std::numeric_limits<double>::epsilon();
 
-  enum class RowKind : std::uint8_t { dead, lower, upper, both, equal };
+  enum class RowKind : std::uint8_t { dead = 0, lower = 1, upper = 2, both = 3, equal = 4 };
 
   template <class T, int Size>
   using Buf = std::array<T, static_cast<std::size_t>(Size)>;
@@ -133,24 +133,29 @@ class Solver {
     // The rows' kinds from their bounds. Ain itself is read first by the first
     // most_violated(), which computes its row norms together with Ain x and settles
     // zero rows (rows_checked_); the exits before that check it here (check_rows()).
-    bool infeasible = false, nan_bound = false;
+    // Branch-free, so that it vectorises: a NaN bound, a bound at +-infinity on the
+    // wrong side or crossed bounds are counted, not branched on.
+    const double* lower = p.lower.data();
+    const double* upper = p.upper.data();
+    int nan_bound = 0, infeasible = 0;
     for (int i = 0; i < mi_; ++i) {
-      const double lo = p.lower[i], hi = p.upper[i];
-      nan_bound |= std::isnan(lo) | std::isnan(hi);
-      if (lo >= kInfiniteBound || hi <= -kInfiniteBound) infeasible = true;  // bound at +-infinity
+      const double lo = lower[i], hi = upper[i];
       const bool has_lo = lo > -kInfiniteBound, has_hi = hi < kInfiniteBound;
-      if (has_lo && has_hi && lo > hi) infeasible = true;
-      const RowKind kind = has_lo ? (has_hi ? (lo == hi ? RowKind::equal : RowKind::both) : RowKind::lower)
-                                  : (has_hi ? RowKind::upper : RowKind::dead);
-      kind_[i] = kind;
+      const bool equal = has_lo & has_hi & (lo == hi);
+      nan_bound |= static_cast<int>((lo != lo) | (hi != hi));
+      infeasible |= static_cast<int>((lo >= kInfiniteBound) | (hi <= -kInfiniteBound) | (has_lo & has_hi & (lo > hi)));
       // What most_violated() reads: the bounds it can violate (+-inf where the row has
       // no such side, is dead, or is an equality of the block) and their magnitudes.
-      const bool lower_side = kind == RowKind::lower || kind == RowKind::both;
-      const bool upper_side = kind == RowKind::upper || kind == RowKind::both;
+      const bool lower_side = has_lo & !equal, upper_side = has_hi & !equal;
       lo_eff_[i] = lower_side ? lo : -kInf;
       hi_eff_[i] = upper_side ? hi : kInf;
       lo_abs_[i] = lower_side ? std::abs(lo) : 0.0;
       hi_abs_[i] = upper_side ? std::abs(hi) : 0.0;
+    }
+    for (int i = 0; i < mi_; ++i) {  // dead 0, lower 1, upper 2, both 3, equal 4
+      const bool has_lo = lower[i] > -kInfiniteBound, has_hi = upper[i] < kInfiniteBound;
+      const bool equal = has_lo & has_hi & (lower[i] == upper[i]);
+      kind_[i] = static_cast<RowKind>(equal ? 4 : static_cast<int>(has_lo) + 2 * static_cast<int>(has_hi));
     }
     if (nan_bound) return Status::bad_input;
     rows_checked_ = false;
@@ -298,6 +303,7 @@ class Solver {
     for (int i = 0; i < mi_; ++i) {
       if (kind_[i] != RowKind::equal) continue;
       gather_ain_row(i, bcol(me_));
+      eq_row_norm_[me_] = row_norm_[i] = std::sqrt(dense::dot_chunks(bcol(me_), bcol(me_), np_));
       eq_rhs_[me_] = p.lower[i];
       eq_src_[me_] = -1 - i;
       ++me_;
@@ -749,6 +755,7 @@ class Solver {
       // also outgrow the block's columns (kMaxEqRows, g after them).
       if (cols >= n_ || cols >= kMaxEqRows) return Shortcut::fallback;
       gather_ain_row(row, bcol(cols));
+      eq_row_norm_[cols] = row_norm_[row] = std::sqrt(dense::dot_chunks(bcol(cols), bcol(cols), np_));
       eq_rhs_[cols] = sigma > 0 ? p.lower[row] : p.upper[row];
       eq_src_[cols] = -1 - row;
       hinted_side_[cols] = static_cast<std::int8_t>(sigma);
@@ -758,23 +765,18 @@ class Solver {
     gather(p.gradient.data(), c);
     solve_lower(bcol(0), kLd, cols + 1);
     g_reduced_at_ = cols;  // a fallback's equality block starts from these columns
-    // S's lower triangle into gram_, equilibrated to a unit diagonal (Ds S Ds), and
-    // its Cholesky factor in the layout of H's: a pivot is the part of a column's
-    // squared norm left after the columns before it.
+    // S's lower triangle into gram_ and its Cholesky factor in the layout of H's: a
+    // pivot is the part of a column's squared norm left after the columns before it,
+    // and one below 1e-8 of that squared norm means dependent rows.
     const int cp = dense::padded(cols);
     for (int j = 0; j < cols; ++j) {
       double* sj = gcol(j);
       dense::gemv_t_chunks(bcol(j), kLd, np_, cols - j, bcol(j), sj + j);
       std::fill(sj + cols, sj + cp, 0.0);
-      if (!(sj[j] > 0.0)) return Shortcut::fallback;
-      gram_scale_[j] = 1.0 / std::sqrt(sj[j]);
+      gram_min_pivot_[j] = 1e-8 * sj[j];
     }
-    std::fill(gram_scale_.begin() + cols, gram_scale_.begin() + cp, 0.0);
-    for (int j = 0; j < cols; ++j) {
-      double* sj = gcol(j);
-      for (int i = j; i < cols; ++i) sj[i] *= gram_scale_[i] * gram_scale_[j];
-    }
-    if (!dense::cholesky_lower(gram_.data(), kLd, cols, 1e-8, gram_inv_diag_.data())) return Shortcut::fallback;
+    if (!dense::cholesky_lower(gram_.data(), kLd, cols, 0.0, gram_inv_diag_.data(), gram_min_pivot_.data()))
+      return Shortcut::fallback;
     for (int j = 0; j < cols; ++j) gram_inv_diag_[j] *= gram_inv_diag_[j];
     std::fill(gram_inv_diag_.begin() + cols, gram_inv_diag_.begin() + cp, 0.0);
     dense::gemv_t_chunks(bcol(0), kLd, np_, cols, c, lam_.data());
@@ -806,19 +808,31 @@ class Solver {
     dense::unit_backward_solve_transposed(l_.data(), kLd, nc_, y);
     for (int k = 0; k < n_; ++k) x_[perm_[k]] = y[k];
     x_norm_ = std::sqrt(dense::squared_norm(x_.data(), n_));
-    // Every row within the tolerance (Ain read here for the first time: bad input or a
-    // zero row outside its bounds ends the solve as in the full method), every active
-    // row met to it.
-    const Status rows = check_rows(x_.data());
-    if (rows != Status::optimal) {
-      status = rows;
-      return Shortcut::solved;
+    // Every row within the tolerance, every active row met to it. Ain is read here for
+    // the first time, for Ain x only: with x finite, a non-finite entry of Ain shows as a
+    // non-finite Ain x (then check_rows() tells bad input from overflow, as the full
+    // method would). A row's norm (the tolerance's scale) is needed only when its
+    // violation exceeds tol |bound|: the active rows' come from their gathered copies,
+    // any other's is read then. (A zero row outside its bounds fails here and is
+    // settled by the full method.)
+    if (!dense::all_finite(x_.data(), n_)) return Shortcut::fallback;
+    dense::gemv(p.ain.data(), MI, mi_, n_, x_.data(), slack_.data());
+    if (!dense::all_finite(slack_.data(), mi_)) {
+      const Status rows = check_rows(x_.data());
+      if (rows != Status::optimal) {
+        status = rows;
+        return Shortcut::solved;
+      }
     }
     const double tol = options_.feasibility_tol;
     for (int i = 0; i < mi_; ++i) {
-      bool lower_side = false;
-      double limit = 0.0;
-      if (violation(i, x_norm_, tol, lower_side, limit) > limit) return Shortcut::fallback;
+      const double s = slack_[i];
+      const double below = lo_eff_[i] - s, above = s - hi_eff_[i];
+      const bool lower_side = below >= above;
+      const double viol = lower_side ? below : above, bound = lower_side ? lo_abs_[i] : hi_abs_[i];
+      if (viol <= tol * bound) continue;
+      const double norm = rows_checked_ || hinted_row(i, cols) ? row_norm_[i] : ain_row_norm(i);
+      if (!(viol <= tol * std::max(norm * x_norm_, bound))) return Shortcut::fallback;
     }
     dense::gemv(p.aeq.data(), ME, meq_, n_, x_.data(), eq_ax_.data());
     for (int k = 0; k < cols; ++k) {
@@ -854,16 +868,28 @@ class Solver {
     return Shortcut::solved;
   }
 
-  // y <- S^-1 y = Ds (U D^2 U')^-1 Ds y (the factor of solve_on_hinted_set); y padded
+  // Row i of Ain is one of the hinted rows, columns me_ .. cols-1 of the block.
+  bool hinted_row(int i, int cols) const noexcept {
+    for (int k = me_; k < cols; ++k)
+      if (eq_src_[k] == -1 - i) return true;
+    return false;
+  }
+  // |a_i| read from Ain (a strided pass: for the few rows that need it).
+  double ain_row_norm(int i) const noexcept {
+    const double* a = p_->ain.data() + i;
+    double sum = 0.0;
+    for (int j = 0; j < n_; ++j) sum += a[idx(0, j, MI)] * a[idx(0, j, MI)];
+    return std::sqrt(sum);
+  }
+
+  // y <- S^-1 y = (U D^2 U')^-1 y (the factor of solve_on_hinted_set); y padded
   // to whole chunks.
   void solve_gram(double* y, int cols) noexcept {
     const int cp = dense::padded(cols);
     std::fill(y + cols, y + cp, 0.0);
-    dense::scale_chunks(gram_scale_.data(), y, cp);
     dense::unit_forward_solve_each(gram_.data(), kLd, cols, 1, [y](int) noexcept { return y; });
     dense::scale_chunks(gram_inv_diag_.data(), y, cp);
     dense::unit_backward_solve_transposed(gram_.data(), kLd, cols, y);
-    dense::scale_chunks(gram_scale_.data(), y, cp);
   }
 
   // ---- step 3: Goldfarb-Idnani on the reduced problem -------------------------
@@ -1050,8 +1076,7 @@ class Solver {
   double block_residual(int k, double& scale) const noexcept {
     const int src = eq_src_[k];
     const double ax = src >= 0 ? eq_ax_[src] : slack_[-1 - src];
-    const double norm = src >= 0 ? eq_row_norm_[k] : row_norm_[-1 - src];  // Ain's norms come late
-    scale = std::max(norm * x_norm_, std::abs(eq_rhs_[k]));
+    scale = std::max(eq_row_norm_[k] * x_norm_, std::abs(eq_rhs_[k]));
     return eq_rhs_[k] - ax;
   }
 
@@ -1195,13 +1220,14 @@ class Solver {
   Buf<double, MI> lo_eff_{}, hi_eff_{}, lo_abs_{}, hi_abs_{};  // violable bounds (most_violated)
   Buf<std::int8_t, MI> active_side_{};
   Buf<bool, MI> have_t_{};
-  Buf<int, MI> skipped_epoch_{};
-  Buf<int, MI> batch_row_{};
+  Buf<int, MI> skipped_epoch_{};  // row skipped as a rounding-level violation while epoch_ holds
+  Buf<int, MI> batch_row_{};      // rows whose t_i one multi-column solve computes
   // the hinted set as equalities (solve_on_hinted_set)
-  alignas(64) Buf<double, kLd * N> gram_{};  // factor of Ds S Ds = U D^2 U', S = B'B
-  alignas(64) Buf<double, kLd> gram_scale_{}, gram_inv_diag_{};  // Ds; D^-2 (zero-padded)
+  alignas(64) Buf<double, kLd * N> gram_{};  // factor of S = B'B = U D^2 U'
+  alignas(64) Buf<double, kLd> gram_inv_diag_{};  // D^-2 (zero-padded)
+  Buf<double, N> gram_min_pivot_{};                 // 1e-8 S_jj
   alignas(64) Buf<double, kLd> lam_{}, step_{}, hinted_v_{};
-  Buf<std::int8_t, N> hinted_side_{};  // side of column k >= me_ of b_ (+1 lower, -1 upper)      // rows whose t_i one multi-column solve computes  // row skipped as a rounding-level violation while epoch_ holds
+  Buf<std::int8_t, N> hinted_side_{};  // side of column k >= me_ of b_ (+1 lower, -1 upper)
 };
 
 }  // namespace springbok::qp
