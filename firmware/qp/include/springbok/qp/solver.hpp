@@ -474,18 +474,26 @@ class Solver {
     const double s = static_cast<double>(sigma);
     for (int i = 0; i < m_; ++i) np_vec_[i] = s * at[i];
     for (int i = m_; i < mp_; ++i) np_vec_[i] = 0.0;
+    np_sq_ = dense::dot_chunks(np_vec_.data(), np_vec_.data(), mp_);
     return sigma > 0 ? p_->lower[row] - h : h - p_->upper[row];
   }
 
-  // z = np - Q1 Q1'np (classical Gram-Schmidt, twice), d = Q1'np. Reduced vectors
-  // and the columns of Q1 are zero-padded to mp_, so whole chunks are used.
-  void project() noexcept {
+  // z = np - Q1 Q1'np by classical Gram-Schmidt, d = Q1'np; returns |z|^2. A second
+  // pass only when the first cancelled more than half of |np|^2 (|z| < |np| / sqrt 2,
+  // the Daniel-Gragg-Kaufman-Stewart criterion: "twice is enough", and once is enough
+  // without that cancellation). Reduced vectors and the columns of Q1 are zero-padded
+  // to mp_, so whole chunks are used.
+  double project() noexcept {
     std::copy_n(np_vec_.data(), mp_, z_.data());
+    if (q_ == 0) return np_sq_;
     dense::gemv_t_chunks(q1_.data(), kLd, mp_, q_, z_.data(), d_.data());
     dense::gemv_sub_chunks(q1_.data(), kLd, mp_, q_, d_.data(), z_.data());
+    const double zz = dense::dot_chunks(z_.data(), z_.data(), mp_);
+    if (zz >= 0.5 * np_sq_) return zz;
     dense::gemv_t_chunks(q1_.data(), kLd, mp_, q_, z_.data(), e_.data());
     dense::gemv_sub_chunks(q1_.data(), kLd, mp_, q_, e_.data(), z_.data());
     for (int j = 0; j < q_; ++j) d_[j] += e_[j];
+    return dense::dot_chunks(z_.data(), z_.data(), mp_);
   }
 
   void append(int row, int sigma, double rhs, double np_norm, double z_norm, double multiplier) noexcept {
@@ -658,8 +666,7 @@ class Solver {
       if (sigma == 0 || active_side_[row] != 0) continue;
       const double rhs = reduced_row(row, sigma);
       const double np_norm = full_norm_;
-      project();
-      const double z_norm = std::sqrt(dense::dot_chunks(z_.data(), z_.data(), mp_));
+      const double z_norm = std::sqrt(project());
       if (q_ >= m_ || !(z_norm > dependence_tol() * np_norm)) continue;
       append(row, sigma, rhs, np_norm, z_norm, 0.0);
     }
@@ -922,8 +929,7 @@ class Solver {
       double u_plus = 0.0;
       for (;;) {
         if (!count_iteration()) return Status::maxiter;
-        project();
-        const double zz = dense::dot_chunks(z_.data(), z_.data(), mp_);
+        const double zz = project();
         const double z_norm = std::sqrt(zz);
         solve_r(d_.data(), rdir_.data());
         // Partial (dual) step: the first active multiplier to reach zero.
@@ -1174,6 +1180,7 @@ class Solver {
   int verdict_row_ = -1, ignored_row_ = -1;  // the row of an infeasible verdict; the row a second run leaves out
   double verdict_gap_ = kInf;                 // that verdict's violation relative to its path
   double x_norm_ = 0.0, full_norm_ = 0.0, c_norm_ = 0.0;
+  double np_sq_ = 0.0;  // |np|^2 of reduced_row()'s np_vec_ (project())
   double eq_cond_ = 1.0;  // max/min |diagonal| of the equality block's R (a condition estimate)
   bool x_current_ = false;     // x_ = L^-T Q [v1; w] for the current w (set when run() ends optimal)
   bool rows_checked_ = false;  // Ain's row norms known, zero rows settled (check_rows())
