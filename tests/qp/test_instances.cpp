@@ -179,3 +179,16 @@ TEST(SharedInstances, DirectoryIsNotEmpty) {
 }
 
 }  // namespace
+
+// The soak's QP (at the soak's sizes) where a row nearly in the span of the lb == ub rows,
+// violated at the rounding level, ranked first by violation / |np| and its step pushed
+// two other rows past their bounds: an infeasible verdict on a feasible problem.
+TEST(RegressionInstances, RowInEqualitySpanDoesNotLead) {
+  std::string error;
+  const auto in = qpfile::read_instance(
+      (fs::path(SPRINGBOK_SOURCE_DIR) / "tests" / "qp" / "instances" / "soak_equality_span_15_9952.qp").string(), error);
+  ASSERT_TRUE(in.has_value()) << error;
+  Sized<24, 12, 48> s;
+  ASSERT_TRUE(s.load(*in));
+  check_outcome(*in, s.solve(nullptr), "cold");
+}
