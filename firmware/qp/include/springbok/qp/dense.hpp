@@ -32,17 +32,6 @@ inline double dot(const double* __restrict a, const double* __restrict b, int n)
 
 inline double squared_norm(const double* a, int n) noexcept { return dot(a, a, n); }
 
-// True when no entry is NaN or +-inf (exponent field all ones); branch-free so
-// that it vectorises.
-inline bool all_finite(const double* v, int count) noexcept {
-  std::uint64_t bad = 0;
-  for (int i = 0; i < count; ++i) {
-    std::uint64_t bits;
-    std::memcpy(&bits, v + i, sizeof bits);
-    bad |= (((bits >> 52) & 0x7ffu) + 1u) >> 11;
-  }
-  return bad == 0;
-}
 
 // all_finite over the lower triangle (diagonal included) of a column-major n x n
 // matrix with leading dimension ld; coupled[j] = 1 when column j has a non-zero
@@ -88,6 +77,21 @@ inline constexpr int chunk_start(int i) noexcept { return i & ~3; }
 using Chunk = double __attribute__((vector_size(32)));
 inline constexpr Chunk kZeroChunk = {0.0, 0.0, 0.0, 0.0};
 using ChunkBits = std::uint64_t __attribute__((vector_size(32)));
+
+// True when no entry is NaN or +-inf: x * 0 is 0 for every finite x and NaN
+// otherwise, and a sum with a NaN in it is NaN (IEEE semantics; the build never uses
+// -ffast-math). Whole chunks, then the tail.
+inline bool all_finite(const double* v, int count) noexcept {
+  Chunk acc = kZeroChunk, c;
+  int i = 0;
+  for (; i + 4 <= count; i += 4) {
+    std::memcpy(&c, v + i, sizeof c);
+    acc += c * 0.0;
+  }
+  double tail = 0.0;
+  for (; i < count; ++i) tail += v[i] * 0.0;
+  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + tail == 0.0;
+}
 
 // out = the bits of c shifted left by one: its magnitude bits, the sign dropped (so
 // out == 0 exactly for a zero of either sign). References: no vector crosses the ABI.
@@ -465,13 +469,41 @@ inline void gemv_t_chunks(const double* a, int ld, int n, int ncols, const doubl
 }
 
 // y <- U^-T y for U unit lower (its strict lower part in the zero-padded columns
-// of lower, n of them), y padded: backward substitution by dot products with the
-// columns of U over whole chunks (entries of U on and above the diagonal are zero).
+// of lower, n of them), y padded: backward substitution by panels of four columns,
+// last panel first. A panel's four dot products with the rows below it share each
+// chunk of y (one pass, as gemv_t_chunks); its own unit triangle is solved by scalar
+// steps. Only the last panel can be partial, and it has no rows below it; entries of
+// columns past n count as zero (rows past n are zero padding in lower and in y).
 inline void unit_backward_solve_transposed(const double* lower, int ld, int n, double* y) noexcept {
   const int np = padded(n);
-  for (int k = n - 2; k >= 0; --k) {
-    const int start = chunk_start(k + 1);
-    y[k] -= dot_chunks(lower + static_cast<std::ptrdiff_t>(k) * ld + start, y + start, np - start);
+  for (int k0 = chunk_start(n - 1); k0 >= 0; k0 -= 4) {
+    const double* __restrict c0 = lower + static_cast<std::ptrdiff_t>(k0) * ld;
+    const double* __restrict c1 = c0 + ld;
+    const double* __restrict c2 = c1 + ld;
+    const double* __restrict c3 = c2 + ld;
+    Chunk s0 = kZeroChunk, s1 = s0, s2 = s0, s3 = s0, yc, c;
+    for (int i = k0 + 4; i < np; i += 4) {  // a full panel's rows below it
+      std::memcpy(&yc, y + i, sizeof yc);
+      std::memcpy(&c, c0 + i, sizeof c);
+      s0 += c * yc;
+      std::memcpy(&c, c1 + i, sizeof c);
+      s1 += c * yc;
+      std::memcpy(&c, c2 + i, sizeof c);
+      s2 += c * yc;
+      std::memcpy(&c, c3 + i, sizeof c);
+      s3 += c * yc;
+    }
+    const double l10 = c0[k0 + 1], l20 = c0[k0 + 2], l30 = c0[k0 + 3];
+    const double l21 = k0 + 1 < n ? c1[k0 + 2] : 0.0, l31 = k0 + 1 < n ? c1[k0 + 3] : 0.0;
+    const double l32 = k0 + 2 < n ? c2[k0 + 3] : 0.0;
+    const double y3 = y[k0 + 3] - ((s3[0] + s3[1]) + (s3[2] + s3[3]));
+    const double y2 = y[k0 + 2] - ((s2[0] + s2[1]) + (s2[2] + s2[3])) - l32 * y3;
+    const double y1 = y[k0 + 1] - ((s1[0] + s1[1]) + (s1[2] + s1[3])) - (l21 * y2 + l31 * y3);
+    const double y0 = y[k0] - ((s0[0] + s0[1]) + (s0[2] + s0[3])) - ((l10 * y1 + l20 * y2) + l30 * y3);
+    y[k0] = y0;
+    y[k0 + 1] = y1;
+    y[k0 + 2] = y2;
+    y[k0 + 3] = y3;
   }
 }
 
