@@ -291,12 +291,22 @@ inline double tail_squared_norm(const double* c, int from, int np) noexcept {
 }
 
 // y[i] = i > k ? x[i] * scale : (i == k ? diag : 0) over the padded range [chunk_start(k),
-// np): the chunk holding k entry by entry, the rest whole chunks. (x may be y.)
+// np): the chunk holding k through a lane mask (a bitwise and, so whatever the lanes
+// through k held leaves no NaN behind), the rest whole chunks. (x may be y.)
 inline void scaled_below(const double* x, int k, int np, double scale, double diag, double* y) noexcept {
+  constexpr std::uint64_t ones = ~std::uint64_t{0};
+  static constexpr ChunkBits kLanesAfter[4] = {ChunkBits{0, ones, ones, ones}, ChunkBits{0, 0, ones, ones},
+                                               ChunkBits{0, 0, 0, ones}, ChunkBits{0, 0, 0, 0}};
   const int start = chunk_start(k);
-  for (int i = start; i < start + 4; ++i) y[i] = i > k ? x[i] * scale : (i == k ? diag : 0.0);
   const Chunk s = {scale, scale, scale, scale};
   Chunk c;
+  ChunkBits b;
+  std::memcpy(&b, x + start, sizeof b);
+  b &= kLanesAfter[k - start];
+  std::memcpy(&c, &b, sizeof c);
+  c *= s;
+  std::memcpy(y + start, &c, sizeof c);
+  y[k] = diag;
   for (int i = start + 4; i < np; i += 4) {
     std::memcpy(&c, x + i, sizeof c);
     c *= s;
