@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 
 namespace springbok::qp::dense {
 
@@ -91,6 +92,63 @@ inline bool all_finite(const double* v, int count) noexcept {
   double tail = 0.0;
   for (; i < count; ++i) tail += v[i] * 0.0;
   return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + tail == 0.0;
+}
+
+// Bound pairs four at a time (comparisons give lane masks): lo_eff/hi_eff the bound a
+// row can violate on each side (-inf/+inf where it has none, or lower == upper),
+// lo_abs/hi_abs their magnitudes (0 where none), kind 0 dead, 1 lower, 2 upper,
+// 3 both, 4 equal; a bound beyond +-big is none. nan_bound / infeasible are set
+// non-zero for a NaN bound / a bound at +-infinity on the wrong side or crossed
+// bounds (never cleared).
+inline void classify_bounds(const double* lower, const double* upper, int m, double big, double* lo_eff,
+                            double* hi_eff, double* lo_abs, double* hi_abs, std::uint8_t* kind, int& nan_bound,
+                            int& infeasible) noexcept {
+  using Mask = std::int64_t __attribute__((vector_size(32)));
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const Chunk pbig = {big, big, big, big}, nbig = -pbig, pinf = {inf, inf, inf, inf}, ninf = -pinf;
+  constexpr std::int64_t magnitude = std::numeric_limits<std::int64_t>::max();
+  Mask pinf_bits, ninf_bits, nan_acc = {0, 0, 0, 0}, bad_acc = nan_acc;
+  std::memcpy(&pinf_bits, &pinf, sizeof pinf_bits);
+  std::memcpy(&ninf_bits, &ninf, sizeof ninf_bits);
+  int i = 0;
+  for (; i + 4 <= m; i += 4) {
+    Chunk lo, hi;
+    std::memcpy(&lo, lower + i, sizeof lo);
+    std::memcpy(&hi, upper + i, sizeof hi);
+    const Mask has_lo = lo > nbig, has_hi = hi < pbig, both = has_lo & has_hi, equal = both & (lo == hi);
+    nan_acc |= (lo != lo) | (hi != hi);
+    bad_acc |= (lo >= pbig) | (hi <= nbig) | (both & (lo > hi));
+    const Mask lower_side = has_lo & ~equal, upper_side = has_hi & ~equal;
+    Mask lo_bits, hi_bits;
+    std::memcpy(&lo_bits, &lo, sizeof lo_bits);
+    std::memcpy(&hi_bits, &hi, sizeof hi_bits);
+    const Mask le = (lower_side & lo_bits) | (~lower_side & ninf_bits);
+    const Mask he = (upper_side & hi_bits) | (~upper_side & pinf_bits);
+    const Mask la = lower_side & lo_bits & magnitude, ha = upper_side & hi_bits & magnitude;
+    std::memcpy(lo_eff + i, &le, sizeof le);
+    std::memcpy(hi_eff + i, &he, sizeof he);
+    std::memcpy(lo_abs + i, &la, sizeof la);
+    std::memcpy(hi_abs + i, &ha, sizeof ha);
+    const Mask k = (equal & 4) | (~equal & ((has_lo & 1) | (has_hi & 2)));
+    for (int l = 0; l < 4; ++l) kind[i + l] = static_cast<std::uint8_t>(k[l]);
+  }
+  for (int l = 0; l < 4; ++l) {
+    nan_bound |= static_cast<int>(nan_acc[l] != 0);
+    infeasible |= static_cast<int>(bad_acc[l] != 0);
+  }
+  for (; i < m; ++i) {
+    const double lo = lower[i], hi = upper[i];
+    const bool has_lo = lo > -big, has_hi = hi < big;
+    const bool equal = has_lo & has_hi & (lo == hi);
+    nan_bound |= static_cast<int>((lo != lo) | (hi != hi));
+    infeasible |= static_cast<int>((lo >= big) | (hi <= -big) | (has_lo & has_hi & (lo > hi)));
+    const bool lower_side = has_lo & !equal, upper_side = has_hi & !equal;
+    lo_eff[i] = lower_side ? lo : -inf;
+    hi_eff[i] = upper_side ? hi : inf;
+    lo_abs[i] = lower_side ? std::abs(lo) : 0.0;
+    hi_abs[i] = upper_side ? std::abs(hi) : 0.0;
+    kind[i] = static_cast<std::uint8_t>(equal ? 4 : static_cast<int>(has_lo) + 2 * static_cast<int>(has_hi));
+  }
 }
 
 // out = the bits of c shifted left by one: its magnitude bits, the sign dropped (so

@@ -133,30 +133,12 @@ class Solver {
     // The rows' kinds from their bounds. Ain itself is read first by the first
     // most_violated(), which computes its row norms together with Ain x and settles
     // zero rows (rows_checked_); the exits before that check it here (check_rows()).
-    // Branch-free, so that it vectorises: a NaN bound, a bound at +-infinity on the
-    // wrong side or crossed bounds are counted, not branched on.
-    const double* lower = p.lower.data();
-    const double* upper = p.upper.data();
+    // Also what most_violated() reads: the bounds a row can violate (+-inf where it has
+    // no such side, is dead, or is an equality of the block) and their magnitudes.
     int nan_bound = 0, infeasible = 0;
-    for (int i = 0; i < mi_; ++i) {
-      const double lo = lower[i], hi = upper[i];
-      const bool has_lo = lo > -kInfiniteBound, has_hi = hi < kInfiniteBound;
-      const bool equal = has_lo & has_hi & (lo == hi);
-      nan_bound |= static_cast<int>((lo != lo) | (hi != hi));
-      infeasible |= static_cast<int>((lo >= kInfiniteBound) | (hi <= -kInfiniteBound) | (has_lo & has_hi & (lo > hi)));
-      // What most_violated() reads: the bounds it can violate (+-inf where the row has
-      // no such side, is dead, or is an equality of the block) and their magnitudes.
-      const bool lower_side = has_lo & !equal, upper_side = has_hi & !equal;
-      lo_eff_[i] = lower_side ? lo : -kInf;
-      hi_eff_[i] = upper_side ? hi : kInf;
-      lo_abs_[i] = lower_side ? std::abs(lo) : 0.0;
-      hi_abs_[i] = upper_side ? std::abs(hi) : 0.0;
-    }
-    for (int i = 0; i < mi_; ++i) {  // dead 0, lower 1, upper 2, both 3, equal 4
-      const bool has_lo = lower[i] > -kInfiniteBound, has_hi = upper[i] < kInfiniteBound;
-      const bool equal = has_lo & has_hi & (lower[i] == upper[i]);
-      kind_[i] = static_cast<RowKind>(equal ? 4 : static_cast<int>(has_lo) + 2 * static_cast<int>(has_hi));
-    }
+    dense::classify_bounds(p.lower.data(), p.upper.data(), mi_, kInfiniteBound, lo_eff_.data(), hi_eff_.data(),
+                           lo_abs_.data(), hi_abs_.data(), reinterpret_cast<std::uint8_t*>(kind_.data()), nan_bound,
+                           infeasible);
     if (nan_bound) return Status::bad_input;
     rows_checked_ = false;
     std::fill_n(have_t_.begin(), mi_, false);
