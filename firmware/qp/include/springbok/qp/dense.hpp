@@ -506,33 +506,37 @@ inline void scale_chunks(const double* s, double* y, int n) noexcept {
   }
 }
 
+// out[c] = a_c . x over the entries [from, to) (chunk starts) of the four columns
+// a_c = a + c ld: one pass, so each chunk of x is loaded once for the four.
+inline void four_column_dots(const double* a, std::ptrdiff_t ld, int from, int to, const double* x,
+                             double* out) noexcept {
+  const double* a0 = a;
+  const double* a1 = a0 + ld;
+  const double* a2 = a1 + ld;
+  const double* a3 = a2 + ld;
+  Chunk s0 = kZeroChunk, s1 = s0, s2 = s0, s3 = s0, xc, c;
+  for (int i = from; i < to; i += 4) {
+    std::memcpy(&xc, x + i, sizeof xc);
+    std::memcpy(&c, a0 + i, sizeof c);
+    s0 += c * xc;
+    std::memcpy(&c, a1 + i, sizeof c);
+    s1 += c * xc;
+    std::memcpy(&c, a2 + i, sizeof c);
+    s2 += c * xc;
+    std::memcpy(&c, a3 + i, sizeof c);
+    s3 += c * xc;
+  }
+  out[0] = (s0[0] + s0[1]) + (s0[2] + s0[3]);
+  out[1] = (s1[0] + s1[1]) + (s1[2] + s1[3]);
+  out[2] = (s2[0] + s2[1]) + (s2[2] + s2[3]);
+  out[3] = (s3[0] + s3[1]) + (s3[2] + s3[3]);
+}
+
 // out[j] = a_j . x for the first ncols columns a_j of a column-major matrix (leading
-// dimension ld), over n entries (a multiple of four): four columns per pass, so each
-// chunk of x is loaded once per four columns.
+// dimension ld), over n entries (a multiple of four): four columns per pass.
 inline void gemv_t_chunks(const double* a, int ld, int n, int ncols, const double* x, double* out) noexcept {
   int j = 0;
-  for (; j + 4 <= ncols; j += 4) {
-    const double* a0 = a + static_cast<std::ptrdiff_t>(j) * ld;
-    const double* a1 = a0 + ld;
-    const double* a2 = a1 + ld;
-    const double* a3 = a2 + ld;
-    Chunk s0 = {0.0, 0.0, 0.0, 0.0}, s1 = s0, s2 = s0, s3 = s0, xc, c;
-    for (int i = 0; i < n; i += 4) {
-      std::memcpy(&xc, x + i, sizeof xc);
-      std::memcpy(&c, a0 + i, sizeof c);
-      s0 += c * xc;
-      std::memcpy(&c, a1 + i, sizeof c);
-      s1 += c * xc;
-      std::memcpy(&c, a2 + i, sizeof c);
-      s2 += c * xc;
-      std::memcpy(&c, a3 + i, sizeof c);
-      s3 += c * xc;
-    }
-    out[j] = (s0[0] + s0[1]) + (s0[2] + s0[3]);
-    out[j + 1] = (s1[0] + s1[1]) + (s1[2] + s1[3]);
-    out[j + 2] = (s2[0] + s2[1]) + (s2[2] + s2[3]);
-    out[j + 3] = (s3[0] + s3[1]) + (s3[2] + s3[3]);
-  }
+  for (; j + 4 <= ncols; j += 4) four_column_dots(a + static_cast<std::ptrdiff_t>(j) * ld, ld, 0, n, x, out + j);
   for (; j < ncols; ++j) out[j] = dot_chunks(a + static_cast<std::ptrdiff_t>(j) * ld, x, n);
 }
 
@@ -545,29 +549,18 @@ inline void gemv_t_chunks(const double* a, int ld, int n, int ncols, const doubl
 inline void unit_backward_solve_transposed(const double* lower, int ld, int n, double* y) noexcept {
   const int np = padded(n);
   for (int k0 = chunk_start(n - 1); k0 >= 0; k0 -= 4) {
-    const double* __restrict c0 = lower + static_cast<std::ptrdiff_t>(k0) * ld;
-    const double* __restrict c1 = c0 + ld;
-    const double* __restrict c2 = c1 + ld;
-    const double* __restrict c3 = c2 + ld;
-    Chunk s0 = kZeroChunk, s1 = s0, s2 = s0, s3 = s0, yc, c;
-    for (int i = k0 + 4; i < np; i += 4) {  // a full panel's rows below it
-      std::memcpy(&yc, y + i, sizeof yc);
-      std::memcpy(&c, c0 + i, sizeof c);
-      s0 += c * yc;
-      std::memcpy(&c, c1 + i, sizeof c);
-      s1 += c * yc;
-      std::memcpy(&c, c2 + i, sizeof c);
-      s2 += c * yc;
-      std::memcpy(&c, c3 + i, sizeof c);
-      s3 += c * yc;
-    }
+    const double* c0 = lower + static_cast<std::ptrdiff_t>(k0) * ld;
+    const double* c1 = c0 + ld;
+    const double* c2 = c1 + ld;
+    double s[4];
+    four_column_dots(c0, ld, k0 + 4, np, y, s);  // a full panel's rows below it (none for a partial one)
     const double l10 = c0[k0 + 1], l20 = c0[k0 + 2], l30 = c0[k0 + 3];
     const double l21 = k0 + 1 < n ? c1[k0 + 2] : 0.0, l31 = k0 + 1 < n ? c1[k0 + 3] : 0.0;
     const double l32 = k0 + 2 < n ? c2[k0 + 3] : 0.0;
-    const double y3 = y[k0 + 3] - ((s3[0] + s3[1]) + (s3[2] + s3[3]));
-    const double y2 = y[k0 + 2] - ((s2[0] + s2[1]) + (s2[2] + s2[3])) - l32 * y3;
-    const double y1 = y[k0 + 1] - ((s1[0] + s1[1]) + (s1[2] + s1[3])) - (l21 * y2 + l31 * y3);
-    const double y0 = y[k0] - ((s0[0] + s0[1]) + (s0[2] + s0[3])) - ((l10 * y1 + l20 * y2) + l30 * y3);
+    const double y3 = y[k0 + 3] - s[3];
+    const double y2 = y[k0 + 2] - s[2] - l32 * y3;
+    const double y1 = y[k0 + 1] - s[1] - (l21 * y2 + l31 * y3);
+    const double y0 = y[k0] - s[0] - ((l10 * y1 + l20 * y2) + l30 * y3);
     y[k0] = y0;
     y[k0 + 1] = y1;
     y[k0 + 2] = y2;

@@ -387,9 +387,6 @@ class Solver {
     return Status::optimal;
   }
 
-  void apply_qt(double* y) noexcept {
-    for (int k = 0; k < rank_; ++k) dense::apply_reflector(vcol(k), tau_[k], k, np_, y);
-  }
   void apply_q(double* y) noexcept {
     for (int k = rank_ - 1; k >= 0; --k) dense::apply_reflector(vcol(k), tau_[k], k, np_, y);
   }
@@ -447,7 +444,8 @@ class Solver {
       for (int c = 0; c < queued; ++c) dense::apply_reflector(vcol(k), tau_[k], k, np_, tvec(batch_row_[c]));
     for (int c = 0; c < queued; ++c) {
       const double* t = tvec(batch_row_[c]);
-      const double reduced = std::sqrt(dense::dot(t + rank_, t + rank_, m_)), full = std::sqrt(dense::dot_chunks(t, t, np_));
+      const double reduced = std::sqrt(dense::dot(t + rank_, t + rank_, m_));
+      const double full = std::sqrt(dense::dot_chunks(t, t, np_));
       red_norm_[batch_row_[c]] = std::max({reduced, kMinReducedShare * full, std::numeric_limits<double>::min()});
     }
   }
@@ -629,14 +627,21 @@ class Solver {
   }
 
   // Row i's violation at slack_[i] (> 0 outside its bounds; at most one side can be
-  // violated), the side, and the tolerance it must exceed to count: tol max(|a_i| |x|,
-  // |bound|) for |x| = xn.
-  double violation(int i, double xn, double tol, bool& lower_side, double& limit) const noexcept {
+  // violated), the side and the magnitude of that side's bound.
+  double side_violation(int i, bool& lower_side, double& bound) const noexcept {
     const double s = slack_[i];
     const double below = lo_eff_[i] - s, above = s - hi_eff_[i];
     lower_side = below >= above;
-    limit = tol * std::max(row_norm_[i] * xn, lower_side ? lo_abs_[i] : hi_abs_[i]);
+    bound = lower_side ? lo_abs_[i] : hi_abs_[i];
     return lower_side ? below : above;
+  }
+  // side_violation() and the tolerance it must exceed to count: tol max(|a_i| |x|,
+  // |bound|) for |x| = xn.
+  double violation(int i, double xn, double tol, bool& lower_side, double& limit) const noexcept {
+    double bound = 0.0;
+    const double viol = side_violation(i, lower_side, bound);
+    limit = tol * std::max(row_norm_[i] * xn, bound);
+    return viol;
   }
 
   // |[v1; w]| = |L' x|.
@@ -844,10 +849,9 @@ class Solver {
     }
     const double tol = options_.feasibility_tol;
     for (int i = 0; i < mi_; ++i) {
-      const double s = slack_[i];
-      const double below = lo_eff_[i] - s, above = s - hi_eff_[i];
-      const bool lower_side = below >= above;
-      const double viol = lower_side ? below : above, bound = lower_side ? lo_abs_[i] : hi_abs_[i];
+      bool lower_side = false;
+      double bound = 0.0;
+      const double viol = side_violation(i, lower_side, bound);
       if (viol <= tol * bound) continue;
       const double norm = rows_checked_ || hinted_row(i, cols) ? row_norm_[i] : ain_row_norm(i);
       if (!(viol <= tol * std::max(norm * x_norm_, bound))) return Shortcut::fallback;
