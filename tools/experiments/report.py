@@ -1,10 +1,13 @@
 #!/usr/bin/python3
-"""report.py OUT_DIR: plots and OUT_DIR/report.md from the springbok-sim runs in OUT_DIR/<scenario>/.
+"""report.py [--require NAME...] [--] OUT_DIR: plots and OUT_DIR/report.md from the springbok-sim runs in OUT_DIR/<scenario>/.
 
 Reads each run's summary.json (scores computed by springbok-sim, definitions in
 tools/scenarios/README.md) and log.csv (measured vs template displacements).
 Runs that are missing are listed as missing; nothing is invented.
+With --require, the exit status is 1 unless every named run is present and
+meets its targets (tools/reproduce --quick).
 """
+import argparse
 import json
 import math
 import os
@@ -120,10 +123,12 @@ def deviation_time(out, name, axis):
 
 
 def main():
-    if len(sys.argv) != 2:
-        print("usage: report.py OUT_DIR", file=sys.stderr)
-        return 2
-    out = sys.argv[1]
+    parser = argparse.ArgumentParser(description="plots and report.md from springbok-sim runs")
+    parser.add_argument("--require", nargs="+", default=[], metavar="NAME",
+                        help="exit 1 unless these runs are present and meet their targets")
+    parser.add_argument("out", metavar="OUT_DIR")
+    args = parser.parse_args()
+    out = args.out
     step_runs = [f"base_step_mb{t}" for t, _, _ in BASE_CASES] + [f"arm_step_me{t}" for t, _, _ in ARM_CASES]
     chirp_runs = [f"base_chirp_{a}_mb{t}" for a in "xy" for t, _, _ in BASE_CASES]
     summaries = {n: load_summary(out, n) for n in step_runs + chirp_runs}
@@ -220,6 +225,9 @@ def main():
                 lines.append(f"| {n} | missing |" + " |" * 10)
                 continue
             fell = f"{s['fell']} ({num(s['fell_time_s'])})" if s["fell"] else "False"
+            checks.append((n, not s["fell"] and s["max_torque_ratio"] <= 1.0 and not s["joint_limit_hit"],
+                           f"stands to the end ({'fell at ' + num(s['fell_time_s']) + ' s' if s['fell'] else 'yes'}), "
+                           f"max tau/limit {s['max_torque_ratio']:.3f}, joint limit {s['joint_limit_hit'] or 'none'}"))
             lines.append(f"| {n} | {m} | {g.upper()} | {fs} | {df} | {pct(s['nrmse']['base_x'])} | "
                          f"{pct(s['nrmse']['ee_x'])} | {pct(s['steady_state_error']['base_x'])} | "
                          f"{pct(s['steady_state_error']['ee_x'])} | {s['qp_failures']} | "
@@ -238,7 +246,7 @@ def main():
                                  f"{pct(e1)} -> {pct(e2)}; raising the step frequency (GP3) {pct(e1)} -> {pct(e3)} "
                                  f"({'duty factor matters more' if abs(e1 - e2) > abs(e1 - e3) else 'step frequency matters as much or more'}).")
 
-    lines += ["", "## Targets (issue 8)", ""]
+    lines += ["", "## Targets", ""]
     lines += [f"- {'PASS' if ok else 'MISS'} {n}: {why}" for n, ok, why in checks]
 
     lines += ["", "## Compared with the paper's findings", ""]
@@ -289,7 +297,13 @@ def main():
     with open(os.path.join(out, "report.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print(f"report.py: wrote {os.path.join(out, 'report.md')} ({len(present)} runs)")
-    return 0
+    verdicts = {n: (ok, why) for n, ok, why in checks}
+    failed = 0
+    for n in args.require:
+        ok, why = verdicts.get(n, (False, "missing, or no target for it"))
+        print(f"report.py: {'PASS' if ok else 'MISS'} {n}: {why}")
+        failed += 0 if ok else 1
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@
 #include "springbok/app/control_mode.hpp"
 #include "springbok/app/posture_control.hpp"
 #include "springbok/app/slowed_clock.hpp"
+#include "springbok/app/version.hpp"
 #include "springbok/rt/clock.hpp"
 #include "springbok/rt/executive.hpp"
 #include "springbok/rt/log.hpp"
@@ -24,6 +25,8 @@ namespace springbok::app {
 CommandLine parse_command_line(int argc, char** argv, const char* program) {
   CommandLine cli;
   CLI::App app{std::string(program) + ": the springbok whole-body controller firmware"};
+  app.set_version_flag("--version", std::string(program) + " " + version() + " (revision " + revision() + ")",
+                       "print the version and the source revision, then exit");
   app.add_option("--config", cli.config_path, "robot configuration (YAML)")->required()->check(CLI::ExistingFile);
   app.add_flag("--check-config", cli.check_config, "validate the configuration and exit");
   app.add_flag("--require-rt", cli.run.require_rt,
@@ -128,6 +131,7 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   std::fprintf(stderr, "springbok: control mode runs %s\n",
                config.control_mode == ControlModeKind::wbc ? "the whole-body controller (IMU + leg-kinematics estimate)"
                                                            : "the joint PD hold of gains.control");
+  std::fprintf(stderr, "springbok %s (revision %s)\n", version(), revision());
   std::fprintf(stderr, "springbok: running at %d Hz on %.*s; operator socket %s\n", config.rate_hz,
                static_cast<int>(hardware.name().size()), hardware.name().data(), config.operator_socket.c_str());
   if (clock.scale() > 1) {
