@@ -10,7 +10,9 @@
 
 #include "springbok/can/cia402.hpp"
 #include "springbok/can/mit.hpp"
+#include "springbok/can/sensors.hpp"
 #include "springbok/drive_emulator/drives.hpp"
+#include "springbok/drive_emulator/sensors.hpp"
 
 #include "frame_util.hpp"
 
@@ -116,6 +118,177 @@ TEST(DriveEmulator, FaultScriptErrorsNameTheEntry) {
             std::string::npos);
 }
 
+// ---- sensors (CAN.md 6.5) ---------------------------------------------------------------------
+can::SensorsConfig both_sensors() {
+  can::SensorsConfig c;
+  c.imu.enabled = true;
+  c.imu.bus = "sensors";
+  c.wrist_ft.enabled = true;
+  c.wrist_ft.bus = "sensors";
+  return c;
+}
+
+// The host side: the emulator's frames into hal/can's assemblers, one tick per sample.
+struct SensorRig {
+  can::SensorsConfig cfg = both_sensors();
+  SensorEmulator emu;
+  can::ImuAssembler imu;
+  can::FtAssembler ft;
+  hal::Imu imu_in;
+  hal::Wrench wrist_in;
+  std::vector<Frame> imu_out, ft_out;
+  std::uint64_t tick = 0;
+  explicit SensorRig(const std::vector<Fault>& faults = {}, const can::SensorsConfig& c = both_sensors())
+      : cfg(c), emu(c, faults) {
+    imu.configure(cfg.imu, 0);
+    ft.configure(cfg.wrist_ft, 0);
+    imu_in.valid = true;
+    imu_in.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()));
+    imu_in.angular_rate_rad_s = Eigen::Vector3d(0.25, -1.5, 3.0);
+    imu_in.linear_accel_m_s2 = Eigen::Vector3d(0.5, -0.2, 9.81);
+    wrist_in.valid = true;
+    wrist_in.force_n = Eigen::Vector3d(12.0, -3.0, 40.0);
+    wrist_in.torque_nm = Eigen::Vector3d(0.5, 1.25, -2.0);
+  }
+  // One world step; returns the host's events of this tick.
+  std::vector<can::SensorEvent> step() {
+    ++tick;
+    imu_out.clear();
+    ft_out.clear();
+    emu.publish(imu_in, wrist_in, imu_out, ft_out);
+    std::vector<can::SensorEvent> ev;
+    for (const Frame& f : imu_out) ev.push_back(imu.push(f, tick));
+    for (const Frame& f : ft_out) ev.push_back(ft.push(f, tick));
+    imu.update(tick);
+    ft.update(tick);
+    return ev;
+  }
+};
+
+TEST(SensorEmulator, PublishedFramesDecodeBackToTheSampleWithinQuantization) {
+  SensorRig rig;
+  for (int k = 0; k < 300; ++k) {  // the counter wraps at 256
+    rig.imu_in.angular_rate_rad_s.x() = 0.01 * k;
+    rig.step();
+    ASSERT_EQ(rig.imu_out.size(), 3u);
+    ASSERT_EQ(rig.ft_out.size(), 2u);
+    ASSERT_TRUE(rig.imu.usable()) << k;
+    ASSERT_TRUE(rig.ft.usable()) << k;
+    const can::ImuReading r = rig.imu.reading();
+    EXPECT_LT(r.orientation.angularDistance(rig.imu_in.orientation), 4.0 / 32768.0) << k;
+    EXPECT_LE((r.angular_rate_rad_s - rig.imu_in.angular_rate_rad_s).cwiseAbs().maxCoeff(), 0.5 / 1024.0 + 1e-12);
+    EXPECT_LE((r.linear_accel_m_s2 - rig.imu_in.linear_accel_m_s2).cwiseAbs().maxCoeff(), 0.5 / 512.0 + 1e-12);
+    EXPECT_LE((rig.ft.reading().force_n - rig.wrist_in.force_n).cwiseAbs().maxCoeff(), 0.5 / 64.0 + 1e-12);
+    EXPECT_LE((rig.ft.reading().torque_nm - rig.wrist_in.torque_nm).cwiseAbs().maxCoeff(), 0.5 / 1000.0 + 1e-12);
+  }
+  EXPECT_EQ(rig.imu.diagnostics().samples_accepted, 300u);
+  EXPECT_EQ(rig.imu.diagnostics().last_counter, 299 % 256);
+  EXPECT_EQ(rig.ft.diagnostics().samples_accepted, 300u);
+  EXPECT_EQ(rig.emu.frames_out(), 1500u);
+}
+
+TEST(SensorEmulator, OffsetWrenchGoesToTheSensorFrameAndBack) {
+  can::SensorsConfig c = both_sensors();
+  c.wrist_ft.has_offset = true;
+  c.wrist_ft.offset.xyz_m = {0.01, -0.02, 0.05};
+  c.wrist_ft.offset.rpy_rad = {0.1, -0.2, 1.0};
+  SensorRig rig({}, c);
+  rig.step();
+  ASSERT_TRUE(rig.ft.usable());
+  EXPECT_LE((rig.ft.reading().force_n - rig.wrist_in.force_n).norm(), 0.03);
+  EXPECT_LE((rig.ft.reading().torque_nm - rig.wrist_in.torque_nm).norm(), 0.003);
+  // The frames carry the sensor-frame wrench, not the EE one: F_s = R^T F_ee.
+  can::FtConfig plain = c.wrist_ft;
+  plain.has_offset = false;
+  can::FtAssembler raw;
+  raw.configure(plain, 0);
+  for (const Frame& f : rig.ft_out) raw.push(f, 1);
+  raw.update(1);
+  const Eigen::Matrix3d rot = can::wrench_transform(c.wrist_ft.offset).rotation;
+  EXPECT_LE((raw.reading().force_n - rot.transpose() * rig.wrist_in.force_n).norm(), 0.03);
+}
+
+TEST(SensorEmulator, EachScriptedFaultIsSeenByTheHostAsSpecified) {
+  const auto run = [](const std::string& script) {
+    const FaultResult fr = load_faults_text(script);
+    EXPECT_TRUE(fr.ok) << fr.error;
+    SensorRig rig(fr.faults);
+    std::vector<std::vector<can::SensorEvent>> ticks;
+    for (int k = 0; k < 12; ++k) ticks.push_back(rig.step());
+    return std::make_pair(std::move(rig), std::move(ticks));
+  };
+  using can::SensorEvent;
+  {  // Silence from sample 5: lost once the newest sample (4) is older than 3 ticks.
+    auto [rig, ticks] = run("faults: [{kind: silent, sensor: imu, at: 5}]");
+    EXPECT_TRUE(ticks[4].size() == 2u);  // only the F/T's two frames
+    EXPECT_EQ(rig.imu.diagnostics().samples_accepted, 4u);
+    EXPECT_TRUE(rig.imu.diagnostics().lost);
+    EXPECT_EQ(rig.imu.diagnostics().age_ticks, 8u);
+    EXPECT_FALSE(rig.ft.diagnostics().lost);
+  }
+  {  // Stale counter for 2 samples: both rejected as stale.
+    auto [rig, ticks] = run("faults: [{kind: stale_counter, sensor: wrist_ft, at: 3, count: 2}]");
+    EXPECT_EQ(ticks[2].back(), SensorEvent::stale_counter);
+    EXPECT_EQ(ticks[3].back(), SensorEvent::stale_counter);
+    EXPECT_EQ(ticks[4].back(), SensorEvent::accepted);  // counter 2 -> 3: one step
+    EXPECT_EQ(rig.ft.diagnostics().stale_counters, 2u);
+  }
+  {  // Status invalid.
+    auto [rig, ticks] = run("faults: [{kind: status_invalid, sensor: imu, at: 2, count: 3}]");
+    EXPECT_EQ(ticks[1][2], SensorEvent::status_invalid);
+    EXPECT_EQ(rig.imu.diagnostics().status_invalid, 3u);
+    EXPECT_EQ(rig.imu.diagnostics().samples_accepted, 9u);
+  }
+  {  // Corrupt quaternion.
+    auto [rig, ticks] = run("faults: [{kind: corrupt_quaternion, sensor: imu, at: 6}]");
+    EXPECT_EQ(ticks[5][2], SensorEvent::bad_quaternion);
+    EXPECT_EQ(rig.imu.diagnostics().bad_quaternion, 1u);
+  }
+  {  // Saturation: used, counted, a streak once it lasts clip_streak (10) samples.
+    auto [rig, ticks] = run("faults: [{kind: saturate, sensor: wrist_ft, at: 1, count: 10}]");
+    EXPECT_EQ(rig.ft.diagnostics().clipped, 10u);
+    EXPECT_EQ(rig.ft.diagnostics().clip_streak_max, 10u);
+    EXPECT_EQ(rig.ft.diagnostics().samples_accepted, 12u);
+    EXPECT_FALSE(rig.ft.diagnostics().clip_streak_fault);  // ended at sample 11
+  }
+  {  // Split: each sample's last frame comes one tick late; every sample still completes.
+    auto [rig, ticks] = run("faults: [{kind: split, sensor: imu, at: 3, count: 4}]");
+    EXPECT_EQ(ticks[2].size(), 2u + 2u);  // IMU orientation + rate of sample 3, F/T
+    EXPECT_EQ(ticks[2][1], SensorEvent::stored);
+    EXPECT_EQ(ticks[3][0], SensorEvent::accepted);  // sample 3's acceleration, held over
+    EXPECT_EQ(rig.imu.diagnostics().samples_accepted, 12u);
+    EXPECT_FALSE(rig.imu.diagnostics().lost);
+  }
+  {  // Not converged / bias not taken: reported, samples used.
+    auto [rig, ticks] = run("faults: [{kind: not_ready, sensor: wrist_ft, at: 10, count: 100}]");
+    EXPECT_TRUE(rig.ft.diagnostics().not_ready);
+    EXPECT_FALSE(rig.imu.diagnostics().not_ready);
+    EXPECT_EQ(rig.ft.diagnostics().samples_accepted, 12u);
+  }
+  {  // Wrong DLC (sample 2's three frames); drop of 4 F/T samples: the counter moves on, 0 -> 5 is a jump of 5 > 3.
+    auto [rig, ticks] = run("faults: [{kind: wrong_dlc, sensor: imu, at: 2}, {kind: drop, sensor: wrist_ft, at: 2, count: 4}]");
+    EXPECT_EQ(rig.imu.diagnostics().wrong_dlc, 3u);
+    EXPECT_EQ(rig.ft.diagnostics().counter_jumps, 1u);  // counter 0 -> 5
+    EXPECT_EQ(rig.ft.diagnostics().samples_accepted, 1u + 6u);
+  }
+}
+
+TEST(SensorEmulator, FaultScriptSensorEntries) {
+  const FaultResult ok = load_faults_text("faults: [{kind: split, sensor: wrist_ft, at: 3, count: 2}, {kind: silent, sensor: imu, at: 9}]");
+  ASSERT_TRUE(ok.ok) << ok.error;
+  EXPECT_EQ(ok.faults[0].sensor, SensorId::wrist_ft);
+  EXPECT_EQ(ok.faults[0].kind, FaultKind::split);
+  EXPECT_EQ(ok.faults[1].sensor, SensorId::imu);
+  EXPECT_EQ(ok.faults[1].drive_id, 0);
+  EXPECT_NE(load_faults_text("faults: [{kind: split, drive: 3, at: 1}]").error.find("faults[0].sensor"), std::string::npos);
+  EXPECT_NE(load_faults_text("faults: [{kind: split, sensor: gps, at: 1}]").error.find("faults[0].sensor"), std::string::npos);
+  EXPECT_NE(load_faults_text("faults: [{kind: emcy, sensor: imu, at: 1}]").error.find("not a sensor fault"), std::string::npos);
+  EXPECT_NE(load_faults_text("faults: [{kind: corrupt_quaternion, sensor: wrist_ft, at: 1}]").error.find("IMU fault"),
+            std::string::npos);
+  EXPECT_NE(load_faults_text("faults: [{kind: silent, sensor: imu, drive: 2, at: 1}]").error.find("either"),
+            std::string::npos);
+}
+
 int run(const std::string& args, std::string& output) {
   const std::string cmd = std::string(SPRINGBOK_BIN_DIR) + "/drive_emulator " + args + " 2>&1";
   FILE* p = ::popen(cmd.c_str(), "r");
@@ -130,6 +303,8 @@ TEST(DriveEmulatorCli, PrintsTheLayoutAndItsBusLoads) {
   EXPECT_EQ(run("--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_fd5.yaml --print-layout", out), 0) << out;
   EXPECT_NE(out.find("arm    vcan4    yes mit          7       14     756.0   75.6%"), std::string::npos) << out;
   EXPECT_NE(out.find("layout ok"), std::string::npos);
+  // The sensors' own bus: 3 IMU + 2 F/T frames, 675 us (CAN.md 6.3).
+  EXPECT_NE(out.find("sensors vcan5    no  imu+ft       0        5     675.0   67.5%"), std::string::npos) << out;
 }
 
 TEST(DriveEmulatorCli, RejectsABadConfigOrFaultScript) {

@@ -6,6 +6,11 @@
 //   drive_emulator --config can.yaml [--faults faults.yaml] [--pose stance|zero]
 //   drive_emulator --config can.yaml --motion bullet [--truth-log trunk.txt]
 //   drive_emulator --config can.yaml --print-layout      (no CAN needed)
+//
+// With --motion bullet the sensors of `can.sensors` (CAN.md 6) publish one sample per
+// world step on their buses: the IMU from the trunk's motion through trunk_imu (sim_hal's
+// IMU model, --imu-* noise and bias), the wrist F/T from the wrench scripted on the hand
+// (--hand-force-n N --hand-force-axis x|y|z|-x|-y|-z --hand-force-start-s T).
 #include <signal.h>
 
 #include <Eigen/Geometry>  // model.hpp uses Eigen::Quaterniond without including it
@@ -23,6 +28,7 @@
 #include "springbok/can/config_yaml.hpp"
 #include "springbok/can/socketcan.hpp"
 #include "springbok/drive_emulator/drives.hpp"
+#include "springbok/drive_emulator/sensors.hpp"
 #include "springbok/model/model.hpp"
 #if SPRINGBOK_EMULATOR_HAS_BULLET
 #include "springbok/drive_emulator/bullet_motion.hpp"
@@ -46,10 +52,16 @@ void print_layout(const springbok::can::CanConfig& c) {
   using namespace springbok::can;
   std::printf("%-6s %-8s %-3s %-7s %6s %8s %9s %7s\n", "bus", "iface", "fd", "proto", "joints", "frames", "bus_us", "load");
   for (const BusConfig& b : c.buses) {
-    const BusLoad l = worst_case_load(b, c.timing.tick_us);
-    std::string proto = to_string(b.drives.front().protocol);
+    const BusLoad l = worst_case_load(b, c.timing.tick_us, c.sensors);
+    std::string proto = b.drives.empty() ? "-" : to_string(b.drives.front().protocol);
     for (const DriveConfig& d : b.drives) {
       if (d.protocol != b.drives.front().protocol) proto = "mixed";
+    }
+    const bool imu = c.sensors.imu.enabled && c.sensors.imu.bus == b.name;
+    const bool ft = c.sensors.wrist_ft.enabled && c.sensors.wrist_ft.bus == b.name;
+    if (imu || ft) {
+      const std::string which = imu && ft ? "imu+ft" : (imu ? "imu" : "ft");
+      proto = b.drives.empty() ? which : proto + "+" + which;
     }
     std::printf("%-6s %-8s %-3s %-7s %6zu %8d %9.1f %6.1f%%\n", b.name.c_str(), b.interface.c_str(), b.fd ? "yes" : "no",
                 proto.c_str(), b.drives.size(), l.frames_per_tick, l.bus_time_us, 100.0 * l.load);
@@ -69,6 +81,10 @@ int main(int argc, char** argv) {
   double duration_s = 0.0;
   std::uint32_t can_timeout_ms = 0;
   bool layout_only = false;
+  double hand_force_n = 0.0, hand_force_start_s = 0.0;
+  std::string hand_force_axis = "x";
+  double imu_gyro_noise = 0.0, imu_accel_noise = 0.0, imu_gyro_bias = 0.0, imu_accel_bias = 0.0;
+  std::uint64_t imu_seed = 1;
   app.add_option("--config", config_path, "YAML file with the `can:` section (the same the firmware reads)")->required();
   app.add_option("--faults", faults_path, "YAML fault script (`faults:` list)");
   app.add_option("--pose", pose, "initial joint positions")->check(CLI::IsMember({"stance", "zero"}));
@@ -84,6 +100,20 @@ int main(int argc, char** argv) {
   app.add_option("--settle-s", settle_s, "bullet: the robot lies unpowered this long before the drives boot")
       ->check(CLI::Range(0.0, 60.0));
   app.add_flag("--print-layout", layout_only, "print frames per tick and worst-case load per bus, then exit");
+  app.add_option("--hand-force-n", hand_force_n, "bullet: a step force on the hand (EE frame origin), N (0 = none)");
+  app.add_option("--hand-force-axis", hand_force_axis, "bullet: its direction, world axes")
+      ->check(CLI::IsMember({"x", "y", "z", "-x", "-y", "-z"}));
+  app.add_option("--hand-force-start-s", hand_force_start_s, "bullet: when it starts, s after the settling")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--imu-gyro-noise-rad-s", imu_gyro_noise, "bullet: IMU gyro white noise std (sim_hal model)")
+      ->check(CLI::Range(0.0, 10.0));
+  app.add_option("--imu-accel-noise-m-s2", imu_accel_noise, "bullet: IMU accelerometer white noise std")
+      ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--imu-gyro-bias-rad-s", imu_gyro_bias, "bullet: std of the IMU gyro bias drawn once")
+      ->check(CLI::Range(0.0, 10.0));
+  app.add_option("--imu-accel-bias-m-s2", imu_accel_bias, "bullet: std of the accelerometer bias drawn once")
+      ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--imu-seed", imu_seed, "bullet: seed of the IMU noise");
   CLI11_PARSE(app, argc, argv);
 
   const can::ConfigResult cfg = can::load_can_config_file(config_path);
@@ -113,8 +143,22 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "drive_emulator: --truth-log: cannot write %s\n", truth_log.c_str());
       return 2;
     }
+    emu::BulletOptions options;
+    options.settle_s = settle_s;
+    options.imu_gyro_noise_rad_s = imu_gyro_noise;
+    options.imu_accel_noise_m_s2 = imu_accel_noise;
+    options.imu_gyro_bias_rad_s = imu_gyro_bias;
+    options.imu_accel_bias_m_s2 = imu_accel_bias;
+    options.imu_seed = imu_seed;
+    if (hand_force_n != 0.0) {
+      options.hand_force = true;
+      options.hand.force_n = hand_force_n;
+      options.hand.start_s = hand_force_start_s;
+      const double sign = hand_force_axis.front() == '-' ? -1.0 : 1.0;
+      options.hand.axis_world = sign * Eigen::Vector3d::Unit(hand_force_axis.back() - 'x');
+    }
     try {
-      world = std::make_unique<emu::BulletMotion>(truth_file, truth_every, settle_s);
+      world = std::make_unique<emu::BulletMotion>(truth_file, truth_every, options);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "drive_emulator: %s\n", e.what());
       return 2;
@@ -125,6 +169,9 @@ int main(int argc, char** argv) {
 #endif
   } else if (!truth_log.empty()) {
     std::fprintf(stderr, "drive_emulator: --truth-log needs --motion bullet\n");
+    return 2;
+  } else if (hand_force_n != 0.0) {
+    std::fprintf(stderr, "drive_emulator: --hand-force-n needs --motion bullet\n");
     return 2;
   }
 
@@ -157,6 +204,16 @@ int main(int argc, char** argv) {
     }
   }
   for (const emu::Fault& f : faults) {
+    if (f.sensor != emu::SensorId::none) {
+      const bool configured = f.sensor == emu::SensorId::imu ? cfg.config.sensors.imu.enabled
+                                                             : cfg.config.sensors.wrist_ft.enabled;
+      if (!configured) {
+        std::fprintf(stderr, "drive_emulator: fault '%s' names sensor %s, which is not configured (can.sensors)\n",
+                     emu::to_string(f.kind), emu::to_string(f.sensor));
+        return 2;
+      }
+      continue;
+    }
     bool found = false;
     for (const BusIo& io : buses) {
       for (const auto& d : io.drives) found = found || d->config().drive_id == f.drive_id;
@@ -166,6 +223,35 @@ int main(int argc, char** argv) {
                    f.drive_id);
       return 2;
     }
+  }
+  // The sensors (CAN.md 6.5): one sample per world step, on their buses.
+  const auto bus_index = [&](const std::string& name) {
+    for (std::size_t b = 0; b < cfg.config.buses.size(); ++b) {
+      if (cfg.config.buses[b].name == name) return static_cast<int>(b);
+    }
+    return -1;
+  };
+  const can::SensorsConfig& sensors_cfg = cfg.config.sensors;
+  const int imu_bus = sensors_cfg.imu.enabled ? bus_index(sensors_cfg.imu.bus) : -1;
+  const int ft_bus = sensors_cfg.wrist_ft.enabled ? bus_index(sensors_cfg.wrist_ft.bus) : -1;
+  emu::SensorEmulator sensors(sensors_cfg, faults);
+  std::vector<can::Frame> imu_frames, ft_frames;
+  std::uint64_t sensor_tx_failed = 0;
+#if SPRINGBOK_EMULATOR_HAS_BULLET
+  if (auto* bullet = dynamic_cast<emu::BulletMotion*>(world.get()); bullet != nullptr && (imu_bus >= 0 || ft_bus >= 0)) {
+    bullet->set_step_callback([&](const hal::Imu& imu, const hal::Wrench& wrist) {
+      sensors.publish(imu, wrist, imu_frames, ft_frames);
+      for (const auto& [bus, frames] : {std::pair{imu_bus, &imu_frames}, std::pair{ft_bus, &ft_frames}}) {
+        for (const can::Frame& frame : *frames) {
+          if (buses[static_cast<std::size_t>(bus)].socket.send(frame) != can::TxStatus::ok) ++sensor_tx_failed;
+        }
+        frames->clear();
+      }
+    });
+  }
+#endif
+  if (!world && (imu_bus >= 0 || ft_bus >= 0)) {
+    std::fprintf(stderr, "drive_emulator: note: the sensors of can.sensors publish only with --motion bullet\n");
   }
   ::signal(SIGINT, on_signal);
   ::signal(SIGTERM, on_signal);
@@ -264,6 +350,13 @@ int main(int argc, char** argv) {
     }
     std::printf("bus %s tx_failed %llu\n", cfg.config.buses[b].name.c_str(),
                 static_cast<unsigned long long>(buses[b].tx_failed));
+  }
+  if (imu_bus >= 0 || ft_bus >= 0) {
+    std::printf("sensors imu_samples %llu ft_samples %llu frames_out %llu tx_failed %llu\n",
+                static_cast<unsigned long long>(sensors.imu_samples()),
+                static_cast<unsigned long long>(sensors.ft_samples()),
+                static_cast<unsigned long long>(sensors.frames_out()),
+                static_cast<unsigned long long>(sensor_tx_failed));
   }
 #if SPRINGBOK_EMULATOR_HAS_BULLET
   if (const auto* bullet = dynamic_cast<const emu::BulletMotion*>(world.get())) {

@@ -1,5 +1,6 @@
 #include "springbok/can/bus_load.hpp"
 
+#include <cmath>
 #include <cstdio>
 
 namespace springbok::can {
@@ -44,9 +45,24 @@ BusLoad worst_case_load(const BusConfig& bus, double tick_us) noexcept {
   return l;
 }
 
+BusLoad worst_case_load(const BusConfig& bus, double tick_us, const SensorsConfig& sensors) noexcept {
+  BusLoad l = worst_case_load(bus, tick_us);
+  // Sensor frames are classic CAN even on an FD bus: 8 data bytes at the nominal rate.
+  const double frame_8_us = static_cast<double>(classic_frame_bits(kSensorFrameLen)) / static_cast<double>(bus.bitrate) * 1e6;
+  const auto add = [&](int frames_per_sample, double rate_hz) {
+    const double frames = frames_per_sample * rate_hz * tick_us * 1e-6;
+    l.bus_time_us += frames * frame_8_us;
+    l.frames_per_tick += static_cast<int>(std::ceil(frames - 1e-9));
+  };
+  if (sensors.imu.enabled && sensors.imu.bus == bus.name) add(kImuFrames, sensors.imu.rate_hz);
+  if (sensors.wrist_ft.enabled && sensors.wrist_ft.bus == bus.name) add(kFtFrames, sensors.wrist_ft.rate_hz);
+  l.load = l.bus_time_us / tick_us;
+  return l;
+}
+
 std::string check_bus_loads(const CanConfig& c) {
   for (const BusConfig& b : c.buses) {
-    const BusLoad l = worst_case_load(b, c.timing.tick_us);
+    const BusLoad l = worst_case_load(b, c.timing.tick_us, c.sensors);
     if (l.load > c.max_bus_load) {
       char msg[256];
       std::snprintf(msg, sizeof msg,

@@ -238,11 +238,27 @@ void CanHardware::process_error_frame(int b, const Frame& f) noexcept {
   // CAN_ERR_ACK / TX_TIMEOUT / TRX act like a silent bus: the missing replies count.
 }
 
+bool CanHardware::process_sensor_frame(int b, const Frame& f) noexcept {
+  Bus& bus = buses_[static_cast<std::size_t>(b)];
+  if (bus.has_imu && imu_.frame_index(f.id) >= 0) {
+    ++bus.diag.sensor_frames;
+    if (imu_.push(f, tick_) == SensorEvent::accepted) imu_stamp_ns_ = monotonic_ns();
+    return true;
+  }
+  if (bus.has_ft && ft_.frame_index(f.id) >= 0) {
+    ++bus.diag.sensor_frames;
+    if (ft_.push(f, tick_) == SensorEvent::accepted) ft_stamp_ns_ = monotonic_ns();
+    return true;
+  }
+  return false;
+}
+
 void CanHardware::process_frame(int b, const Frame& f) noexcept {
   if (f.error) {
     process_error_frame(b, f);
     return;
   }
+  if (process_sensor_frame(b, f)) return;
   const Bus& bus = buses_[static_cast<std::size_t>(b)];
   bool mit_reply_id = false;
   for (int k = 0; k < bus.count; ++k) {
@@ -258,19 +274,56 @@ void CanHardware::process_frame(int b, const Frame& f) noexcept {
   }
 }
 
-void CanHardware::drain(int b) noexcept {
+bool CanHardware::drain(int b, int max_frames) noexcept {
   Bus& bus = buses_[static_cast<std::size_t>(b)];
   Frame f;
-  for (;;) {
+  for (int n = 0; n < max_frames; ++n) {
     const RxStatus s = bus.socket.receive(f);
-    if (s == RxStatus::empty) return;
+    if (s == RxStatus::empty) return true;
     if (s == RxStatus::error) {
       if (bus.socket.last_errno() == ENETDOWN) fault_bus(b, BusFault::net_down);
       ++bus.diag.tx_errors;
-      return;
+      return true;
     }
     ++bus.diag.frames_received;
     process_frame(b, f);
+  }
+  return false;
+}
+
+namespace {
+// The status fields hal::Imu and hal::Wrench share, from the sensor's diagnostics. rt: no alloc
+template <class Sensor>
+void fill_sensor_status(const SensorDiagnostics& d, bool usable, std::int64_t stamp_ns, Sensor& out) noexcept {
+  out.valid = usable;
+  out.lost = d.lost;
+  out.clipping = (d.last_status & sensor_status::clipping) != 0;
+  out.age_ticks = static_cast<std::uint32_t>(std::min<std::uint64_t>(d.age_ticks, 0xFFFFFFFFu));
+  out.stamp_ns = stamp_ns;
+}
+}  // namespace
+
+void CanHardware::fill_sensors(hal::Measurements& out) noexcept {
+  if (config_.sensors.imu.enabled) {
+    imu_.update(tick_);
+    fill_sensor_status(imu_.diagnostics(), imu_.usable(), imu_stamp_ns_, out.imu);
+    out.imu.converged = !imu_.diagnostics().not_ready;
+    if (out.imu.valid) {
+      const ImuReading r = imu_.reading();
+      out.imu.orientation = r.orientation;
+      out.imu.angular_rate_rad_s = r.angular_rate_rad_s;
+      out.imu.linear_accel_m_s2 = r.linear_accel_m_s2;
+    }
+  }
+  if (config_.sensors.wrist_ft.enabled) {
+    ft_.update(tick_);
+    fill_sensor_status(ft_.diagnostics(), ft_.usable(), ft_stamp_ns_, out.wrist);
+    out.wrist.bias_taken = !ft_.diagnostics().not_ready;
+    if (out.wrist.valid) {
+      const FtReading r = ft_.reading();
+      out.wrist.force_n = r.force_n;
+      out.wrist.torque_nm = r.torque_nm;
+    }
   }
 }
 
@@ -367,15 +420,26 @@ void CanHardware::send_pending() noexcept {
 hal::IoStatus CanHardware::read(hal::Measurements& out) noexcept {
   if (!configured_) return hal::IoStatus::error;
   ++tick_;
+  for (int b = 0; b < bus_count_; ++b) buses_[static_cast<std::size_t>(b)].rx_budget = kMaxRxFramesPerBusPerTick;
   std::array<int, kMaxBuses> fds{};
-  const int n_fds = handles(fds);
   const std::int64_t deadline_ns = last_send_ns_ + 1000LL * config_.timing.rx_deadline_us;
   for (;;) {
+    int n_fds = 0;  // the buses that may still be read this tick
     for (int b = 0; b < bus_count_; ++b) {
-      if (buses_[static_cast<std::size_t>(b)].socket.is_open()) drain(b);
+      Bus& bus = buses_[static_cast<std::size_t>(b)];
+      if (!bus.socket.is_open() || bus.rx_budget <= 0) continue;
+      const std::uint64_t before = bus.diag.frames_received;
+      const bool emptied = drain(b, bus.rx_budget);
+      bus.rx_budget -= static_cast<int>(bus.diag.frames_received - before);
+      if (!emptied) {
+        bus.rx_budget = 0;
+        ++bus.diag.rx_budget_exhausted;  // the rest waits for the next tick
+        continue;
+      }
+      fds[static_cast<std::size_t>(n_fds++)] = bus.socket.native_handle();
     }
     const std::int64_t now_ns = monotonic_ns();
-    if (replies_complete() || now_ns >= deadline_ns) break;
+    if (replies_complete() || now_ns >= deadline_ns || n_fds == 0) break;
     wait_readable(std::span<const int>(fds.data(), static_cast<std::size_t>(n_fds)), (deadline_ns - now_ns) / 1000 + 1);
   }
   evaluate_joints();
@@ -394,7 +458,11 @@ hal::IoStatus CanHardware::read(hal::Measurements& out) noexcept {
     ++expected;
     fresh += jr.status.fresh ? 1 : 0;
   }
-  for (int b = 0; b < bus_count_; ++b) bus_fault = bus_fault || buses_[static_cast<std::size_t>(b)].diag.fault != BusFault::none;
+  for (int b = 0; b < bus_count_; ++b) {
+    const Bus& bus = buses_[static_cast<std::size_t>(b)];
+    bus_fault = bus_fault || (bus.count > 0 && bus.diag.fault != BusFault::none);  // sensors-only: its sensors go lost
+  }
+  fill_sensors(out);
 
   if (active_) {
     send_pending();

@@ -45,7 +45,7 @@ bool CanHardware::pump_until(std::int64_t deadline_ns, Done&& done) {
   const int n = handles(fds);
   for (;;) {
     for (int b = 0; b < bus_count_; ++b) {
-      if (buses_[static_cast<std::size_t>(b)].socket.is_open()) drain(b);
+      if (buses_[static_cast<std::size_t>(b)].socket.is_open()) (void)drain(b, kMaxRxFramesPerBusPerTick);
     }
     if (done()) return true;
     const std::int64_t now = monotonic_ns();
@@ -67,6 +67,11 @@ LifecycleResult CanHardware::open_bus(int b) {
       }
     }
   }
+  const SensorsConfig& sc = config_.sensors;
+  if (sc.imu.enabled && sc.imu.bus == bc.name) ids.insert(ids.end(), sc.imu.ids.begin(), sc.imu.ids.end());
+  if (sc.wrist_ft.enabled && sc.wrist_ft.bus == bc.name) {
+    ids.insert(ids.end(), sc.wrist_ft.ids.begin(), sc.wrist_ft.ids.end());
+  }
   Bus& bus = buses_[static_cast<std::size_t>(b)];
   const std::string err = bus.socket.open(bc.interface, bc.fd, ids, true);
   if (!err.empty()) return LifecycleResult::failure("bus '" + bc.name + "': " + err);
@@ -87,6 +92,9 @@ LifecycleResult CanHardware::configure() {
     Bus& bus = buses_[static_cast<std::size_t>(b)];
     bus.count = 0;
     bus.any_mit = bus.any_cia = false;
+    const std::string& name = config_.buses[static_cast<std::size_t>(b)].name;
+    bus.has_imu = config_.sensors.imu.enabled && config_.sensors.imu.bus == name;
+    bus.has_ft = config_.sensors.wrist_ft.enabled && config_.sensors.wrist_ft.bus == name;
     for (const DriveConfig& d : config_.buses[static_cast<std::size_t>(b)].drives) {
       JointRuntime& jr = joints_[static_cast<std::size_t>(d.joint)];
       jr.cfg = d;
@@ -99,6 +107,8 @@ LifecycleResult CanHardware::configure() {
   const std::uint64_t ticks_per_ms = std::max<std::uint64_t>(1, 1000 / config_.timing.tick_us);
   heartbeat_lost_ticks_ = std::uint64_t{config_.timing.heartbeat_period_ms} * config_.timing.heartbeat_lost_periods *
                           ticks_per_ms;
+  imu_.configure(config_.sensors.imu, tick_);
+  ft_.configure(config_.sensors.wrist_ft, tick_);
   for (int b = 0; b < bus_count_; ++b) {
     if (LifecycleResult r = open_bus(b); !r.ok) return r;
   }

@@ -2,6 +2,9 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <utility>
+#include <vector>
 #include <numbers>
 #include <set>
 #include <string>
@@ -68,6 +71,104 @@ CanConfig fd5_layout(const std::string& prefix) {
   return c;
 }
 
+bool sensor_id_collides(const BusConfig& bus, std::uint32_t id, std::string& why) {
+  for (const DriveConfig& d : bus.drives) {
+    if (d.protocol == Protocol::mit) {
+      if (id == d.drive_id) {
+        why = "the MIT command id of drive " + std::to_string(d.drive_id);
+        return true;
+      }
+      if (id == d.mit_reply_id) {
+        why = "the MIT reply id of drive " + std::to_string(d.drive_id);
+        return true;
+      }
+      continue;
+    }
+    // CiA 301 pre-defined connection set of node n (CAN.md 2.1), plus NMT and SYNC.
+    if (id == cia402::cob::nmt || id == cia402::cob::sync) {
+      why = id == cia402::cob::nmt ? "the CANopen NMT id" : "the CANopen SYNC id";
+      return true;
+    }
+    static constexpr std::array<std::pair<std::uint32_t, const char*>, 12> kCobs{{
+        {0x080, "EMCY"}, {0x180, "TPDO1"}, {0x200, "RPDO1"}, {0x280, "TPDO2"}, {0x300, "RPDO2"},
+        {0x380, "TPDO3"}, {0x400, "RPDO3"}, {0x480, "TPDO4"}, {0x500, "RPDO4"}, {0x580, "SDO response"},
+        {0x600, "SDO request"}, {0x700, "heartbeat"}}};
+    for (const auto& [base, name] : kCobs) {
+      if (id == base + d.drive_id) {
+        why = std::string("the CANopen ") + name + " COB-ID of node " + std::to_string(d.drive_id);
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
+namespace {
+
+std::string hex_id(std::uint32_t id) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "0x%03X", id);
+  return buf;
+}
+
+bool positive_finite(double x) { return std::isfinite(x) && x > 0.0; }
+
+// Common checks of one sensor: its bus exists, ids 11-bit, unique and free on that bus.
+template <std::size_t N>
+std::string check_sensor(const CanConfig& c, const std::string& where, const std::string& bus_name,
+                         const std::array<std::uint32_t, N>& ids, std::uint32_t stale_ticks, double rate_hz,
+                         std::vector<std::pair<std::string, std::uint32_t>>& used) {
+  const BusConfig* bus = nullptr;
+  for (const BusConfig& b : c.buses) {
+    if (b.name == bus_name) bus = &b;
+  }
+  if (bus == nullptr) return where + ".bus: no bus named '" + bus_name + "'";
+  for (std::size_t i = 0; i < N; ++i) {
+    const std::string iw = where + ".ids[" + std::to_string(i) + "]";
+    if (ids[i] > kStandardIdMask) return iw + ": must be an 11-bit id";
+    std::string why;
+    if (sensor_id_collides(*bus, ids[i], why)) {
+      return iw + ": " + hex_id(ids[i]) + " collides with " + why + " on bus '" + bus_name + "'";
+    }
+    for (const auto& [other_bus, other_id] : used) {
+      if (other_bus == bus_name && other_id == ids[i]) {
+        return iw + ": " + hex_id(ids[i]) + " used twice on bus '" + bus_name + "'";
+      }
+    }
+    used.emplace_back(bus_name, ids[i]);
+  }
+  if (stale_ticks == 0) return where + ".stale_ticks: must be >= 1";
+  if (stale_ticks >= 128) return where + ".stale_ticks: must be below 128 (half the counter's range)";
+  if (!(positive_finite(rate_hz) && rate_hz <= 10000.0)) return where + ".rate_hz: must be in (0, 10000]";
+  return {};
+}
+
+std::string validate_sensors(const CanConfig& c) {
+  std::vector<std::pair<std::string, std::uint32_t>> used;
+  if (const ImuConfig& s = c.sensors.imu; s.enabled) {
+    const std::string w = "can.sensors.imu";
+    if (std::string e = check_sensor(c, w, s.bus, s.ids, s.stale_ticks, s.rate_hz, used); !e.empty()) return e;
+    if (!positive_finite(s.scales.orientation_per_count)) return w + ".orientation_per_count: must be finite and > 0";
+    if (!positive_finite(s.scales.rate_rad_s_per_count)) return w + ".rate_rad_s_per_count: must be finite and > 0";
+    if (!positive_finite(s.scales.accel_m_s2_per_count)) return w + ".accel_m_s2_per_count: must be finite and > 0";
+  }
+  if (const FtConfig& s = c.sensors.wrist_ft; s.enabled) {
+    const std::string w = "can.sensors.wrist_ft";
+    if (std::string e = check_sensor(c, w, s.bus, s.ids, s.stale_ticks, s.rate_hz, used); !e.empty()) return e;
+    if (!positive_finite(s.counts_per_n)) return w + ".counts_per_n: must be finite and > 0";
+    if (!positive_finite(s.counts_per_nm)) return w + ".counts_per_nm: must be finite and > 0";
+    for (double x : s.offset.xyz_m) {
+      if (!std::isfinite(x)) return w + ".offset.xyz_m: must be finite";
+    }
+    for (double x : s.offset.rpy_rad) {
+      if (!std::isfinite(x)) return w + ".offset.rpy_rad: must be finite";
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
 std::string validate(const CanConfig& c) {
   if (c.buses.empty()) return "can.buses: no bus configured";
   if (static_cast<int>(c.buses.size()) > kMaxBuses) return "can.buses: more than " + std::to_string(kMaxBuses) + " buses";
@@ -105,7 +206,9 @@ std::string validate(const CanConfig& c) {
     if (!interfaces.insert(b.interface).second) return where + ".interface: '" + b.interface + "' used twice";
     if (b.bitrate == 0) return where + ".bitrate: must be > 0";
     if (b.fd && b.data_bitrate < b.bitrate) return where + ".data_bitrate: an FD bus needs data_bitrate >= bitrate";
-    if (b.drives.empty()) return where + ".drives: no drive on bus '" + b.name + "'";
+    const bool carries_sensor = (c.sensors.imu.enabled && c.sensors.imu.bus == b.name) ||
+                                (c.sensors.wrist_ft.enabled && c.sensors.wrist_ft.bus == b.name);
+    if (b.drives.empty() && !carries_sensor) return where + ".drives: no drive or sensor on bus '" + b.name + "'";
     if (static_cast<int>(b.drives.size()) > kMaxDrivesPerBus) {
       return where + ".drives: more than " + std::to_string(kMaxDrivesPerBus) + " drives on bus '" + b.name + "'";
     }
@@ -155,7 +258,7 @@ std::string validate(const CanConfig& c) {
       return "can.buses: joint '" + std::string(robot::kJoints[static_cast<std::size_t>(j)].name) + "' has no drive";
     }
   }
-  return {};
+  return validate_sensors(c);
 }
 
 }  // namespace springbok::can

@@ -1,5 +1,7 @@
 #include "springbok/can/config_yaml.hpp"
 
+#include <array>
+
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -12,6 +14,7 @@
 
 #include <Eigen/Geometry>  // model.hpp uses Eigen::Quaterniond without including it
 
+#include "springbok/can/bus_load.hpp"
 #include "springbok/model/model.hpp"
 
 namespace springbok::can {
@@ -199,18 +202,107 @@ BusConfig parse_bus(const YAML::Node& n, const std::string& path) {
   read_uint(n, "bitrate", path, b.bitrate, 1000000);
   read_uint(n, "data_bitrate", path, b.data_bitrate, 20000000);
   const Protocol protocol = n["protocol"] ? parse_protocol(n["protocol"], path + ".protocol") : Protocol::mit;
+  // A bus that carries only sensors (CAN.md 6.3) has no drives; validate() checks that
+  // every bus carries something.
   const YAML::Node drives = n["drives"];
-  if (!drives || !drives.IsSequence()) fail(path + ".drives", "expected a list of drives");
+  if (!drives) return b;
+  if (!drives.IsSequence()) fail(path + ".drives", "expected a list of drives");
   for (std::size_t i = 0; i < drives.size(); ++i) {
     b.drives.push_back(parse_drive(drives[i], path + ".drives[" + std::to_string(i) + "]", protocol));
   }
   return b;
 }
 
+std::uint32_t parse_id(const YAML::Node& n, const std::string& path) {
+  return static_cast<std::uint32_t>(parse_integer(n, path, 0, kStandardIdMask));
+}
+
+template <std::size_t N>
+void parse_ids(const YAML::Node& map, const std::string& path, std::array<std::uint32_t, N>& ids) {
+  const YAML::Node n = map["ids"];
+  if (!n) return;
+  const std::string p = path + ".ids";
+  if (!n.IsSequence() || n.size() != N) fail(p, "expected a list of " + std::to_string(N) + " CAN ids");
+  for (std::size_t i = 0; i < N; ++i) ids[i] = parse_id(n[i], p + "[" + std::to_string(i) + "]");
+}
+
+void parse_positive(const YAML::Node& map, const char* key, const std::string& path, double& out) {
+  if (const YAML::Node n = map[key]) {
+    out = parse_double(n, path + "." + key);
+    if (!(out > 0.0)) fail(path + "." + key, "must be > 0");
+  }
+}
+
+void parse_triple(const YAML::Node& map, const char* key, const std::string& path, std::array<double, 3>& out) {
+  const YAML::Node n = map[key];
+  if (!n) return;
+  const std::string p = path + "." + key;
+  if (!n.IsSequence() || n.size() != 3) fail(p, "expected [x, y, z]");
+  for (std::size_t i = 0; i < 3; ++i) out[i] = parse_double(n[i], p + "[" + std::to_string(i) + "]");
+}
+
+std::string parse_sensor_bus(const YAML::Node& n, const std::string& path) {
+  if (!n["bus"]) fail(path + ".bus", "missing (the name of the bus the sensor is on)");
+  return scalar(n["bus"], path + ".bus");
+}
+
+ImuConfig parse_imu(const YAML::Node& n, const std::string& path) {
+  check_keys(n, path,
+             {"bus", "ids", "orientation_per_count", "rate_rad_s_per_count", "accel_m_s2_per_count", "stale_ticks",
+              "clip_streak", "rate_hz"});
+  ImuConfig s;
+  s.enabled = true;
+  s.bus = parse_sensor_bus(n, path);
+  parse_ids(n, path, s.ids);
+  parse_positive(n, "orientation_per_count", path, s.scales.orientation_per_count);
+  parse_positive(n, "rate_rad_s_per_count", path, s.scales.rate_rad_s_per_count);
+  parse_positive(n, "accel_m_s2_per_count", path, s.scales.accel_m_s2_per_count);
+  if (n["stale_ticks"]) s.stale_ticks = static_cast<std::uint32_t>(parse_integer(n["stale_ticks"], path + ".stale_ticks", 1, 127));
+  read_uint(n, "clip_streak", path, s.clip_streak, 1000000);
+  parse_positive(n, "rate_hz", path, s.rate_hz);
+  return s;
+}
+
+FtConfig parse_ft(const YAML::Node& n, const std::string& path) {
+  check_keys(n, path,
+             {"bus", "ids", "counts_per_n", "counts_per_nm", "stale_ticks", "clip_streak", "tare_samples", "offset",
+              "rate_hz"});
+  FtConfig s;
+  s.enabled = true;
+  s.bus = parse_sensor_bus(n, path);
+  parse_ids(n, path, s.ids);
+  parse_positive(n, "counts_per_n", path, s.counts_per_n);
+  parse_positive(n, "counts_per_nm", path, s.counts_per_nm);
+  if (n["stale_ticks"]) s.stale_ticks = static_cast<std::uint32_t>(parse_integer(n["stale_ticks"], path + ".stale_ticks", 1, 127));
+  read_uint(n, "clip_streak", path, s.clip_streak, 1000000);
+  if (n["tare_samples"]) {
+    s.tare_samples = static_cast<std::uint32_t>(parse_integer(n["tare_samples"], path + ".tare_samples", 1, 1000000));
+  }
+  if (const YAML::Node o = n["offset"]) {
+    const std::string op = path + ".offset";
+    check_keys(o, op, {"xyz_m", "rpy_rad"});
+    s.has_offset = true;
+    parse_triple(o, "xyz_m", op, s.offset.xyz_m);
+    parse_triple(o, "rpy_rad", op, s.offset.rpy_rad);
+  }
+  parse_positive(n, "rate_hz", path, s.rate_hz);
+  return s;
+}
+
+SensorsConfig parse_sensors(const YAML::Node& n, const std::string& path) {
+  check_keys(n, path, {"imu", "wrist_ft"});
+  SensorsConfig s;
+  if (const YAML::Node imu = n["imu"]) s.imu = parse_imu(imu, path + ".imu");
+  if (const YAML::Node ft = n["wrist_ft"]) s.wrist_ft = parse_ft(ft, path + ".wrist_ft");
+  return s;
+}
+
 CanConfig parse_can(const YAML::Node& n) {
   const std::string path = "can";
   if (!n) fail(path, "missing section");
-  check_keys(n, path, {"layout", "protocol", "interface_prefix", "max_bus_load", "mit_ranges", "timing", "buses"});
+  check_keys(n, path,
+             {"layout", "protocol", "interface_prefix", "max_bus_load", "mit_ranges", "timing", "buses", "extra_buses",
+              "sensors"});
   const std::string prefix = n["interface_prefix"] ? scalar(n["interface_prefix"], path + ".interface_prefix") : "can";
   const Protocol protocol = n["protocol"] ? parse_protocol(n["protocol"], path + ".protocol") : Protocol::mit;
   CanConfig c;
@@ -238,8 +330,16 @@ CanConfig parse_can(const YAML::Node& n) {
       }
     }
   }
+  // Buses added to the layout's (or the listed) ones, e.g. the sensors' own bus (CAN.md 6.3).
+  if (const YAML::Node extra = n["extra_buses"]) {
+    if (!extra.IsSequence()) fail(path + ".extra_buses", "expected a list of buses");
+    for (std::size_t i = 0; i < extra.size(); ++i) {
+      c.buses.push_back(parse_bus(extra[i], path + ".extra_buses[" + std::to_string(i) + "]"));
+    }
+  }
   read_double(n, "max_bus_load", path, c.max_bus_load);
   if (const YAML::Node t = n["timing"]) parse_timing(t, path + ".timing", c.timing);
+  if (const YAML::Node s = n["sensors"]) c.sensors = parse_sensors(s, path + ".sensors");
   return c;
 }
 
@@ -257,6 +357,10 @@ ConfigResult load_can_config(const YAML::Node& can) {
     return r;
   }
   r.error = validate(r.config);
+  // Every bus's worst-case load, its sensors included (CAN.md 3, 6.3).
+  if (r.error.empty()) {
+    if (const std::string load = check_bus_loads(r.config); !load.empty()) r.error = "can.buses: " + load;
+  }
   r.ok = r.error.empty();
   return r;
 }

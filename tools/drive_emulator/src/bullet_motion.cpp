@@ -2,16 +2,41 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include "../../../firmware/app/sim/stepped_bullet_robot.hpp"
 
 namespace springbok::emu {
 
+namespace {
+
+sim::SimConfig sim_config(const BulletOptions& o) {
+  sim::SimConfig c = app::crouched_sim_config(1000);
+  c.imu.gyro_noise_rad_s = o.imu_gyro_noise_rad_s;
+  c.imu.accel_noise_m_s2 = o.imu_accel_noise_m_s2;
+  c.imu.gyro_bias_rad_s = o.imu_gyro_bias_rad_s;
+  c.imu.accel_bias_m_s2 = o.imu_accel_bias_m_s2;
+  c.imu.seed = o.imu_seed;
+  return c;
+}
+
+BulletOptions settle_only(double settle_s) {
+  BulletOptions o;
+  o.settle_s = settle_s;
+  return o;
+}
+
+}  // namespace
+
 BulletMotion::BulletMotion(std::FILE* trace, int trace_every, double settle_s)
-    : robot_(std::make_unique<app::SteppedBulletRobot>(app::crouched_sim_config(1000))),
+    : BulletMotion(trace, trace_every, settle_only(settle_s)) {}
+
+BulletMotion::BulletMotion(std::FILE* trace, int trace_every, const BulletOptions& options)
+    : robot_(std::make_unique<app::SteppedBulletRobot>(sim_config(options))),
       trace_(nullptr),
       trace_every_(std::max(1, trace_every)) {
+  const double settle_s = options.settle_s;
   constexpr double kDt_s = 0.001;
   for (int j = 0; j < kNj; ++j) {
     const auto& in = robot::kJoints[static_cast<std::size_t>(j)].inertia;
@@ -22,6 +47,24 @@ BulletMotion::BulletMotion(std::FILE* trace, int trace_every, double settle_s)
   }
   const hal::LifecycleResult c = robot_->configure();
   if (!c.ok) throw std::runtime_error("bullet world: " + c.message);
+  if (options.hand_force) {
+    const HandForce& h = options.hand;
+    if (!(std::isfinite(h.force_n) && std::isfinite(h.start_s) && h.start_s >= 0.0 && h.axis_world.allFinite() &&
+          h.axis_world.norm() > 0.0)) {
+      throw std::runtime_error("hand force: need a finite force, a start >= 0 and a non-zero axis");
+    }
+    const std::optional<sim::FrameRef> ee = sim::find_frame(robot::kFrames[kEeFrame].name);
+    if (!ee) throw std::runtime_error("hand force: no end-effector frame in the model");
+    sim::ExternalWrench w;
+    w.frame = *ee;
+    w.kind = sim::WrenchKind::force;
+    w.axis_world = h.axis_world.normalized();
+    w.profile.shape = sim::ProfileShape::step;
+    w.profile.amplitude = h.force_n;
+    // Simulated time, which also runs while the robot settles before the drives boot.
+    w.profile.start_s = settle_s + h.start_s;
+    if (!robot_->robot().add_external_wrench(w)) throw std::runtime_error("hand force: the wrench table is full");
+  }
   const hal::LifecycleResult a = robot_->activate();
   if (!a.ok) throw std::runtime_error("bullet world: " + a.message);
   for (int k = 0; k < static_cast<int>(settle_s * 1000.0 + 0.5); ++k) step();  // every drive disabled
@@ -32,6 +75,7 @@ BulletMotion::BulletMotion(std::FILE* trace, int trace_every, double settle_s)
   truth_.trunk_z_m = robot_->robot().ground_truth().q[2];
   time_origin_s_ = robot_->robot().ground_truth().time_s;
   trace_ = trace;
+  settled_ = true;
 }
 
 BulletMotion::~BulletMotion() = default;
@@ -102,6 +146,11 @@ void BulletMotion::step() {
   const double cos_tilt = std::clamp(q_wb.normalized().toRotationMatrix()(2, 2), -1.0, 1.0);
   truth_.trunk_tilt_rad = std::acos(cos_tilt);
   truth_.non_foot_ground_contact = gt.non_foot_ground_contact;
+  truth_.trunk_orientation = q_wb.normalized();
+  if (const std::optional<sim::FrameRef> ee = sim::find_frame(robot::kFrames[kEeFrame].name)) {
+    truth_.ee_orientation = Eigen::Quaterniond(robot_->robot().frame_placement(*ee).linear()).normalized();
+  }
+  if (on_step_ && settled_) on_step_(m.imu, m.wrist);
   if (trace_ != nullptr && truth_.steps % static_cast<std::uint64_t>(trace_every_) == 0) {
     std::fprintf(trace_, "%.4f %.5f %.5f %d\n", truth_.time_s, truth_.trunk_z_m, truth_.trunk_tilt_rad,
                  truth_.non_foot_ground_contact ? 1 : 0);

@@ -50,6 +50,21 @@ const char* to_string(FaultKind k) noexcept {
     case FaultKind::error_passive: return "error_passive";
     case FaultKind::wrong_dlc: return "wrong_dlc";
     case FaultKind::unexpected_id: return "unexpected_id";
+    case FaultKind::stale_counter: return "stale_counter";
+    case FaultKind::status_invalid: return "status_invalid";
+    case FaultKind::corrupt_quaternion: return "corrupt_quaternion";
+    case FaultKind::saturate: return "saturate";
+    case FaultKind::split: return "split";
+    case FaultKind::not_ready: return "not_ready";
+  }
+  return "?";
+}
+
+const char* to_string(SensorId s) noexcept {
+  switch (s) {
+    case SensorId::none: return "none";
+    case SensorId::imu: return "imu";
+    case SensorId::wrist_ft: return "wrist_ft";
   }
   return "?";
 }

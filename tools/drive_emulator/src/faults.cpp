@@ -47,7 +47,7 @@ FaultResult load_faults_text(const std::string& text) {
     }
     for (const auto& kv : n) {
       const std::string key = kv.first.Scalar();
-      if (key != "kind" && key != "drive" && key != "at" && key != "count" && key != "param") {
+      if (key != "kind" && key != "drive" && key != "sensor" && key != "at" && key != "count" && key != "param") {
         r.error = where + "." + key + ": unknown key";
         return r;
       }
@@ -55,7 +55,7 @@ FaultResult load_faults_text(const std::string& text) {
     Fault f;
     const std::string kind = n["kind"] && n["kind"].IsScalar() ? n["kind"].Scalar() : "";
     bool known = false;
-    for (int k = 0; k <= static_cast<int>(FaultKind::no_heartbeat); ++k) {
+    for (int k = 0; k <= static_cast<int>(FaultKind::not_ready); ++k) {
       if (kind == to_string(static_cast<FaultKind>(k))) {
         f.kind = static_cast<FaultKind>(k);
         known = true;
@@ -66,11 +66,39 @@ FaultResult load_faults_text(const std::string& text) {
       return r;
     }
     std::uint64_t v = 0;
-    if (!n["drive"] || !parse_uint(n["drive"], v) || v < 1 || v > 127) {
-      r.error = where + ".drive: expected a drive id 1..127";
-      return r;
+    const bool sensor_kind = f.kind >= FaultKind::stale_counter;
+    if (n["sensor"]) {
+      const std::string s = n["sensor"].IsScalar() ? n["sensor"].Scalar() : "";
+      if (s == "imu") f.sensor = SensorId::imu;
+      else if (s == "wrist_ft") f.sensor = SensorId::wrist_ft;
+      else {
+        r.error = where + ".sensor: expected imu or wrist_ft";
+        return r;
+      }
+      if (n["drive"]) {
+        r.error = where + ": give either `drive` or `sensor`";
+        return r;
+      }
+      const bool shared = f.kind == FaultKind::silent || f.kind == FaultKind::drop || f.kind == FaultKind::wrong_dlc;
+      if (!sensor_kind && !shared) {
+        r.error = where + ".kind: '" + kind + "' is not a sensor fault";
+        return r;
+      }
+      if (f.kind == FaultKind::corrupt_quaternion && f.sensor != SensorId::imu) {
+        r.error = where + ".kind: corrupt_quaternion is an IMU fault";
+        return r;
+      }
+    } else {
+      if (sensor_kind) {
+        r.error = where + ".sensor: '" + kind + "' needs `sensor: imu` or `sensor: wrist_ft`";
+        return r;
+      }
+      if (!n["drive"] || !parse_uint(n["drive"], v) || v < 1 || v > 127) {
+        r.error = where + ".drive: expected a drive id 1..127";
+        return r;
+      }
+      f.drive_id = static_cast<int>(v);
     }
-    f.drive_id = static_cast<int>(v);
     if (!n["at"] || !parse_uint(n["at"], f.at_tick) || f.at_tick < 1) {
       r.error = where + ".at: expected a tick >= 1";
       return r;

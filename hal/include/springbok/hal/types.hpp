@@ -29,12 +29,19 @@ struct DriveStatus {
   std::uint64_t missed_total = 0;
 };
 
+// The status fields below (lost .. age_ticks) are filled by backends that receive the
+// sensor over a bus (the SocketCAN backend, CAN.md 6); their defaults describe a healthy
+// sensor, as the simulation reports it.
 struct Imu {
   bool valid = false;
   std::int64_t stamp_ns = 0;
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  // IMU frame in world
   Eigen::Vector3d angular_rate_rad_s = Eigen::Vector3d::Zero();     // IMU frame
   Eigen::Vector3d linear_accel_m_s2 = Eigen::Vector3d::Zero();      // specific force, IMU frame
+  bool lost = false;          // configured, but no sample within its stale limit (or none yet); valid is false
+  bool converged = true;      // false: the sensor says its orientation has not converged (the estimator must not start)
+  bool clipping = false;      // a field of the newest sample saturated
+  std::uint32_t age_ticks = 0;  // ticks since the newest accepted sample
 };
 
 // The wrist 6-axis force/torque sensor (springbok::kWristFtFrame). The wrench
@@ -44,6 +51,10 @@ struct Wrench {
   std::int64_t stamp_ns = 0;
   Eigen::Vector3d force_n = Eigen::Vector3d::Zero();
   Eigen::Vector3d torque_nm = Eigen::Vector3d::Zero();
+  bool lost = false;          // configured, but no sample within its stale limit (or none yet); valid is false
+  bool bias_taken = true;     // false: the sensor says its own bias was not taken
+  bool clipping = false;      // a gauge of the newest sample saturated
+  std::uint32_t age_ticks = 0;  // ticks since the newest accepted sample
 };
 
 struct Measurements {

@@ -19,9 +19,15 @@ struct BusLoad {
   double bus_time_us = 0.0;  // worst case per tick
   double load = 0.0;         // bus_time / tick
 };
+// The drives' frames only (commands, replies, SYNC).
 BusLoad worst_case_load(const BusConfig& bus, double tick_us) noexcept;
+// The drives' frames plus the frames of the sensors of `sensors` on this bus (CAN.md 6.3:
+// classic 8-byte frames at the nominal rate, 3 per IMU sample and 2 per F/T sample, at the
+// sensor's rate_hz; frames_per_tick rounds the sensors' share up).
+BusLoad worst_case_load(const BusConfig& bus, double tick_us, const SensorsConfig& sensors) noexcept;
 
-// Empty when every bus is at or below c.max_bus_load; else names the first bus above it.
+// Empty when every bus, its sensors included, is at or below c.max_bus_load; else names
+// the first bus above it.
 std::string check_bus_loads(const CanConfig& c);
 
 }  // namespace springbok::can

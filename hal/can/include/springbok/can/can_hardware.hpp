@@ -17,6 +17,16 @@
 // row fault the bus: its drives are lost, read() returns IoStatus::error, and
 // nothing resumes by itself: recovery is an operator action (restart the
 // controller, then recover_bus(), which re-runs that bus's start-up).
+//
+// Sensors (CAN.md 6): the trunk IMU and the wrist F/T push their frames on their own
+// clock. read() feeds every sensor frame it drains to the sensor's assembler and fills
+// m.imu / m.wrist from the newest complete sample; it never waits for a sensor. Each bus
+// is drained at most kMaxRxFramesPerBusPerTick frames per read(), so a flood on one bus
+// cannot starve the drive replies on the others. A sensor whose newest complete sample
+// is older than its stale_ticks is lost (m.imu.lost / m.wrist.lost, valid = false); the
+// backend only reports it: latching a fault is the firmware's safety layer's decision.
+// A fault of a bus without drives (a sensors-only bus) does not make read() return error:
+// its sensors go lost instead.
 #pragma once
 
 #include <array>
@@ -25,6 +35,7 @@
 #include <string_view>
 
 #include "springbok/can/config.hpp"
+#include "springbok/can/sensors.hpp"
 #include "springbok/can/socketcan.hpp"
 #include "springbok/hal/hardware.hpp"
 
@@ -47,6 +58,8 @@ struct BusDiagnostics {
   std::uint64_t unexpected_frames = 0;   // an id / drive id that is no drive of this bus
   std::uint64_t foreign_frames = 0;      // a valid frame of a drive on another bus: configuration fault
   std::uint64_t duplicates = 0;          // more than one reply per command
+  std::uint64_t sensor_frames = 0;       // frames of a sensor configured on this bus (see the sensor's diagnostics)
+  std::uint64_t rx_budget_exhausted = 0; // ticks on which the per-tick receive budget ran out (frames left queued)
   bool error_passive = false;            // degraded (warning for safety)
   BusFault fault = BusFault::none;       // latched until recover_bus()
 };
@@ -72,6 +85,9 @@ struct JointRuntime {
   Frame pending;                  // the command frame for the next send
   bool has_pending = false;
 };
+
+// Frames read from one bus per read() at most (a flood cannot starve the other buses).
+inline constexpr int kMaxRxFramesPerBusPerTick = 256;
 
 class CanHardware final : public hal::Hardware {
  public:
@@ -105,6 +121,23 @@ class CanHardware final : public hal::Hardware {
   // Commands that were not finite (replaced by zero torque).
   std::uint64_t rejected_commands() const noexcept { return rejected_commands_; }
 
+  // ---- sensors (CAN.md 6), as of the last read() ----
+  bool has_imu() const noexcept { return config_.sensors.imu.enabled; }
+  bool has_wrist_ft() const noexcept { return config_.sensors.wrist_ft.enabled; }
+  const SensorDiagnostics& imu_diagnostics() const noexcept { return imu_.diagnostics(); }
+  const SensorDiagnostics& wrist_diagnostics() const noexcept { return ft_.diagnostics(); }
+  // Configured and no accepted sample within stale_ticks (or none yet).
+  bool imu_lost() const noexcept { return has_imu() && imu_.diagnostics().lost; }
+  bool wrist_lost() const noexcept { return has_wrist_ft() && ft_.diagnostics().lost; }
+  // Status bit 1 of the newest accepted sample: IMU orientation not converged / F/T bias not taken.
+  bool imu_not_converged() const noexcept { return has_imu() && imu_.diagnostics().not_ready; }
+  bool wrist_bias_not_taken() const noexcept { return has_wrist_ft() && ft_.diagnostics().not_ready; }
+  // A clipping streak (clip_streak samples in a row) on the newest samples.
+  bool imu_clipping_streak() const noexcept { return has_imu() && imu_.diagnostics().clip_streak_fault; }
+  bool wrist_clipping_streak() const noexcept { return has_wrist_ft() && ft_.diagnostics().clip_streak_fault; }
+  // The firmware's tare length for the F/T (carried from the config, CAN.md 6.2).
+  std::uint32_t wrist_tare_samples() const noexcept { return config_.sensors.wrist_ft.tare_samples; }
+
  private:
   struct Bus {
     SocketCanBus socket;
@@ -114,6 +147,8 @@ class CanHardware final : public hal::Hardware {
     bool any_cia = false;
     int enobufs_ticks_in_row = 0;
     bool enobufs_this_tick = false;
+    int rx_budget = kMaxRxFramesPerBusPerTick;  // frames this read() may still take from this bus
+    bool has_imu = false, has_ft = false;       // sensors on this bus
     BusDiagnostics diag;
   };
   struct SdoOutcome {
@@ -136,6 +171,8 @@ class CanHardware final : public hal::Hardware {
   bool pump_until(std::int64_t deadline_ns, Done&& done);
 
   void process_frame(int b, const Frame& f) noexcept;
+  bool process_sensor_frame(int b, const Frame& f) noexcept;
+  void fill_sensors(hal::Measurements& out) noexcept;
   void process_mit_reply(int b, const Frame& f) noexcept;
   void process_cia402_frame(int b, const Frame& f) noexcept;
   void process_error_frame(int b, const Frame& f) noexcept;
@@ -145,7 +182,8 @@ class CanHardware final : public hal::Hardware {
   void latch_fault(int j, std::uint16_t code) noexcept;
   void fault_bus(int b, BusFault why) noexcept;
   bool replies_complete() const noexcept;
-  void drain(int b) noexcept;
+  // Reads this bus until EAGAIN or `max_frames` frames; returns false when it stopped at the limit.
+  bool drain(int b, int max_frames) noexcept;
   void evaluate_joints() noexcept;
   void send_pending() noexcept;
   void queue_command(int j, const hal::JointCommands& cmd) noexcept;
@@ -164,6 +202,10 @@ class CanHardware final : public hal::Hardware {
   std::int64_t last_send_ns_ = 0;
   std::array<JointRuntime, kNj> joints_{};
   std::array<Bus, kMaxBuses> buses_{};
+  ImuAssembler imu_;
+  FtAssembler ft_;
+  std::int64_t imu_stamp_ns_ = 0;   // monotonic time the newest IMU sample completed
+  std::int64_t ft_stamp_ns_ = 0;
 };
 
 }  // namespace springbok::can

@@ -8,6 +8,7 @@
 
 #include "springbok/can/cia402.hpp"
 #include "springbok/can/mit.hpp"
+#include "springbok/can/sensors.hpp"
 
 namespace springbok::can {
 
@@ -40,7 +41,7 @@ struct BusConfig {
   bool fd = false;                  // CAN FD with bit-rate switch
   std::uint32_t bitrate = 1000000;  // nominal bit rate, bit/s
   std::uint32_t data_bitrate = 0;   // FD data phase bit rate, bit/s
-  std::vector<DriveConfig> drives;
+  std::vector<DriveConfig> drives;  // may be empty on a bus that carries a sensor (CAN.md 6.3)
 };
 
 struct Timing {
@@ -66,6 +67,7 @@ struct CanConfig {
   std::vector<BusConfig> buses;
   Timing timing;
   double max_bus_load = 0.8;  // worst-case (CAN.md section 3) load a bus may have
+  SensorsConfig sensors;      // trunk IMU and wrist F/T (CAN.md section 6); each optional
 };
 
 // The built-in parameters of joint `joint` (0..18): id = joint + 1, MIT reply
@@ -80,6 +82,13 @@ CanConfig classic7_layout(Protocol p, const std::string& interface_prefix = "can
 CanConfig fd5_layout(const std::string& interface_prefix = "can");
 
 // Empty when the config is consistent; otherwise the first problem, naming the field.
+// Sensors: each on a configured bus, ids 11-bit and distinct, none colliding with an id of
+// a drive on the same bus (MIT command id and reply id; CiA 402: NMT, SYNC and the node's
+// EMCY, PDO, SDO and heartbeat COB-IDs), scales finite and positive.
 std::string validate(const CanConfig& c);
+
+// The CAN ids a sensor may not use on a bus carrying `bus`'s drives: true and `why` set
+// when `id` collides.
+bool sensor_id_collides(const BusConfig& bus, std::uint32_t id, std::string& why);
 
 }  // namespace springbok::can

@@ -11,9 +11,11 @@
 #include <array>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <memory>
 
 #include "springbok/drive_emulator/drives.hpp"
+#include "springbok/hal/types.hpp"
 #include "springbok/model/model.hpp"
 
 namespace springbok::app {
@@ -30,6 +32,29 @@ struct TruthSummary {
   double trunk_tilt_rad = 0.0;            // now: angle between the trunk z axis and the world z axis
   bool non_foot_ground_contact = false;   // now
   std::uint64_t forced_steps = 0;         // steps without every enabled drive's command (a frame was lost)
+  Eigen::Quaterniond trunk_orientation = Eigen::Quaterniond::Identity();  // now: trunk to world
+  Eigen::Quaterniond ee_orientation = Eigen::Quaterniond::Identity();     // now: end-effector frame to world
+};
+
+// A force scripted on the hand (CAN.md 6.5): a step of `force_n` along `axis_world` from
+// `start_s` on (time 0 = the end of the settling), applied at the end-effector frame's
+// origin in the Bullet world through sim_hal's external wrench API.
+struct HandForce {
+  double force_n = 0.0;
+  Eigen::Vector3d axis_world = Eigen::Vector3d::UnitX();
+  double start_s = 0.0;
+};
+
+struct BulletOptions {
+  double settle_s = 0.0;
+  // sim_hal's IMU model (sim::ImuNoise): white noise per sample and a constant bias drawn once.
+  double imu_gyro_noise_rad_s = 0.0;
+  double imu_accel_noise_m_s2 = 0.0;
+  double imu_gyro_bias_rad_s = 0.0;
+  double imu_accel_bias_m_s2 = 0.0;
+  std::uint64_t imu_seed = 1;
+  bool hand_force = false;
+  HandForce hand;
 };
 
 class BulletMotion final : public Motion {
@@ -39,6 +64,7 @@ class BulletMotion final : public Motion {
   // rest before the host sees it). `trace` (may be null) gets one line "t_s trunk_z_m
   // tilt_rad non_foot_contact" every `trace_every` steps; time 0 is the end of the settling.
   BulletMotion(std::FILE* trace, int trace_every, double settle_s = 0.0);
+  BulletMotion(std::FILE* trace, int trace_every, const BulletOptions& options);
   ~BulletMotion() override;
   BulletMotion(const BulletMotion&) = delete;
   BulletMotion& operator=(const BulletMotion&) = delete;
@@ -50,6 +76,11 @@ class BulletMotion final : public Motion {
   void force_step() override;
 
   const TruthSummary& truth() const noexcept { return truth_; }
+  // Called after every world step (not while settling) with the simulated sensors: the
+  // IMU (sim_hal's model through the trunk_imu mounting) and the wrist wrench (EE frame).
+  void set_step_callback(std::function<void(const hal::Imu&, const hal::Wrench&)> on_step) {
+    on_step_ = std::move(on_step);
+  }
 
  private:
   void step();
@@ -64,6 +95,8 @@ class BulletMotion final : public Motion {
   std::FILE* trace_;
   int trace_every_;
   double time_origin_s_ = 0.0;
+  bool settled_ = false;  // the constructor's settling steps are over
+  std::function<void(const hal::Imu&, const hal::Wrench&)> on_step_;
 };
 
 }  // namespace springbok::emu

@@ -69,11 +69,24 @@ enum class FaultKind : std::uint8_t {
   wrong_dlc,      // the reply one byte short, for `count` ticks
   unexpected_id,  // MIT: byte 0 = `param`; CiA 402: TPDO1 with node id `param`; for `count` ticks
   no_heartbeat,   // CiA 402: heartbeats stop for good (the PDOs still flow)
+  // Sensors (CAN.md 6.5; `sensor:` instead of `drive:`, ticks are the sensor's samples).
+  // Also valid for a sensor: silent (never publishes again), drop (no frames for `count`
+  // samples, the counter advances), wrong_dlc (every frame one byte short).
+  stale_counter,       // the counter stays at the last value for `count` samples
+  status_invalid,      // status bit 0 (valid) clear for `count` samples
+  corrupt_quaternion,  // IMU only: q_x = q_y = q_z = 0x7FFF (|q_xyz|^2 ~ 3) for `count` samples
+  saturate,            // the first field of every frame at +32767 with the clipping bit, for `count` samples
+  split,               // the last frame of each of `count` samples sent with the next sample (next tick)
+  not_ready,           // status bit 1 (IMU not converged / F/T bias not taken) for `count` samples
 };
 const char* to_string(FaultKind k) noexcept;
 
+enum class SensorId : std::uint8_t { none = 0, imu = 1, wrist_ft = 2 };
+const char* to_string(SensorId s) noexcept;
+
 struct Fault {
   FaultKind kind = FaultKind::drop;
+  SensorId sensor = SensorId::none;  // a sensor fault (drive_id is 0), or none: a drive fault
   int drive_id = 0;
   std::uint64_t at_tick = 1;  // the drive's cyclic tick (commands in motor mode / SYNCs while Operational)
   std::uint64_t count = 1;
@@ -85,7 +98,7 @@ struct FaultResult {
   std::vector<Fault> faults;
   std::string error;
 };
-// A YAML list under `faults:` of {kind, drive, at, count, param}; errors name the entry.
+// A YAML list under `faults:` of {kind, drive | sensor, at, count, param}; errors name the entry.
 FaultResult load_faults_file(const std::string& path);
 FaultResult load_faults_text(const std::string& text);
 

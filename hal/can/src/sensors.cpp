@@ -1,0 +1,244 @@
+#include "springbok/can/sensors.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace springbok::can {
+
+namespace {
+
+std::int16_t get_i16(const Frame& f, int at) noexcept {
+  const auto u = static_cast<std::uint16_t>(f.data[static_cast<std::size_t>(at)] |
+                                            (f.data[static_cast<std::size_t>(at + 1)] << 8));
+  return static_cast<std::int16_t>(u);
+}
+
+void put_i16(Frame& f, int at, std::int16_t v) noexcept {
+  const auto u = static_cast<std::uint16_t>(v);
+  f.data[static_cast<std::size_t>(at)] = static_cast<std::uint8_t>(u & 0xFF);
+  f.data[static_cast<std::size_t>(at + 1)] = static_cast<std::uint8_t>(u >> 8);
+}
+
+// Round to nearest and saturate; true when saturated (or not finite).
+bool to_count(double x, std::int16_t& out) noexcept {
+  if (!std::isfinite(x)) {
+    out = 0;
+    return true;
+  }
+  const double r = std::round(x);
+  if (r > 32767.0) {
+    out = 32767;
+    return true;
+  }
+  if (r < -32768.0) {
+    out = -32768;
+    return true;
+  }
+  out = static_cast<std::int16_t>(r);
+  return false;
+}
+
+}  // namespace
+
+const char* to_string(SensorEvent e) noexcept {
+  switch (e) {
+    case SensorEvent::stored: return "stored";
+    case SensorEvent::accepted: return "accepted";
+    case SensorEvent::wrong_dlc: return "wrong DLC";
+    case SensorEvent::reserved_bits: return "reserved status bits set";
+    case SensorEvent::status_invalid: return "status not valid";
+    case SensorEvent::bad_quaternion: return "quaternion norm above 1 + 2^-10";
+    case SensorEvent::counter_jump: return "counter jump";
+    case SensorEvent::stale_counter: return "stale counter";
+    case SensorEvent::late_frame: return "late frame";
+  }
+  return "?";
+}
+
+FrameStatus decode_sensor_frame(const Frame& f, SensorFrameFields& out) noexcept {
+  if (f.error) return FrameStatus::error_frame;
+  if (f.fd || f.len != kSensorFrameLen) return FrameStatus::wrong_dlc;
+  for (int i = 0; i < 3; ++i) out.v[static_cast<std::size_t>(i)] = get_i16(f, 2 * i);
+  out.counter = f.data[6];
+  out.status = f.data[7];
+  return FrameStatus::ok;
+}
+
+void encode_sensor_frame(std::uint32_t id, const SensorFrameFields& in, Frame& out) noexcept {
+  out = Frame{};
+  out.id = id & kStandardIdMask;
+  out.len = kSensorFrameLen;
+  for (int i = 0; i < 3; ++i) put_i16(out, 2 * i, in.v[static_cast<std::size_t>(i)]);
+  out.data[6] = in.counter;
+  out.data[7] = in.status;
+}
+
+Eigen::Vector3d decode_scaled(const std::array<std::int16_t, 3>& v, double unit_per_count) noexcept {
+  return Eigen::Vector3d(v[0] * unit_per_count, v[1] * unit_per_count, v[2] * unit_per_count);
+}
+
+bool encode_scaled(const Eigen::Vector3d& x, double unit_per_count, std::array<std::int16_t, 3>& out) noexcept {
+  bool clipped = false;
+  for (int i = 0; i < 3; ++i) clipped = to_count(x[i] / unit_per_count, out[static_cast<std::size_t>(i)]) || clipped;
+  return clipped;
+}
+
+Eigen::Vector3d decode_counts(const std::array<std::int16_t, 3>& v, double counts_per_unit) noexcept {
+  return Eigen::Vector3d(v[0] / counts_per_unit, v[1] / counts_per_unit, v[2] / counts_per_unit);
+}
+
+bool encode_counts(const Eigen::Vector3d& x, double counts_per_unit, std::array<std::int16_t, 3>& out) noexcept {
+  bool clipped = false;
+  for (int i = 0; i < 3; ++i) clipped = to_count(x[i] * counts_per_unit, out[static_cast<std::size_t>(i)]) || clipped;
+  return clipped;
+}
+
+bool decode_quaternion(const std::array<std::int16_t, 3>& xyz, double per_count, Eigen::Quaterniond& q) noexcept {
+  const Eigen::Vector3d v = decode_scaled(xyz, per_count);
+  const double squares = v.squaredNorm();
+  if (!(squares <= kMaxQuaternionSquares)) return false;
+  q = Eigen::Quaterniond(std::sqrt(std::max(0.0, 1.0 - squares)), v.x(), v.y(), v.z());
+  return true;
+}
+
+bool encode_quaternion(const Eigen::Quaterniond& q, double per_count, std::array<std::int16_t, 3>& out) noexcept {
+  const double n = q.norm();
+  if (!(std::isfinite(n) && n > 0.0)) {
+    out = {};
+    return true;
+  }
+  const double sign = q.w() < 0.0 ? -1.0 : 1.0;
+  return encode_scaled(Eigen::Vector3d(q.x(), q.y(), q.z()) * (sign / n), per_count, out);
+}
+
+WrenchTransform wrench_transform(const SensorOffset& o) noexcept {
+  WrenchTransform t;
+  t.rotation = (Eigen::AngleAxisd(o.rpy_rad[2], Eigen::Vector3d::UnitZ()) *
+                Eigen::AngleAxisd(o.rpy_rad[1], Eigen::Vector3d::UnitY()) *
+                Eigen::AngleAxisd(o.rpy_rad[0], Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  t.translation_m = Eigen::Vector3d(o.xyz_m[0], o.xyz_m[1], o.xyz_m[2]);
+  return t;
+}
+
+void wrench_sensor_to_ee(const WrenchTransform& t, const Eigen::Vector3d& force_s_n, const Eigen::Vector3d& torque_s_nm,
+                         Eigen::Vector3d& force_ee_n, Eigen::Vector3d& torque_ee_nm) noexcept {
+  force_ee_n.noalias() = t.rotation * force_s_n;
+  torque_ee_nm.noalias() = t.rotation * torque_s_nm;
+  torque_ee_nm += t.translation_m.cross(force_ee_n);
+}
+
+void wrench_ee_to_sensor(const WrenchTransform& t, const Eigen::Vector3d& force_ee_n, const Eigen::Vector3d& torque_ee_nm,
+                         Eigen::Vector3d& force_s_n, Eigen::Vector3d& torque_s_nm) noexcept {
+  const Eigen::Vector3d about_sensor = torque_ee_nm - t.translation_m.cross(force_ee_n);
+  force_s_n.noalias() = t.rotation.transpose() * force_ee_n;
+  torque_s_nm.noalias() = t.rotation.transpose() * about_sensor;
+}
+
+// ---- IMU -----------------------------------------------------------------------------------
+// Start-up. Every field but the bus name (a string: the backend knows the bus by index).
+namespace {
+// Which frame of a sensor an id is (its index in the configured ids), or -1.
+template <std::size_t N>
+int index_of(const std::array<std::uint32_t, N>& ids, std::uint32_t id) noexcept {
+  for (std::size_t i = 0; i < N; ++i) {
+    if (ids[i] == id) return static_cast<int>(i);
+  }
+  return -1;
+}
+}  // namespace
+
+// Start-up (the bus name is copied too).
+void ImuAssembler::configure(const ImuConfig& cfg, std::uint64_t tick) {
+  cfg_ = cfg;
+  asm_.configure(cfg.stale_ticks, cfg.clip_streak, tick);
+}
+
+int ImuAssembler::frame_index(std::uint32_t id) const noexcept { return index_of(cfg_.ids, id); }
+
+SensorEvent ImuAssembler::push(const Frame& f, std::uint64_t tick) noexcept {
+  const int index = frame_index(f.id);
+  bool corrupt = false;
+  if (index == imu_frame::orientation) {
+    SensorFrameFields ff;
+    Eigen::Quaterniond q;
+    corrupt = decode_sensor_frame(f, ff) == FrameStatus::ok &&
+              !decode_quaternion(ff.v, cfg_.scales.orientation_per_count, q);
+  }
+  return asm_.push(index, f, corrupt, tick);
+}
+
+ImuReading ImuAssembler::reading() const noexcept {
+  const auto& s = asm_.newest();
+  ImuReading r;
+  if (!decode_quaternion(s.fields[imu_frame::orientation], cfg_.scales.orientation_per_count, r.orientation)) {
+    r.orientation = Eigen::Quaterniond::Identity();  // never accepted: checked at push
+  }
+  r.angular_rate_rad_s = decode_scaled(s.fields[imu_frame::rate], cfg_.scales.rate_rad_s_per_count);
+  r.linear_accel_m_s2 = decode_scaled(s.fields[imu_frame::accel], cfg_.scales.accel_m_s2_per_count);
+  return r;
+}
+
+// ---- F/T -----------------------------------------------------------------------------------
+// Start-up.
+void FtAssembler::configure(const FtConfig& cfg, std::uint64_t tick) {
+  cfg_ = cfg;
+  to_ee_ = cfg.has_offset ? wrench_transform(cfg.offset) : WrenchTransform{};
+  asm_.configure(cfg.stale_ticks, cfg.clip_streak, tick);
+}
+
+int FtAssembler::frame_index(std::uint32_t id) const noexcept { return index_of(cfg_.ids, id); }
+
+SensorEvent FtAssembler::push(const Frame& f, std::uint64_t tick) noexcept {
+  return asm_.push(frame_index(f.id), f, false, tick);
+}
+
+FtReading FtAssembler::reading() const noexcept {
+  const auto& s = asm_.newest();
+  const Eigen::Vector3d force_s = decode_counts(s.fields[ft_frame::force], cfg_.counts_per_n);
+  const Eigen::Vector3d torque_s = decode_counts(s.fields[ft_frame::torque], cfg_.counts_per_nm);
+  FtReading r;
+  if (cfg_.has_offset) {
+    wrench_sensor_to_ee(to_ee_, force_s, torque_s, r.force_n, r.torque_nm);
+  } else {
+    r.force_n = force_s;
+    r.torque_nm = torque_s;
+  }
+  return r;
+}
+
+// ---- sensor side -----------------------------------------------------------------------------
+bool encode_imu_sample(const ImuConfig& cfg, const ImuReading& r, std::uint8_t counter, std::uint8_t status,
+                       std::array<Frame, kImuFrames>& out) noexcept {
+  if (!r.orientation.coeffs().allFinite() || !r.angular_rate_rad_s.allFinite() || !r.linear_accel_m_s2.allFinite()) {
+    return false;
+  }
+  std::array<SensorFrameFields, kImuFrames> ff{};
+  bool clipped = encode_quaternion(r.orientation, cfg.scales.orientation_per_count, ff[imu_frame::orientation].v);
+  clipped = encode_scaled(r.angular_rate_rad_s, cfg.scales.rate_rad_s_per_count, ff[imu_frame::rate].v) || clipped;
+  clipped = encode_scaled(r.linear_accel_m_s2, cfg.scales.accel_m_s2_per_count, ff[imu_frame::accel].v) || clipped;
+  const auto st = static_cast<std::uint8_t>(status | (clipped ? sensor_status::clipping : 0));
+  for (std::size_t i = 0; i < ff.size(); ++i) {
+    ff[i].counter = counter;
+    ff[i].status = st;
+    encode_sensor_frame(cfg.ids[i], ff[i], out[i]);
+  }
+  return true;
+}
+
+bool encode_ft_sample(const FtConfig& cfg, const Eigen::Vector3d& force_n, const Eigen::Vector3d& torque_nm,
+                      std::uint8_t counter, std::uint8_t status, std::array<Frame, kFtFrames>& out) noexcept {
+  if (!force_n.allFinite() || !torque_nm.allFinite()) return false;
+  std::array<SensorFrameFields, kFtFrames> ff{};
+  bool clipped = encode_counts(force_n, cfg.counts_per_n, ff[ft_frame::force].v);
+  clipped = encode_counts(torque_nm, cfg.counts_per_nm, ff[ft_frame::torque].v) || clipped;
+  const auto st = static_cast<std::uint8_t>(status | (clipped ? sensor_status::clipping : 0));
+  for (std::size_t i = 0; i < ff.size(); ++i) {
+    ff[i].counter = counter;
+    ff[i].status = st;
+    encode_sensor_frame(cfg.ids[i], ff[i], out[i]);
+  }
+  return true;
+}
+
+}  // namespace springbok::can
