@@ -154,7 +154,7 @@ TEST(BaseEstimator, StandingStillStaysStillAndDoesNotAllocate) {
   const VecNq q = make_q(Vec3(0, 0, 0.6), Quat(Eigen::AngleAxisd(0.1, Vec3::UnitY())), kStance);
   const hal::Measurements m = measure(model, *data, q, VecNv::Zero());
   est::BaseEstimator estimator;
-  const est::Stance all{true, true, true, true};
+  const Stance all{true, true, true, true};
   ASSERT_EQ(estimator.reset(m, all, Eigen::Vector2d::Zero()), est::EstimateStatus::ok);
   const VecNq start = estimator.estimate().q;
   test::AllocationTrap trap;
@@ -173,7 +173,7 @@ TEST(BaseEstimator, MovingTrunkOverStillFeetIsTracked) {
   const dyn::Model model;
   auto data = std::make_unique<dyn::Data>();
   est::BaseEstimator estimator;
-  const est::Stance all{true, true, true, true};
+  const Stance all{true, true, true, true};
   VecNq q = make_q(Vec3(0, 0, 0.6), Quat::Identity(), kStance);
   double ground = 0.0;
   dyn::forward_kinematics(model, *data, q);
@@ -221,7 +221,7 @@ TEST(BaseEstimator, BadInputHoldsTheLastEstimateAndSaysSo) {
   const VecNq q = make_q(Vec3(0, 0, 0.6), Quat::Identity(), kStance);
   hal::Measurements good = measure(model, *data, q, VecNv::Zero());
   est::BaseEstimator estimator;
-  const est::Stance all{true, true, true, true};
+  const Stance all{true, true, true, true};
   EXPECT_EQ(estimator.update(good, all, 0.001).status, est::EstimateStatus::not_reset);
   EXPECT_EQ(estimator.reset(good, {false, false, false, false}, Eigen::Vector2d::Zero()), est::EstimateStatus::bad_input);
   hal::Measurements nan_joint = good;
@@ -255,7 +255,7 @@ TEST(BaseEstimator, WithoutStanceTheImuAlonePredicts) {
   ASSERT_EQ(estimator.reset(m, {true, true, true, true}, Eigen::Vector2d::Zero()), est::EstimateStatus::ok);
   const double z0 = estimator.estimate().q[2];
   m.imu.linear_accel_m_s2.setZero();  // free fall: the accelerometer reads zero specific force
-  const est::Stance none{false, false, false, false};
+  const Stance none{false, false, false, false};
   for (int k = 0; k < 100; ++k) EXPECT_EQ(estimator.update(m, none, 0.001).status, est::EstimateStatus::no_stance);
   // 100 explicit Euler steps of g: v = g t exactly, z = z0 - g dt^2 n(n+1)/2.
   EXPECT_NEAR(estimator.estimate().v[2], -kGravity_m_s2 * 0.1, 1e-12);

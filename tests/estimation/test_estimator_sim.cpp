@@ -48,7 +48,7 @@ Errors run(const sim::ImuNoise& noise) {
   EXPECT_TRUE(robot.add_external_wrench(push));
   wbc::StandController stand(wbc::StandGains{}, wbc::nominal_stance());
   est::BaseEstimator estimator;
-  const est::Stance all{true, true, true, true};
+  const Stance all{true, true, true, true};
   hal::Measurements m;
   hal::JointCommands cmd;
   Errors e;

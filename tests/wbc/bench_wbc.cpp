@@ -25,16 +25,18 @@ void BM_WbcTick(benchmark::State& state) {
   wbc::WbcParams params;
   params.foot_contact_radius_m = kFootRadius_m;
   auto controller = std::make_unique<wbc::WholeBodyController>(params);
-  controller->set_reference(q);
   dyn::Model model;
   auto data = std::make_unique<dyn::Data>();
-  dyn::forward_kinematics(model, *data, q);
+  controller->set_reference(q, *data);
   wbc::WbcInput in;
-  in.q = q;
+  in.state.q = q;
+  in.state.set_rotation_from_q();
   in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(50.0, 0.0, 0.0);
-  controller->tick(in);  // warm start, as every tick after the first
-  for (auto _ : state) {
-    const wbc::WbcOutput& out = controller->tick(in);
+  dyn::compute_tick(model, *data, q, in.state.v);
+  controller->tick(in, *data);  // warm start, as every tick after the first
+  for (auto _ : state) {  // the dynamics (computed once per tick by springbok::control) and the controller
+    dyn::compute_tick(model, *data, q, in.state.v);
+    const wbc::WbcOutput& out = controller->tick(in, *data);
     benchmark::DoNotOptimize(out.tau_nm.data());
   }
   if (controller->qp_failures() != 0) state.SkipWithError("QP failed");

@@ -60,8 +60,10 @@ TEST(WbcConfig, BadFieldsAreNamed) {
   EXPECT_NE(error_of(std::string(kGood) + "gains: {kp: 1}\n").find("wbc.gains: unknown key"), std::string::npos);
   EXPECT_EQ(error_of(std::string(kGood) + "limits: {torque_scale: 1.5}\n"),
             "wbc.limits.torque_scale: must be in [1e-06, 1], got 1.5");
-  EXPECT_EQ(error_of(std::string(kGood) + "fallback: {damping: lots}\n"),
-            "wbc.fallback.damping: must be a number, got 'lots'");
+  EXPECT_EQ(error_of(std::string(kGood) + "swing: {kp: lots}\n"),
+            "wbc.swing.kp: must be a number, got 'lots'");
+  // What a failed tick commands is the supervisor's: the old fallback section is unknown.
+  EXPECT_NE(error_of(std::string(kGood) + "fallback: {damping: 5}\n").find("wbc.fallback: unknown key"), std::string::npos);
   EXPECT_EQ(error_of(base_ok + "  ee: {mass: 4, damping: 9, stiffness: 5}\ncontact: {normal_force_min: 10, normal_force_max: 5}\n"),
             "wbc.contact.normal_force_max: must be above contact.normal_force_min");
   EXPECT_EQ(error_of(std::string(kGood) + "contact: {friction_mu: 0.5}\n"), "wbc.contact: duplicate key");

@@ -136,12 +136,7 @@ int run(const std::string& scenario_path, const std::filesystem::path& out_dir) 
     throw simtool::ScenarioError(scenario_path + ": " + e.what());
   }
 
-  if (s.has_feet_clearance) {
-    // Place the base so that the lowest foot sphere is feet_clearance_m above the ground.
-    sim::BulletRobot probe(s.sim);
-    if (auto r = probe.configure(); !r.ok) throw std::runtime_error(r.message);
-    s.sim.initial_q[2] += s.feet_clearance_m - probe.lowest_foot_clearance_m();
-  }
+  simtool::apply_feet_clearance(s);
   sim::BulletRobot hw(s.sim);
   if (auto r = hw.configure(); !r.ok) throw std::runtime_error(r.message);
   for (const auto& w : s.wrenches) hw.add_external_wrench(w.wrench);

@@ -235,4 +235,11 @@ Scenario load_scenario(const std::string& path) {
   }
 }
 
+void apply_feet_clearance(Scenario& s) {
+  if (!s.has_feet_clearance) return;
+  sim::BulletRobot probe(s.sim);
+  if (auto r = probe.configure(); !r.ok) throw std::runtime_error(r.message);
+  s.sim.initial_q[2] += s.feet_clearance_m - probe.lowest_foot_clearance_m();
+}
+
 }  // namespace springbok::simtool

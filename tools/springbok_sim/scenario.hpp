@@ -37,6 +37,10 @@ struct Scenario {
 // Throws ScenarioError("<file>: <field path>: <what>").
 Scenario load_scenario(const std::string& path);
 
+// With `initial.feet_clearance_m`: moves the initial base height so that the lowest
+// foot sphere is that far above the ground. Throws std::runtime_error if Bullet fails.
+void apply_feet_clearance(Scenario& s);
+
 // Field readers with path-naming errors, for the controllers' parameter maps.
 class Fields {
  public:

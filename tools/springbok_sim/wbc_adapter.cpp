@@ -68,26 +68,29 @@ double percentile(std::vector<double> v, double fraction) {
 WbcAdapter::WbcAdapter(const Scenario& s)
     : dt_s_(s.sim.step_s), settle_s_(s.controller_settle_s),
       data_(std::make_unique<dyn::Data>()) {
+  control::ControlParams cp;
   try {
-    // `estimator` belongs to this adapter, every other key to the WBC.
+    // `estimator` and `gait` are the controller's own parts, every other key the WBC's.
     YAML::Node wbc_params = YAML::Clone(s.controller_params);
     if (wbc_params.IsMap() && wbc_params["estimator"]) {
-      const est::EstimatorParams ep =
-          est::read_estimator_params(config::Fields(wbc_params["estimator"], "controller.params.estimator"));
-      estimator_ = std::make_unique<est::BaseEstimator>(ep);
+      cp.estimator = est::read_estimator_params(config::Fields(wbc_params["estimator"], "controller.params.estimator"));
+      use_estimator_ = true;
       wbc_params.remove("estimator");
     }
     if (wbc_params.IsMap() && wbc_params["gait"]) {
-      gait_ = std::make_unique<gait::TrotGait>(
-          gait::read_trot_params(config::Fields(wbc_params["gait"], "controller.params.gait")));
+      cp.gait.kind = control::GaitKind::trot;
+      cp.gait.trot = gait::read_trot_params(config::Fields(wbc_params["gait"], "controller.params.gait"));
+      trot_ = true;
       wbc_params.remove("gait");
     }
     params_ = wbc::read_wbc_params(config::Fields(wbc_params, "controller.params"));
   } catch (const config::ConfigError& e) {
     throw ScenarioError(e.what());
   }
+  cp.wbc = params_;
+  control_ = std::make_unique<control::WholeBodyControl>(cp);
+  supervisor_ = std::make_unique<safety::Supervisor>(safety::SupervisorConfig{});
   stand_ = std::make_unique<wbc::StandController>(wbc::StandGains{}, s.sim.initial_q.tail<kNj>());
-  wbc_ = std::make_unique<wbc::WholeBodyController>(params_);
   template_ = std::make_unique<wbc::TemplateReference>(params_.template_params, dt_s_);
   step_profile_ = !s.wrenches.empty();
   for (const auto& w : s.wrenches) {
@@ -105,95 +108,41 @@ WbcAdapter::WbcAdapter(const Scenario& s)
 
 WbcAdapter::~WbcAdapter() = default;
 
-// The shift of the trot's footholds (frame H, data_ holds the kinematics at input_.q)
-// that puts their pattern's centre on the ground (the stance feet's height) under
-// the static ZMP of the weight and the wrist's measured wrench. rt: no alloc
-Vec3 WbcAdapter::footholds_shift_h(const hal::Measurements& m, const Mat3& yaw) noexcept {
-  const Vec3 com = dyn::center_of_mass(model_, *data_, input_.q);
-  double feet_z_m = 0.0;
-  int stance_feet = 0;
-  for (int f = 0; f < kFeet; ++f) {
-    if (!stance_[f]) continue;
-    feet_z_m += data_->frames[kFootFrames[f]].translation.z();
-    ++stance_feet;
-  }
-  if (stance_feet == 0) return Vec3::Zero();
-  feet_z_m /= stance_feet;
-  const dyn::Placement& wrist = data_->frames[kWristFtFrame];
-  const Vec3 force = m.wrist.valid ? Vec3(wrist.rotation * m.wrist.force_n) : Vec3::Zero();
-  const Vec3 torque = m.wrist.valid ? Vec3(wrist.rotation * m.wrist.torque_nm) : Vec3::Zero();
-  Vec3 centre = gait::static_zmp(com, model_.total_mass_kg * kGravity_m_s2, wrist.translation, force, torque,
-                                 feet_z_m - kFootRadius_m);
-  centre.z() = feet_z_m;
-  if (!centre.allFinite()) return Vec3::Zero();  // a non-finite wrench reading: the nominal pattern
-  return yaw.transpose() * (centre - input_.q.head<3>()) - gait_->nominal_centre_h();
-}
-
 void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept {
   ticked_ = false;
-  if (estimator_) {  // runs from the first tick (the settle phase included) to converge
-    const bool first = estimator_->estimate().status == est::EstimateStatus::not_reset;
-    const est::EstimateStatus status = first ? estimator_->reset(m, stance_, truth.q.head<2>())
-                                             : estimator_->update(m, stance_, dt_s_).status;  // last tick's plan
-    estimator_ok_ = estimator_ok_ && status == est::EstimateStatus::ok;
+  if (first_tick_) {
+    control_->set_start_position_xy(truth.q.head<2>());
+    first_tick_ = false;
   }
-  if (!active_ && truth.time_s + 0.5 * dt_s_ < settle_s_) {
-    stand_->tick(estimator_ ? estimator_->estimate().q : truth.q, out);
-    return;
+  safety::Supervisor& sup = *supervisor_;
+  sup.observe(m, hal::IoStatus::ok, 0, 0);
+  if (sup.mode() == safety::Mode::idle) (void)sup.request(safety::OperatorCommand::start);
+  if (sup.mode() == safety::Mode::stand) (void)sup.request(safety::OperatorCommand::mode_control);
+
+  safety::ControllerReport report;
+  tick_mode_ = sup.mode();
+  if (sup.mode() == safety::Mode::stand_up) {
+    // Settling: the tool's stand controller (orientation from the estimate when the
+    // controller estimates, else the truth); the controller observes.
+    control_->observe(m, dt_s_, true);
+    stand_->tick(use_estimator_ ? control_->estimate().q : truth.q, out);
+    report.posture_reached = truth.time_s + 1.5 * dt_s_ >= settle_s_;  // control from the next tick on
+  } else if (sup.mode() == safety::Mode::control) {
+    if (!control_->engaged()) template_->reset();
+    control::BaseTruth base;
+    base.pose = truth.q.head<7>();
+    base.twist = truth.v.head<6>();
+    truth_before_step_p_ = truth.q.head<3>();
+    truth_before_step_v_ = truth.v.head<3>();
+    const auto t0 = std::chrono::steady_clock::now();
+    status_ = control_->tick(m, dt_s_, out, use_estimator_ ? nullptr : &base);
+    tick_us_ = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
+    report.ok = status_ == control::TickStatus::ok;
+    estimator_ok_ = estimator_ok_ && control_->estimate().status == est::EstimateStatus::ok;
+    ticked_ = control_->engaged();
+    if (ticked_) template_->step(control_->output().external_force_world_n);
   }
-  if (estimator_) {
-    input_.q = estimator_->estimate().q;
-    input_.v = estimator_->estimate().v;
-  } else {
-    input_.q = truth.q;  // base pose and twist (trunk frame) from the ground truth
-    input_.q.tail<kNj>() = m.q_rad;
-    input_.v = truth.v;
-    input_.v.tail<kNj>() = m.qd_rad_s;
-  }
-  if (gait_) {
-    // Feet relative to the trunk in its horizontal frame H (yaw axes) for the gait's
-    // lift-off points and footholds; the trunk's tilt maps its references to trunk axes.
-    dyn::forward_kinematics(model_, *data_, input_.q);
-    const Mat3 rot = Quat(input_.q[6], input_.q[3], input_.q[4], input_.q[5]).normalized().toRotationMatrix();
-    const Mat3 yaw = Eigen::AngleAxisd(std::atan2(rot(1, 0), rot(0, 0)), Vec3::UnitZ()).toRotationMatrix();
-    const Mat3 tilt = yaw.transpose() * rot;
-    std::array<Vec3, kFeet> feet_h;
-    for (int f = 0; f < kFeet; ++f) feet_h[f] = yaw.transpose() * (data_->frames[kFootFrames[f]].translation - input_.q.head<3>());
-    if (!active_) {
-      gait_->start(feet_h);
-      wbc_start_s_ = truth.time_s;
-    }
-    const gait::ContactPlan& plan = gait_->update(truth.time_s - wbc_start_s_, feet_h, tilt * input_.v.head<3>(),
-                                                  footholds_shift_h(m, yaw), tilt);
-    for (int f = 0; f < kFeet; ++f) {
-      stance_changes_ += plan.stance[f] != stance_[f] ? 1 : 0;
-      stance_[f] = plan.stance[f];
-      input_.swing[f].position_m = plan.swing[f].position_m;
-      input_.swing[f].velocity_m_s = plan.swing[f].velocity_m_s;
-      input_.swing[f].acceleration_m_s2 = plan.swing[f].acceleration_m_s2;
-    }
-  }
-  input_.stance = stance_;
-  input_.wrist_force_n = m.wrist.valid ? m.wrist.force_n : Vec3::Zero();
-  input_.wrist_torque_nm = m.wrist.valid ? m.wrist.torque_nm : Vec3::Zero();
-  if (!active_) {
-    wbc_->set_reference(input_.q);  // start-up, not real-time: the first WBC tick only
-    template_->reset();
-    active_ = true;
-  }
-  truth_before_step_p_ = truth.q.head<3>();
-  truth_before_step_v_ = truth.v.head<3>();
-  const auto t0 = std::chrono::steady_clock::now();
-  const wbc::WbcOutput& o = wbc_->tick(input_);
-  tick_us_ = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
-  ticked_ = true;
-  out.mode = hal::CommandMode::enabled;
-  out.tau_ff_nm = o.tau_nm;
-  out.kp_nm_per_rad.setZero();
-  out.kd_nms_per_rad.setZero();
-  out.qd_des_rad_s.setZero();
-  out.q_des_rad = m.q_rad;
-  template_->step(o.external_force_world_n);
+  sup.finish(m, report, out);
 }
 
 std::string WbcAdapter::csv_columns() const {
@@ -206,7 +155,7 @@ std::string WbcAdapter::csv_columns() const {
   for (const char* f : kFootNames) {
     for (const char* a : {"x", "y", "z"}) h += fmt::format(",{}_f{}_n", f, a);
   }
-  h += ",qp_status,qp_iterations,qp_fallback,manipulability,tick_us";
+  h += ",qp_status,qp_iterations,tick_failed,manipulability,tick_us";
   return h;
 }
 
@@ -216,9 +165,9 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
     for (int i = 0; i < 3 * 5 + 3 * kFeet + 5; ++i) row += ",0";
     return;
   }
-  const wbc::WbcOutput& o = wbc_->output();
+  const wbc::WbcOutput& o = control_->output();
   dyn::forward_kinematics(model_, *data_, truth.q);
-  const wbc::WbcReference& ref = wbc_->reference();
+  const wbc::WbcReference& ref = control_->wbc().reference();
   Sample s{};
   s.time_s = truth.time_s;
   const Vec3 base_d = truth.q.head<3>() - ref.base_position_m;
@@ -232,13 +181,15 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   }
   s.force_world_n = o.external_force_world_n;
   samples_.push_back(s);
-  if (estimator_) {  // the estimate the WBC used this tick vs the truth of that tick (before the step)
-    estimator_velocity_sq_sum_ += (input_.v.head<3>() - truth_before_step_v_).squaredNorm();
-    estimator_position_max_m_ = std::max(estimator_position_max_m_, (input_.q.head<3>() - truth_before_step_p_).norm());
+  const RobotState& used = control_->state();
+  if (use_estimator_) {  // the estimate the WBC used this tick vs the truth of that tick (before the step)
+    estimator_velocity_sq_sum_ += (used.v.head<3>() - truth_before_step_v_).squaredNorm();
+    estimator_position_max_m_ = std::max(estimator_position_max_m_, (used.q.head<3>() - truth_before_step_p_).norm());
     ++estimator_samples_;
   }
   tick_us_all_.push_back(tick_us_);
-  if (o.fallback) ++fallback_ticks_;
+  const bool failed = status_ != control::TickStatus::ok;
+  if (failed) ++failed_ticks_;
   if (o.qp_from_hint) ++qp_from_hint_ticks_;
   for (int j = 0; j < kNj; ++j) {
     const auto& lim = robot::kJoints[j].limits;
@@ -260,7 +211,7 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   row += ",";
   row += qp::to_string(o.qp_status);
   put(row, o.qp_iterations);
-  row += o.fallback ? ",1" : ",0";
+  row += failed ? ",1" : ",0";
   put(row, o.manipulability);
   put(row, tick_us_);
 }
@@ -341,20 +292,22 @@ std::string WbcAdapter::summary_fields() const {
   j += fmt::format("  \"steady_state_error\": {},\n", json_axes(steady));
   j += fmt::format("  \"peak_deviation\": {},\n", json_axes(peak));
   j += fmt::format("  \"chirp_gain_db_error\": {},\n", chirp_ ? json_axes(chirp_db) : std::string("null"));
-  j += fmt::format("  \"qp_failures\": {},\n", wbc_->qp_failures());
-  j += fmt::format("  \"fallback_ticks\": {},\n", fallback_ticks_);
+  j += fmt::format("  \"qp_failures\": {},\n", control_->wbc().qp_failures());
+  j += fmt::format("  \"failed_ticks\": {},\n", failed_ticks_);
+  j += fmt::format("  \"supervisor\": {{\"mode\": \"{}\", \"faults\": {}}},\n", safety::to_string(supervisor_->mode()),
+                   supervisor_->faults());
   j += fmt::format("  \"qp_from_hint_ticks\": {},\n", qp_from_hint_ticks_);
   j += fmt::format("  \"max_torque_ratio\": {:.6g},\n", max_torque_ratio_);
   j += fmt::format("  \"joint_limit_hit\": {},\n", joint_limit_hit_ ? "\"" + joint_limit_joint_ + "\"" : "null");
-  if (gait_) {
-    const gait::TrotParams& g = gait_->params();
+  if (trot_) {
+    const gait::TrotParams& g = control_->params().gait.trot;
     j += fmt::format("  \"gait\": {{\"step_frequency_hz\": {:.6g}, \"duty_factor\": {:.6g}, \"step_height_m\": {:.6g}, "
                      "\"stance_changes\": {}}},\n",
-                     g.step_frequency_hz, g.duty_factor, g.step_height_m, stance_changes_);
+                     g.step_frequency_hz, g.duty_factor, g.step_height_m, control_->stance_changes());
   } else {
     j += "  \"gait\": null,\n";
   }
-  if (estimator_) {
+  if (use_estimator_) {
     j += fmt::format("  \"estimator\": {{\"all_ok\": {}, \"velocity_rms_error_m_s\": {:.6g}, \"position_max_error_m\": {:.6g}}},\n",
                      estimator_ok_ ? "true" : "false",
                      estimator_samples_ ? std::sqrt(estimator_velocity_sq_sum_ / static_cast<double>(estimator_samples_)) : 0.0,

@@ -1,16 +1,20 @@
-// controller.type: wbc — the paper's whole-body controller in the simulator.
+// controller.type: wbc — the firmware's controller (springbok::control::
+// WholeBodyControl, the same object the deployed binaries run) in the simulator,
+// under the firmware's safety supervisor (springbok::safety::Supervisor).
 //
-// For `controller.settle_s` seconds the stand controller holds the initial
-// posture while the robot settles on its feet; then the WBC takes over, holds
-// the pose of that instant as its reference (set_reference) and the template's
-// reference response starts. The WBC reads the base pose and twist from the
-// simulator's ground truth, or with `controller.params.estimator` from
-// springbok::est::BaseEstimator (IMU + leg kinematics, as on hardware), the
-// measured joint states and the wrist F/T sensor. All four feet are in stance,
-// or with `controller.params.gait` springbok::gait::TrotGait decides which
-// feet are in stance and where the swing feet go (from the WBC's start), in the
-// trunk's horizontal frame, its footholds' pattern centred under the static ZMP
-// of the weight and the measured wrist wrench.
+// The run goes through the supervisor's modes as on the robot: start -> stand_up,
+// in which the tool's stand controller (wbc::StandController) holds the initial
+// posture for `controller.settle_s` seconds while the robot settles on its feet and
+// the controller observes (its estimator runs, the wrist F/T is tared); posture
+// reached -> stand -> `mode control`: the controller engages on the next tick (the
+// pose of that instant is the template's reference) and runs from then on. A failed
+// controller tick gets the supervisor's command (the last good one, damping after a
+// streak), as on the robot.
+//
+// The tool's own parts: the ground-truth override (without
+// `controller.params.estimator` the controller reads the base pose and twist from
+// the simulator, with it from its estimator, as on hardware), the scoring and the
+// CSV. `controller.params.gait` makes the controller trot (springbok::gait::TrotGait).
 //
 // After each physics step it logs the measured base and EE displacements from
 // the reference pose (world), the template driven by the measured wrist force,
@@ -26,9 +30,9 @@
 
 #include "controller.hpp"
 #include "scenario.hpp"
+#include "springbok/control/whole_body_control.hpp"
 #include "springbok/dynamics/dynamics.hpp"
-#include "springbok/estimation/base_estimator.hpp"
-#include "springbok/gait/trot.hpp"
+#include "springbok/safety/supervisor.hpp"
 #include "springbok/wbc/impedance_template.hpp"
 #include "springbok/wbc/stand_controller.hpp"
 #include "springbok/wbc/whole_body_controller.hpp"
@@ -46,10 +50,14 @@ class WbcAdapter final : public Controller {
   void after_step(const sim::GroundTruth& truth, std::string& row) override;
   std::string summary_fields() const override;
 
+  const control::WholeBodyControl& controller() const noexcept { return *control_; }
+  control::WholeBodyControl& controller() noexcept { return *control_; }
+  // The supervisor's mode the last tick ran in (stand_up: settling, control: the controller).
+  safety::Mode tick_mode() const noexcept { return tick_mode_; }
+  control::TickStatus tick_status() const noexcept { return status_; }
+
  private:
   static constexpr int kAxes = 6;  // base x y z, ee x y z
-  // The gait's footholds shift (frame H) that centres them under the static ZMP.
-  Vec3 footholds_shift_h(const hal::Measurements& m, const Mat3& yaw) noexcept;
   struct Sample {
     double time_s;
     std::array<double, kAxes> measured;
@@ -63,29 +71,28 @@ class WbcAdapter final : public Controller {
   bool step_profile_ = false;                       // only step/constant forces: steady state is scored
   std::optional<sim::ForceProfile> chirp_;          // the first chirp, for the gain estimate
   Vec3 chirp_axis_ = Vec3::UnitX();
+  bool use_estimator_ = false;                      // false: the base from the ground truth
+  bool trot_ = false;
+  std::unique_ptr<control::WholeBodyControl> control_;
+  std::unique_ptr<safety::Supervisor> supervisor_;
   std::unique_ptr<wbc::StandController> stand_;
-  std::unique_ptr<wbc::WholeBodyController> wbc_;
   std::unique_ptr<wbc::TemplateReference> template_;
-  std::unique_ptr<est::BaseEstimator> estimator_;   // null: ground truth
-  std::unique_ptr<gait::TrotGait> gait_;            // null: four feet in stance
-  double wbc_start_s_ = 0.0;
-  std::array<bool, kFeet> stance_{true, true, true, true};
-  std::uint64_t stance_changes_ = 0;
-  bool estimator_ok_ = true;                        // every update since reset was ok
+  bool first_tick_ = true;
+  safety::Mode tick_mode_ = safety::Mode::idle;
+  bool estimator_ok_ = true;                        // every control tick's estimate was ok
   double estimator_velocity_sq_sum_ = 0.0;          // vs ground truth, WBC ticks
   double estimator_position_max_m_ = 0.0;
   std::uint64_t estimator_samples_ = 0;
   Vec3 truth_before_step_p_ = Vec3::Zero(), truth_before_step_v_ = Vec3::Zero();
   dyn::Model model_;
-  std::unique_ptr<dyn::Data> data_;
-  wbc::WbcInput input_;
-  bool active_ = false;
-  bool ticked_ = false;                              // the WBC ran this tick
+  std::unique_ptr<dyn::Data> data_;                 // the ground truth's kinematics, for scoring
+  bool ticked_ = false;                             // the controller ran this tick
+  control::TickStatus status_ = control::TickStatus::ok;
   double tick_us_ = 0.0;
   std::vector<Sample> samples_;
   std::vector<double> tick_us_all_;
   double max_torque_ratio_ = 0.0;
-  std::uint64_t fallback_ticks_ = 0;
+  std::uint64_t failed_ticks_ = 0;
   std::uint64_t qp_from_hint_ticks_ = 0;  // ticks whose QP was solved on the last tick's active set
   bool joint_limit_hit_ = false;
   std::string joint_limit_joint_;

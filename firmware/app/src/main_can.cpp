@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
   using namespace springbok;
   return app::firmware_main(
       argc, argv, "springbok",
-      [](const app::AppConfig& config, const std::string& config_path) -> std::unique_ptr<hal::Hardware> {
+      [](app::AppConfig& config, const std::string& config_path) -> std::unique_ptr<hal::Hardware> {
         can::ConfigResult can_config = can::load_can_config_file(config_path);
         if (!can_config.ok) {
           std::fprintf(stderr, "springbok: config error: %s\n", can_config.error.c_str());
@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
         const std::vector<std::string> errors = app::check_drive_gains(config, gain_ranges(can_config.config));
         for (const std::string& e : errors) std::fprintf(stderr, "springbok: config error: %s\n", e.c_str());
         if (!errors.empty()) return nullptr;
+        config.wrist_tare_samples = can_config.config.sensors.wrist_ft.tare_samples;
         return std::make_unique<can::CanHardware>(std::move(can_config.config));
       });
 }

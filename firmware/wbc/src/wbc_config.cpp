@@ -21,7 +21,7 @@ void read_template(const config::Fields& f, TemplateParams& t) {
 }  // namespace
 
 WbcParams read_wbc_params(const config::Fields& f) {
-  f.allow_only({"template", "base_orientation", "arm", "weights", "contact", "limits", "swing", "fallback"});
+  f.allow_only({"template", "base_orientation", "arm", "weights", "contact", "limits", "swing"});
   WbcParams p;
   read_template(f.required_map("template"), p.template_params);
 
@@ -72,10 +72,6 @@ WbcParams read_wbc_params(const config::Fields& f) {
   sw.allow_only({"kp", "kd"});
   p.swing_kp_per_s2 = sw.vector<3>("kp", p.swing_kp_per_s2, 0.0, 1e5);
   p.swing_kd_per_s = sw.vector<3>("kd", p.swing_kd_per_s, 0.0, 1e4);
-
-  const config::Fields fb = f.map("fallback");
-  fb.allow_only({"damping"});
-  p.fallback_damping_nms_per_rad = fb.number("damping", p.fallback_damping_nms_per_rad, 0.0, 1e3);
   return p;
 }
 

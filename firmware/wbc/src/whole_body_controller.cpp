@@ -8,16 +8,11 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 
-#include "springbok/wbc/stand_controller.hpp"
 
 namespace springbok::wbc {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-Mat3 rotation_of(const VecNq& q) noexcept {
-  return Quat(q[6], q[3], q[4], q[5]).normalized().toRotationMatrix();
-}
 
 // The rotation vector of R (log map), robust near 0 and pi.
 Vec3 log_so3(const Mat3& r) noexcept {
@@ -59,7 +54,6 @@ bool factor_qp_hessian(const WbcSolver::ProblemType& p, HessianFactor& lower) no
 
 WholeBodyController::WholeBodyController(const WbcParams& params)
     : params_(params),
-      data_(std::make_unique<dyn::Data>()),
       solver_(std::make_unique<WbcSolver>()),
       problem_(std::make_unique<WbcSolver::ProblemType>()),
       result_(std::make_unique<WbcSolver::ResultType>()),
@@ -67,14 +61,14 @@ WholeBodyController::WholeBodyController(const WbcParams& params)
 
 WholeBodyController::~WholeBodyController() = default;
 
-void WholeBodyController::set_reference(const VecNq& q) {
-  dyn::forward_kinematics(model_, *data_, q);
+void WholeBodyController::set_reference(const VecNq& q, dyn::Data& data) noexcept {
+  dyn::forward_kinematics(model_, data, q);
   reference_.base_position_m = q.head<3>();
-  reference_.base_rotation = rotation_of(q);
-  reference_.ee_position_m = data_->frames[kEeFrame].translation;
+  reference_.base_rotation = Quat(q[6], q[3], q[4], q[5]).normalized().toRotationMatrix();
+  reference_.ee_position_m = data.frames[kEeFrame].translation;
   if (!params_.pin_arm_posture) params_.arm_posture_rad = q.segment<kArmDofs>(7 + kFirstArmJoint);
   // I_b: the composite rotational inertia about the robot's COM, in trunk axes.
-  const Mat3 inertia_world = dyn::composite_inertia(model_, *data_, q);
+  const Mat3 inertia_world = dyn::composite_inertia(model_, data, q);
   const Mat3 inertia_trunk = reference_.base_rotation.transpose() * inertia_world * reference_.base_rotation;
   for (int i = 0; i < 3; ++i) {
     base_inertia_diag_[i] =
@@ -85,17 +79,16 @@ void WholeBodyController::set_reference(const VecNq& q) {
 
 // Eq. 4-5 and the base task acceleration; returns the desired base acceleration
 // in the coordinates of udot (d/dt v_B, d/dt w_B, trunk frame).
-void WholeBodyController::base_task(const WbcInput& in, Vec6& base_acc_desired) noexcept {
+void WholeBodyController::base_task(const WbcInput& in, const dyn::Data& d, Vec6& base_acc_desired) noexcept {
   const TemplateParams& tp = params_.template_params;
-  const Mat3 rot = rotation_of(in.q);
-  const Vec3 base_vel_world = rot * in.v.head<3>();
-  const Vec3 omega_world = rot * in.v.segment<3>(3);
-  const dyn::Data& d = *data_;
+  const Mat3& rot = in.state.rotation_wb;
+  const Vec3 base_vel_world = rot * in.state.v.head<3>();
+  const Vec3 omega_world = rot * in.state.v.segment<3>(3);
 
-  const Vec3 x_b = in.q.head<3>() - reference_.base_position_m;
+  const Vec3 x_b = in.state.q.head<3>() - reference_.base_position_m;
   const Vec3 x_e = d.frames[kEeFrame].translation - reference_.ee_position_m;
   const Vec3 xd_b = base_vel_world;
-  const Vec3 xd_e = d.J_ee.topRows<3>() * in.v;
+  const Vec3 xd_e = d.J_ee.topRows<3>() * in.state.v;
   const Vec3 x_be = x_e - x_b, xd_be = xd_e - xd_b;
 
   const Vec3 force = -tp.stiffness_base_n_per_m.cwiseProduct(x_b) - tp.damping_base_ns_per_m.cwiseProduct(xd_b) +
@@ -116,15 +109,14 @@ void WholeBodyController::base_task(const WbcInput& in, Vec6& base_acc_desired) 
   // p'' = R (d/dt v_B + w_B x v_B), w' = R d/dt w_B.
   const Vec3 acc_world = force.cwiseQuotient(tp.mass_base_kg);
   const Vec3 omega_dot_world = rot * (rot.transpose() * torque).cwiseQuotient(base_inertia_diag_);
-  base_acc_desired.head<3>() = rot.transpose() * acc_world - in.v.segment<3>(3).cross(in.v.head<3>());
+  base_acc_desired.head<3>() = rot.transpose() * acc_world - in.state.v.segment<3>(3).cross(in.state.v.head<3>());
   base_acc_desired.tail<3>() = rot.transpose() * omega_dot_world;
 }
 
 // Eq. 8 with the sign of the posture term fixed (SPEC): the desired arm joint
 // accelerations. The base's part of the EE acceleration uses this tick's
 // desired base acceleration (the QP tracks it), so the arm does not lag a tick.
-void WholeBodyController::arm_task(const WbcInput& in, const Vec6& base_acc_desired) noexcept {
-  const dyn::Data& d = *data_;
+void WholeBodyController::arm_task(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired) noexcept {
   const Eigen::Matrix<double, 3, kArmDofs> jac = d.J_ee.block<3, kArmDofs>(0, kArmCol);
   const Eigen::Matrix<double, kArmDofs, kArmDofs> m_arm = d.M.block<kArmDofs, kArmDofs>(kArmCol, kArmCol);
   const Eigen::LLT<Eigen::Matrix<double, kArmDofs, kArmDofs>> llt(m_arm);
@@ -143,16 +135,15 @@ void WholeBodyController::arm_task(const WbcInput& in, const Vec6& base_acc_desi
   const Eigen::Matrix<double, kArmDofs, kArmDofs> null_space =
       Eigen::Matrix<double, kArmDofs, kArmDofs>::Identity() - pinv * jac;
 
-  const VecArm q_arm = in.q.segment<kArmDofs>(7 + kFirstArmJoint);
-  const VecArm qd_arm = in.v.segment<kArmDofs>(kArmCol);
+  const VecArm q_arm = in.state.q.segment<kArmDofs>(7 + kFirstArmJoint);
+  const VecArm qd_arm = in.state.v.segment<kArmDofs>(kArmCol);
   const VecArm qdd_posture =
       params_.posture_kp_per_s2 * (params_.arm_posture_rad - q_arm) - params_.posture_kd_per_s * qd_arm;
   const Vec3 task = out_.ee_acceleration_desired - d.J_ee.block<3, 6>(0, 0) * base_acc_desired - d.dJv_ee.head<3>();
   out_.arm_qdd_desired = pinv * task + null_space * qdd_posture;
 }
 
-void WholeBodyController::build_qp(const WbcInput& in) noexcept {
-  const dyn::Data& d = *data_;
+void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexcept {
   const TemplateParams& tp = params_.template_params;
   WbcSolver::ProblemType& p = *problem_;
   Eigen::Map<Eigen::Matrix<double, kQpVars, kQpVars>> hess(p.hessian.data());
@@ -166,7 +157,7 @@ void WholeBodyController::build_qp(const WbcInput& in) noexcept {
   aeq.setZero();
   ain.setZero();
 
-  const Mat3 rot = rotation_of(in.q);
+  const Mat3& rot = in.state.rotation_wb;
 
   // ---- cost ------------------------------------------------------------------
   // Base: || diag(M_b R, I_b R) [d/dt v_B; d/dt w_B] + [M_b R (w_B x v_B); 0] - W_b^d ||^2.
@@ -174,7 +165,7 @@ void WholeBodyController::build_qp(const WbcInput& in) noexcept {
   a_base.topLeftCorner<3, 3>() = tp.mass_base_kg.asDiagonal() * rot;
   a_base.bottomRightCorner<3, 3>() = rot * base_inertia_diag_.asDiagonal();
   Vec6 b_base = out_.base_wrench_desired;
-  b_base.head<3>() -= tp.mass_base_kg.cwiseProduct(rot * in.v.segment<3>(3).cross(in.v.head<3>()));
+  b_base.head<3>() -= tp.mass_base_kg.cwiseProduct(rot * in.state.v.segment<3>(3).cross(in.state.v.head<3>()));
   Vec6 w_base;
   w_base << Vec3::Constant(params_.weight_base_force), Vec3::Constant(params_.weight_base_torque);
   hess.topLeftCorner<6, 6>().noalias() = a_base.transpose() * w_base.asDiagonal() * a_base;
@@ -185,7 +176,7 @@ void WholeBodyController::build_qp(const WbcInput& in) noexcept {
   // Regularisation.
   hess.diagonal().head<kNv>().array() += params_.reg_acceleration;
   for (int f = 0; f < kFeet; ++f) {
-    hess.diagonal().segment<kFootVars>(foot_var(f)).array() += in.stance[f] ? params_.reg_force : params_.reg_slack;
+    hess.diagonal().segment<kFootVars>(foot_var(f)).array() += in.state.stance[f] ? params_.reg_force : params_.reg_slack;
   }
 
   // ---- equalities ----------------------------------------------------------------
@@ -194,7 +185,7 @@ void WholeBodyController::build_qp(const WbcInput& in) noexcept {
   beq.head<6>() = -d.nle.head<6>() + d.J_ee.leftCols<6>().transpose() * wrench_ee_world_;
   int row = 6;
   for (int f = 0; f < kFeet; ++f) {
-    if (!in.stance[f]) continue;
+    if (!in.state.stance[f]) continue;
     aeq.block<6, 3>(0, foot_var(f)) = -d.J_feet[f].leftCols<6>().transpose();
     // Stance feet do not accelerate: J_f udot + Jdot_f v = 0.
     aeq.block<3, kNv>(row, 0) = d.J_feet[f];
@@ -210,7 +201,7 @@ void WholeBodyController::build_qp(const WbcInput& in) noexcept {
     const auto& lim = robot::kJoints[j].limits;
     ain(row, 6 + j) = 1.0;
     if (lim.bounded) {
-      const double q = in.q[7 + j], qd = in.v[6 + j];
+      const double q = in.state.q[7 + j], qd = in.state.v[6 + j];
       lb[row] = 2.0 * (lim.lower_rad - q - dt * qd) / (dt * dt);
       ub[row] = 2.0 * (lim.upper_rad - q - dt * qd) / (dt * dt);
     } else {
@@ -226,18 +217,18 @@ void WholeBodyController::build_qp(const WbcInput& in) noexcept {
     const double tau_max = params_.torque_limit_scale * robot::kJoints[j].limits.effort_nm;
     ain.block<1, kNv>(row, 0) = d.M.row(6 + j);
     for (int f = 0; f < kFeet; ++f) {
-      if (in.stance[f]) ain.block<1, 3>(row, foot_var(f)) = -d.J_feet[f].col(6 + j).transpose();
+      if (in.state.stance[f]) ain.block<1, 3>(row, foot_var(f)) = -d.J_feet[f].col(6 + j).transpose();
     }
     lb[row] = -tau_max - d.nle[6 + j] + external_j[j];
     ub[row] = tau_max - d.nle[6 + j] + external_j[j];
     ++row;
   }
   const double mu = params_.friction_mu / std::sqrt(2.0);  // pyramid inscribed in the cone
-  const Vec3 base_vel_world = rot * in.v.head<3>();
-  const Vec3 omega_world = rot * in.v.segment<3>(3);
+  const Vec3 base_vel_world = rot * in.state.v.head<3>();
+  const Vec3 omega_world = rot * in.state.v.segment<3>(3);
   for (int f = 0; f < kFeet; ++f) {
     const int c = foot_var(f);
-    if (in.stance[f]) {
+    if (in.state.stance[f]) {
       for (int t = 0; t < 2; ++t) {  // |f_t| <= mu f_n as two rows each
         ain(row, c + t) = 1.0;
         ain(row, c + 2) = -mu;
@@ -260,13 +251,13 @@ void WholeBodyController::build_qp(const WbcInput& in) noexcept {
     //   -s <= J_rel qdd_leg + Jdot_rel qd_leg - rho''^d <= s.
     const int leg_col = 6 + leg_first_joint(f);
     const Eigen::Matrix<double, 3, kLegJoints> j_rel = rot.transpose() * d.J_feet[f].block<3, kLegJoints>(0, leg_col);
-    const Vec3 r = d.frames[kFootFrames[f]].translation - in.q.head<3>();
-    const Vec3 r_dot = d.J_feet[f] * in.v - base_vel_world;
-    const Vec3 r_ddot0 = d.dJv_feet[f] - rot * in.v.segment<3>(3).cross(in.v.head<3>());
+    const Vec3 r = d.frames[kFootFrames[f]].translation - in.state.q.head<3>();
+    const Vec3 r_dot = d.J_feet[f] * in.state.v - base_vel_world;
+    const Vec3 r_ddot0 = d.dJv_feet[f] - rot * in.state.v.segment<3>(3).cross(in.state.v.head<3>());
     const Vec3 bias = rot.transpose() * (-omega_world.cross(r_dot - omega_world.cross(r)) + r_ddot0 -
                                          omega_world.cross(r_dot));
     const Vec3 rho = rot.transpose() * r;
-    const Vec3 rho_dot = j_rel * in.v.segment<kLegJoints>(leg_col);
+    const Vec3 rho_dot = j_rel * in.state.v.segment<kLegJoints>(leg_col);
     const SwingTarget& target = in.swing[f];
     const Vec3 rho_ddot_des = target.acceleration_m_s2 +
                               params_.swing_kp_per_s2.cwiseProduct(target.position_m - rho) +
@@ -289,13 +280,12 @@ void WholeBodyController::build_qp(const WbcInput& in) noexcept {
 }
 
 // Eq. 19: tau = M_act udot + h_act - J_st,act^T F_g - J_e,act^T W_e.
-void WholeBodyController::torques_from_solution(const WbcInput& in) noexcept {
-  const dyn::Data& d = *data_;
+void WholeBodyController::torques_from_solution(const WbcInput& in, const dyn::Data& d) noexcept {
   const Eigen::Map<const Vec<kQpVars>> x(result_->x.data());
   out_.udot = x.head<kNv>();
   VecNv tau_full = d.M * out_.udot + d.nle - d.J_ee.transpose() * wrench_ee_world_;
   for (int f = 0; f < kFeet; ++f) {
-    if (in.stance[f]) {
+    if (in.state.stance[f]) {
       out_.foot_force_n[f] = x.segment<3>(foot_var(f));
       tau_full.noalias() -= d.J_feet[f].transpose() * out_.foot_force_n[f];
     } else {
@@ -308,26 +298,11 @@ void WholeBodyController::torques_from_solution(const WbcInput& in) noexcept {
   }
 }
 
-// Safe torques when the QP fails: the legs carry the weight (stance gravity
-// compensation) and every joint is damped.
-void WholeBodyController::fallback_torques(const WbcInput& in) noexcept {
-  StanceForces forces;
-  stance_gravity_compensation(model_, *data_, in.q, forces);
-  for (int j = 0; j < kNj; ++j) {
-    const double limit = robot::kJoints[j].limits.effort_nm;
-    const double tau = forces.tau_gravity_nm[j] - params_.fallback_damping_nms_per_rad * in.v[6 + j];
-    out_.tau_nm[j] = std::isfinite(tau) ? std::clamp(tau, -limit, limit) : 0.0;
-  }
-  out_.udot.setZero();
-  for (auto& f : out_.foot_force_n) f.setZero();
-}
-
 // The contact point c = p_f - r z (world z) of the lower leg: J_c = J_f + r [z]x J_w,
 // with J_w the lower leg's angular Jacobian (base columns R, the leg's joint axes).
-void WholeBodyController::feet_jacobians_at_contact_points(const WbcInput& in) noexcept {
+void WholeBodyController::feet_jacobians_at_contact_points(const WbcInput& in, dyn::Data& d) noexcept {
   const double r = params_.foot_contact_radius_m;
-  const Mat3 rot = rotation_of(in.q);
-  dyn::Data& d = *data_;
+  const Mat3& rot = in.state.rotation_wb;
   for (int f = 0; f < kFeet; ++f) {
     auto shift = [&](int col, const Vec3& omega_col) {
       d.J_feet[f](0, col) -= r * omega_col.y();  // [z]x w = (-w_y, w_x, 0)
@@ -338,41 +313,39 @@ void WholeBodyController::feet_jacobians_at_contact_points(const WbcInput& in) n
   }
 }
 
-const WbcOutput& WholeBodyController::tick(const WbcInput& in) noexcept {
-  dyn::compute_tick(model_, *data_, in.q, in.v);
-  if (params_.foot_contact_radius_m > 0.0) feet_jacobians_at_contact_points(in);
-  const Mat3 ee_rot = data_->frames[kWristFtFrame].rotation;
+const WbcOutput& WholeBodyController::tick(const WbcInput& in, dyn::Data& d) noexcept {
+  if (params_.foot_contact_radius_m > 0.0) feet_jacobians_at_contact_points(in, d);
+  const Mat3& ee_rot = d.frames[kWristFtFrame].rotation;
   wrench_ee_world_.head<3>() = ee_rot * in.wrist_force_n;
   wrench_ee_world_.tail<3>() = ee_rot * in.wrist_torque_nm;
   out_.external_force_world_n = wrench_ee_world_.head<3>();
 
   Vec6 base_acc_desired;
-  base_task(in, base_acc_desired);
-  arm_task(in, base_acc_desired);
-  build_qp(in);
+  base_task(in, d, base_acc_desired);
+  arm_task(in, d, base_acc_desired);
+  build_qp(in, d);
 
   // Warm start from the previous tick's active set while the contact state holds
   // (the per-foot rows keep their places); the solver checks it and falls back cold.
   // The Hessian's factor is cheap from its structure: the solver skips its Cholesky.
   WbcSolver::Hint hint;
-  if (have_warm_start_ && in.stance == last_stance_) hint.active_set = warm_start_.get();
+  if (have_warm_start_ && in.state.stance == last_stance_) hint.active_set = warm_start_.get();
   HessianFactor hessian_factor;
   if (factor_qp_hessian(*problem_, hessian_factor)) hint.cholesky_lower = hessian_factor.data();
   const qp::Status status = solver_->solve(*problem_, *result_, hint);
   out_.qp_status = status;
   out_.qp_iterations = result_->iterations;
   out_.qp_from_hint = result_->from_hint;
-  last_stance_ = in.stance;
+  last_stance_ = in.state.stance;
   if (status == qp::Status::optimal) {
     *warm_start_ = result_->active;
     have_warm_start_ = true;
-    out_.fallback = false;
-    torques_from_solution(in);
+    out_.failed = false;
+    torques_from_solution(in, d);
   } else {
     have_warm_start_ = false;
-    out_.fallback = true;
+    out_.failed = true;
     ++qp_failures_;
-    fallback_torques(in);
   }
   return out_;
 }

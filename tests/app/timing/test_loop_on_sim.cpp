@@ -139,8 +139,8 @@ TEST(LoopOnSim, ControlModeRunsTheWholeBodyControllerOnTheEstimatedState) {
   rig->executive->run_ticks(2300);
   EXPECT_EQ(rig->supervisor.mode(), safety::Mode::control);
   EXPECT_EQ(rig->supervisor.faults(), 0u) << fault_list(rig->supervisor.faults());
-  EXPECT_EQ(rig->control.failed_ticks(), 0u);
-  EXPECT_EQ(rig->control.estimate().status, est::EstimateStatus::ok);
+  EXPECT_EQ(rig->control.controller().failed_ticks(), 0u);
+  EXPECT_EQ(rig->control.controller().estimate().status, est::EstimateStatus::ok);
   // The template's static displacement of the hand for 30 N: F/K_b + F/K_e = 0.03 + 0.06 m.
   // (Bullet's feet creep a little under the push, which the estimator cannot see.)
   const double ee_dx = robot.robot().frame_placement(*sim::find_frame("arm_end_effector_link")).translation().x() -

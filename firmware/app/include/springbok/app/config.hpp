@@ -43,6 +43,7 @@ struct AppConfig {
   ControlModeKind control_mode = ControlModeKind::wbc;
   wbc::WbcParams wbc;                    // control.wbc (wbc_config.hpp's YAML)
   est::EstimatorParams estimator;        // control.estimator (every key optional)
+  std::uint32_t wrist_tare_samples = 500;  // the wrist F/T tare: the backend's (can.sensors.wrist_ft.tare_samples)
   std::string operator_socket;
   std::string log_path;                  // "-" = standard error
   bool has_can_section = false;

@@ -1,13 +1,13 @@
 // The control mode's controller, as configured (control.controller):
 //
-//   wbc:      the paper's whole-body controller (springbok::wbc) on the base
-//             state estimated from the IMU and leg kinematics (springbok::est),
-//             F_e from the wrist F/T sensor, all four feet in stance. On entry
-//             (ticks_in_mode == 0) the estimator is reset over the four feet and
-//             the WBC takes the pose of that instant as its reference. A tick
-//             whose estimate is not ok (no IMU, a non-finite sensor, ...) or whose
-//             QP fails reports a failure (the supervisor's streak moves to damping)
-//             and commands safe torques: the stand posture's joint PD.
+//   wbc:      springbok::control::WholeBodyControl, the paper's whole-body
+//             controller on the base state estimated from the IMU and leg
+//             kinematics, F_e from the wrist F/T (tared in stand), stand or trot
+//             as the operator asks. The estimator runs from stand-up on (observe);
+//             entering the control mode engages: the pose of that instant is the
+//             template's reference. A failed tick (estimate not ok, QP failure)
+//             reports it and leaves the command to the supervisor (the last good
+//             command, damping after a streak).
 //   joint_pd: hold the stand posture with gains.control (bring-up, no IMU).
 #pragma once
 
@@ -15,10 +15,12 @@
 
 #include "springbok/app/config.hpp"
 #include "springbok/app/posture_control.hpp"
-#include "springbok/estimation/base_estimator.hpp"
-#include "springbok/wbc/whole_body_controller.hpp"
+#include "springbok/control/whole_body_control.hpp"
 
 namespace springbok::app {
+
+// The configuration's part that the controller takes (start-up).
+control::ControlParams control_params(const AppConfig& config);
 
 class ControlMode {
  public:
@@ -27,21 +29,18 @@ class ControlMode {
 
   // rt: no alloc, no block
   safety::ControllerReport compute(const ControlInput& in, hal::JointCommands& cmd) noexcept;
+  // Stand-up and stand ticks. rt: no alloc, no block
+  void observe(const ControlInput& in) noexcept;
 
-  const est::BaseEstimate& estimate() const noexcept { return estimator_->estimate(); }
-  const wbc::WbcOutput& wbc_output() const noexcept { return wbc_->output(); }
-  std::uint64_t failed_ticks() const noexcept { return failed_ticks_; }
+  control::WholeBodyControl& controller() noexcept { return *control_; }
+  const control::WholeBodyControl& controller() const noexcept { return *control_; }
+  control::TickStatus last_status() const noexcept { return last_status_; }
 
  private:
-  safety::ControllerReport hold(const ControlInput& in, hal::JointCommands& cmd) noexcept;
-
   ControlModeKind kind_;
   JointPdHold hold_;
-  std::unique_ptr<est::BaseEstimator> estimator_;
-  std::unique_ptr<wbc::WholeBodyController> wbc_;
-  std::unique_ptr<wbc::WbcInput> input_;
-  bool engaged_ = false;  // reset and reference taken in this control mode
-  std::uint64_t failed_ticks_ = 0;
+  std::unique_ptr<control::WholeBodyControl> control_;
+  control::TickStatus last_status_ = control::TickStatus::ok;
 };
 
 static_assert(ControlModeController<ControlMode>);

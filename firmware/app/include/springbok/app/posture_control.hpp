@@ -5,7 +5,8 @@
 //             the ramp ended and every leg joint is within stand_tolerance_rad;
 //   stand:    hold the stand posture (joint PD, no model-based feed-forward);
 //   control:  the plug-in control-mode controller (ControlMode in
-//             control_mode.hpp: the whole-body controller, or JointPdHold).
+//             control_mode.hpp: the whole-body controller, or JointPdHold),
+//             which also observes the stand-up and stand ticks.
 #pragma once
 
 #include <algorithm>
@@ -25,9 +26,11 @@ struct ControlInput {
 };
 
 // A controller of the control mode; `in.ticks_in_mode` is 0 on its first tick.
+// observe() sees the stand-up and stand ticks (an estimator keeps running).
 template <class C>
 concept ControlModeController = requires(C& c, const ControlInput& in, hal::JointCommands& cmd) {
   { c.compute(in, cmd) } noexcept -> std::same_as<safety::ControllerReport>;
+  { c.observe(in) } noexcept;
 };
 
 // rt: no alloc
@@ -51,6 +54,7 @@ class JointPdHold {
     joint_pd_command(posture_rad_, VecNj::Zero(), gains_, cmd);
     return {};
   }
+  void observe(const ControlInput&) noexcept {}
 
  private:
   VecNj posture_rad_;
@@ -70,6 +74,7 @@ class PostureModes {
   // rt: no alloc
   safety::ControllerReport compute(const ControlInput& in, hal::JointCommands& cmd) noexcept {
     const hal::Measurements& m = *in.meas;
+    if (in.mode == safety::Mode::stand_up || in.mode == safety::Mode::stand) control_.observe(in);
     switch (in.mode) {
       case safety::Mode::stand_up: {
         if (in.ticks_in_mode == 0) start_rad_ = m.q_rad;

@@ -26,7 +26,8 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
 // The command line shared by the executables: --config, --check-config,
 // --require-rt, --duration, --time-scale. Returns the exit code. `make_hardware(config,
 // config_path)` builds the backend without touching any device (nullptr after
-// printing the error); --check-config therefore also checks the backend's part.
+// printing the error) and may fill the config's backend fields (wrist_tare_samples);
+// --check-config therefore also checks the backend's part.
 template <class MakeHardware>
 int firmware_main(int argc, char** argv, const char* program, MakeHardware&& make_hardware);
 
@@ -43,7 +44,7 @@ template <class MakeHardware>
 int firmware_main(int argc, char** argv, const char* program, MakeHardware&& make_hardware) {
   const CommandLine cli = parse_command_line(argc, argv, program);
   if (cli.exit_now) return cli.exit_code;
-  const ConfigResult loaded = load_config_file(cli.config_path);
+  ConfigResult loaded = load_config_file(cli.config_path);
   if (!loaded.ok) {
     for (const auto& e : loaded.errors) std::fprintf(stderr, "%s: config error: %s\n", program, e.c_str());
     return 1;

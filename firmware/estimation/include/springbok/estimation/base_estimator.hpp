@@ -29,14 +29,13 @@
 #include "springbok/dynamics/dynamics.hpp"
 #include "springbok/hal/types.hpp"
 #include "springbok/model/model.hpp"
+#include "springbok/model/robot_state.hpp"
 
 namespace springbok::config {
 class Fields;
 }
 
 namespace springbok::est {
-
-using Stance = std::array<bool, kFeet>;
 
 struct EstimatorParams {
   double velocity_gain_per_s = 30.0;  // leg odometry vs IMU integration crossover

@@ -33,6 +33,7 @@
 #include <Eigen/Core>
 
 #include "springbok/model/model.hpp"
+#include "springbok/model/robot_state.hpp"
 
 namespace springbok::config {
 class Fields;
@@ -52,6 +53,9 @@ struct TrotParams {
 // (0..0.3 m), velocity_gain, touchdown_depth; missing keys keep the defaults. Throws
 // config::ConfigError naming the field. Start-up only.
 TrotParams read_trot_params(const config::Fields& f);
+// The key of the first parameter outside read_trot_params' ranges (or not finite),
+// nullptr when all are within. rt: no alloc
+const char* trot_params_error(const TrotParams& p) noexcept;
 
 struct SwingReference {
   Vec3 position_m = Vec3::Zero();      // foot relative to the trunk origin, trunk axes
@@ -60,7 +64,7 @@ struct SwingReference {
 };
 
 struct ContactPlan {
-  std::array<bool, kFeet> stance{true, true, true, true};
+  Stance stance = kAllFeet;
   std::array<SwingReference, kFeet> swing{};  // meaningful where !stance
   std::array<double, kFeet> phase{};          // the foot's phase in its cycle, [0, 1): stance below d_f
 };

@@ -12,8 +12,8 @@
 //             foot_radius: 0.02175}     # foot Jacobians at the ground contact point (0: centre)
 //   limits: {joint_horizon_s: 0.2, torque_scale: 1.0}
 //   swing: {kp: 400, kd: 40}
-//   fallback: {damping: 5}
 //
+// (No fallback section: what a failed tick commands is the safety supervisor's.)
 // Everything but `template` is optional (defaults of WbcParams). Masses and
 // stiffnesses must be positive, dampings non-negative; unknown keys, wrong
 // types and non-finite numbers are errors naming the field.

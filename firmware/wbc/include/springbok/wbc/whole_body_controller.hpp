@@ -1,8 +1,10 @@
 // The paper's whole-body controller (Risiglione et al., SPEC section 3): the
 // robot renders a double mass-spring-damper template when its hand is pushed.
 //
-// One tick:
-//  1. dynamics at (q, v): M, h, foot and EE Jacobians and Jdot*v;
+// One tick, on the caller's dynamics (springbok::control computes them once per
+// tick for the gait and this controller):
+//  1. dynamics at (q, v): M, h, foot and EE Jacobians and Jdot*v (dyn::compute_tick,
+//     by the caller); the feet's Jacobians are moved to their contact points here;
 //  2. the desired base wrench W_b^d (eq. 4-5) from the template gains and a
 //     rotational PD; the base task  diag(M_b, I_b) qdd_b = W_b^d;
 //  3. the arm task (eq. 8): the template's EE acceleration through the damped,
@@ -15,8 +17,9 @@
 //       inequalities swing task with slack (6 per swing foot), friction pyramid and
 //                    normal-force bounds (5 per stance foot), joint-acceleration
 //                    bounds (eq. 17, 19), torque limits (19);
-//  5. torques by eq. 19. If the QP fails the tick still returns safe torques
-//     (stance gravity compensation plus joint damping) and counts the failure.
+//  5. torques by eq. 19. If the QP fails the tick says so (`failed`), counts it
+//     and leaves the torques of the last solved tick: the safety supervisor alone
+//     decides what a failed tick commands.
 //
 // Frames: world quantities are in world axes; the base twist v[0:6] is in the
 // trunk frame (CONVENTIONS.md). The template's displacements are of the trunk
@@ -32,6 +35,7 @@
 
 #include "springbok/dynamics/dynamics.hpp"
 #include "springbok/model/model.hpp"
+#include "springbok/model/robot_state.hpp"
 #include "springbok/qp/qp.hpp"
 #include "springbok/wbc/impedance_template.hpp"
 
@@ -93,9 +97,6 @@ struct WbcParams {
   // Swing foot Cartesian PD (relative to the base, base axes).
   Vec3 swing_kp_per_s2{400.0, 400.0, 400.0};
   Vec3 swing_kd_per_s{40.0, 40.0, 40.0};
-
-  // Fallback when the QP fails: joint damping [N m s/rad].
-  double fallback_damping_nms_per_rad = 5.0;
 };
 
 // Desired swing-foot motion, foot position relative to the trunk origin, trunk axes.
@@ -106,9 +107,7 @@ struct SwingTarget {
 };
 
 struct WbcInput {
-  VecNq q = VecNq::Zero();
-  VecNv v = VecNv::Zero();
-  std::array<bool, kFeet> stance{true, true, true, true};
+  RobotState state;                  // q, v, R_WB, the stance feet
   std::array<SwingTarget, kFeet> swing{};
   // The wrist F/T measurement (external wrench on the EE, sensor axes, about its origin).
   Vec3 wrist_force_n = Vec3::Zero();
@@ -129,7 +128,7 @@ struct WbcOutput {
   qp::Status qp_status = qp::Status::bad_input;
   int qp_iterations = 0;
   bool qp_from_hint = false;                   // solved directly on the last tick's active set
-  bool fallback = false;                       // true when the QP failed this tick
+  bool failed = false;                         // the QP failed this tick: tau_nm is the last solved tick's
   // What the tasks asked for, for logs and plots.
   Vec6 base_wrench_desired = Vec6::Zero();     // [F_b^d; T_b^d], world
   Vec3 ee_acceleration_desired = Vec3::Zero(); // world
@@ -142,43 +141,44 @@ struct WbcOutput {
 
 class WholeBodyController {
  public:
-  // Start-up: allocates the dynamics workspace and the QP once.
+  // Start-up: allocates the QP once.
   explicit WholeBodyController(const WbcParams& params);
   ~WholeBodyController();
   WholeBodyController(const WholeBodyController&) = delete;
   WholeBodyController& operator=(const WholeBodyController&) = delete;
 
   // Holds the pose at q as the desired one (base, EE, arm posture) and sets
-  // I_b if it is automatic. Not real-time.
-  void set_reference(const VecNq& q);
+  // I_b if it is automatic; `data` is the caller's workspace (its kinematics are
+  // recomputed at q). rt: no alloc (once, on entering the control mode)
+  void set_reference(const VecNq& q, dyn::Data& data) noexcept;
   const WbcReference& reference() const noexcept { return reference_; }
   const WbcParams& params() const noexcept { return params_; }
   Vec3 base_rotational_inertia_kgm2() const noexcept { return base_inertia_diag_; }
 
-  // rt: no alloc, no block. Never throws; on a QP failure `out.fallback` is set.
-  const WbcOutput& tick(const WbcInput& in) noexcept;
+  // `data` must hold dyn::compute_tick at (in.state.q, in.state.v); its feet's
+  // Jacobians are moved to the contact points. rt: no alloc, no block. Never
+  // throws; on a QP failure `out.failed` is set.
+  const WbcOutput& tick(const WbcInput& in, dyn::Data& data) noexcept;
 
   std::uint64_t qp_failures() const noexcept { return qp_failures_; }
   const WbcOutput& output() const noexcept { return out_; }
 
  private:
-  void base_task(const WbcInput& in, Vec6& base_acc_desired) noexcept;
-  void arm_task(const WbcInput& in, const Vec6& base_acc_desired) noexcept;
-  void build_qp(const WbcInput& in) noexcept;
-  void torques_from_solution(const WbcInput& in) noexcept;
-  void fallback_torques(const WbcInput& in) noexcept;
-  void feet_jacobians_at_contact_points(const WbcInput& in) noexcept;
+  void base_task(const WbcInput& in, const dyn::Data& d, Vec6& base_acc_desired) noexcept;
+  void arm_task(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired) noexcept;
+  void build_qp(const WbcInput& in, const dyn::Data& d) noexcept;
+  void torques_from_solution(const WbcInput& in, const dyn::Data& d) noexcept;
+  void feet_jacobians_at_contact_points(const WbcInput& in, dyn::Data& d) noexcept;
 
   WbcParams params_;
   WbcReference reference_;
   Vec3 base_inertia_diag_ = Vec3::Ones();
   dyn::Model model_;
-  std::unique_ptr<dyn::Data> data_;
   std::unique_ptr<WbcSolver> solver_;
   std::unique_ptr<WbcSolver::ProblemType> problem_;
   std::unique_ptr<WbcSolver::ResultType> result_;
   std::unique_ptr<qp::ActiveSet<kQpIn>> warm_start_;
-  std::array<bool, kFeet> last_stance_{true, true, true, true};
+  Stance last_stance_ = kAllFeet;
   bool have_warm_start_ = false;
   Vec6 wrench_ee_world_ = Vec6::Zero();
   WbcOutput out_;

@@ -1,0 +1,164 @@
+// springbok::control — the controller of the control mode, one object in every
+// binary: the deployed firmware (springbok, on SocketCAN), springbok-on-sim and the
+// simulation tool (springbok-sim) all run this class. One tick:
+//
+//   hal::Measurements --> BaseEstimator (IMU + leg kinematics, last tick's stance)
+//          |                   |
+//          |              RobotState (q, v, R_WB once, stance)  <-- or the simulator's
+//          |                   |                                    ground truth (tool only)
+//          |              dyn::compute_tick: kinematics and dynamics once, one Data
+//          |                   |
+//          +-- wrist F/T --> gait: stand (four feet) or trot (stance set, swing targets,
+//              minus tare       footholds under the static ZMP of weight + wrist wrench)
+//                              |
+//                         WholeBodyController (QP) --> joint torques
+//
+// Outside the control mode (stand-up, stand; the tool's settle phase) observe()
+// keeps the estimator running on four feet and, while the robot stands still,
+// tares the wrist F/T (CAN.md 6.2: the mean of the first tare_samples valid
+// readings in stand is subtracted from then on; request_tare() takes a new one at
+// the next stand). The tare never collects in the control mode, where the hand
+// may be pushed; until one completes, nothing is subtracted. The first tick() after construction or
+// disengage() engages: the template's reference is the pose of that instant and
+// the requested gait starts.
+//
+// A failed tick (estimate not ok, QP failure, not engaged) leaves the command
+// untouched and says why: the safety supervisor alone decides what it commands.
+//
+// Gait switching (request_gait, applied at the next tick): stand -> trot starts the
+// cycle from the feet where they stand; trot -> stand lets every swinging foot land
+// and lifts no new one, then stands.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+
+#include <Eigen/Core>
+
+#include "springbok/dynamics/dynamics.hpp"
+#include "springbok/estimation/base_estimator.hpp"
+#include "springbok/gait/trot.hpp"
+#include "springbok/hal/types.hpp"
+#include "springbok/model/robot_state.hpp"
+#include "springbok/wbc/whole_body_controller.hpp"
+
+namespace springbok::control {
+
+enum class GaitKind : std::uint8_t { stand = 0, trot = 1 };
+const char* to_string(GaitKind kind) noexcept;
+
+struct GaitCommand {
+  GaitKind kind = GaitKind::stand;
+  gait::TrotParams trot;  // with kind == trot
+};
+
+struct ControlParams {
+  wbc::WbcParams wbc;
+  est::EstimatorParams estimator;
+  GaitCommand gait;                  // the gait the controller engages with
+  std::uint32_t tare_samples = 500;  // wrist F/T readings a tare averages
+};
+
+enum class TickStatus : std::uint8_t {
+  ok = 0,
+  estimate_failed = 1,  // the base estimate is not ok (no IMU, a bad measurement, no foot down)
+  qp_failed = 2,        // the whole-body QP has no solution this tick
+};
+const char* to_string(TickStatus status) noexcept;
+
+// What the gait does now.
+enum class GaitState : std::uint8_t { stand = 0, trot = 1, stopping = 2 };
+const char* to_string(GaitState state) noexcept;
+
+// The simulator's floating base (tool only): q[0:7] = [p_WB, quaternion xyzw],
+// v[0:6] = [v_B, w_B] (trunk frame). The joints always come from the measurements.
+struct BaseTruth {
+  Vec<7> pose = Vec<7>::Zero();
+  Vec6 twist = Vec6::Zero();
+};
+
+// The wrist F/T tare.
+struct Tare {
+  Vec3 force_n = Vec3::Zero();    // subtracted from the reading (EE frame)
+  Vec3 torque_nm = Vec3::Zero();
+  std::uint32_t samples = 0;      // readings collected by the running (or last) tare
+  bool running = false;           // a tare is collecting readings
+  std::uint32_t completed = 0;    // tares taken since start-up
+};
+
+class WholeBodyControl {
+ public:
+  // Start-up: allocates the QP and the dynamics workspace once.
+  explicit WholeBodyControl(const ControlParams& params);
+  ~WholeBodyControl();
+  WholeBodyControl(const WholeBodyControl&) = delete;
+  WholeBodyControl& operator=(const WholeBodyControl&) = delete;
+
+  // The horizontal position the estimator starts from (default 0, 0). Start-up.
+  void set_start_position_xy(const Eigen::Vector2d& xy_m) noexcept { start_xy_m_ = xy_m; }
+
+  // A tick outside the control mode: the estimator on four feet; `standing_still`
+  // (the stand mode, the tool's settle) lets the tare collect. rt: no alloc, no block
+  void observe(const hal::Measurements& m, double dt_s, bool standing_still) noexcept;
+
+  // One control-mode tick. Writes `cmd` (torque mode) only when it returns ok.
+  // `truth` (tool only) replaces the estimated base. rt: no alloc, no block
+  TickStatus tick(const hal::Measurements& m, double dt_s, hal::JointCommands& cmd,
+                  const BaseTruth* truth = nullptr) noexcept;
+
+  // Leaving the control mode: the next tick() engages anew. rt: no alloc
+  void disengage() noexcept { engaged_ = false; }
+
+  // Operator requests, taken at the next tick. request_gait refuses (false) a
+  // trot with parameters outside read_trot_params' ranges. rt: no alloc
+  bool request_gait(const GaitCommand& command) noexcept;
+  void request_tare() noexcept;
+
+  bool engaged() const noexcept { return engaged_; }
+  const RobotState& state() const noexcept { return state_; }
+  const est::BaseEstimate& estimate() const noexcept { return estimator_.estimate(); }
+  const wbc::WbcOutput& output() const noexcept { return wbc_->output(); }
+  const wbc::WholeBodyController& wbc() const noexcept { return *wbc_; }
+  const gait::TrotGait& trot() const noexcept { return trot_; }
+  GaitState gait_state() const noexcept { return gait_state_; }
+  const Tare& tare() const noexcept { return tare_; }
+  // The wrist wrench the controller used this tick (tared; zero when not valid), EE frame.
+  const Vec3& wrist_force_n() const noexcept { return input_.wrist_force_n; }
+  std::uint64_t stance_changes() const noexcept { return stance_changes_; }
+  std::uint64_t failed_ticks() const noexcept { return failed_ticks_; }
+  const ControlParams& params() const noexcept { return params_; }
+
+ private:
+  // The estimator's tick (reset on the first one and after a gap in m.sequence).
+  est::EstimateStatus estimate(const hal::Measurements& m, double dt_s, const Stance& stance) noexcept;
+  void take_wrist(const hal::Measurements& m, bool collect) noexcept;
+  void plan_gait(double dt_s, bool engaging) noexcept;
+  Vec3 footholds_shift_h(const Mat3& yaw) const noexcept;
+
+  ControlParams params_;
+  dyn::Model model_;
+  std::unique_ptr<dyn::Data> data_;
+  est::BaseEstimator estimator_;
+  std::unique_ptr<wbc::WholeBodyController> wbc_;
+  gait::TrotGait trot_;
+  wbc::WbcInput input_;       // input_.state is the tick's RobotState
+  RobotState& state_ = input_.state;
+  Eigen::Vector2d start_xy_m_ = Eigen::Vector2d::Zero();
+  bool have_sequence_ = false;
+  std::uint64_t last_sequence_ = 0;
+  bool engaged_ = false;
+  GaitState gait_state_ = GaitState::stand;
+  GaitCommand requested_gait_;
+  bool gait_request_pending_ = false;
+  double gait_time_s_ = 0.0;
+  Tare tare_;
+  Vec3 tare_force_sum_n_ = Vec3::Zero(), tare_torque_sum_nm_ = Vec3::Zero();
+  std::uint64_t stance_changes_ = 0;
+  std::uint64_t failed_ticks_ = 0;
+};
+
+// The robot's centre of mass (world) from the mass matrix's base block: about the
+// trunk origin in trunk axes, M[0:3, 3:6] = -m [c_B]x. rt: no alloc
+Vec3 center_of_mass_from_inertia(const MatNv& mass_matrix, const RobotState& state) noexcept;
+
+}  // namespace springbok::control

@@ -1,0 +1,217 @@
+#include "springbok/control/whole_body_control.hpp"
+
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+namespace springbok::control {
+
+const char* to_string(GaitKind kind) noexcept {
+  switch (kind) {
+    case GaitKind::stand: return "stand";
+    case GaitKind::trot: return "trot";
+  }
+  return "?";
+}
+
+const char* to_string(TickStatus status) noexcept {
+  switch (status) {
+    case TickStatus::ok: return "ok";
+    case TickStatus::estimate_failed: return "estimate_failed";
+    case TickStatus::qp_failed: return "qp_failed";
+  }
+  return "?";
+}
+
+const char* to_string(GaitState state) noexcept {
+  switch (state) {
+    case GaitState::stand: return "stand";
+    case GaitState::trot: return "trot";
+    case GaitState::stopping: return "stopping";
+  }
+  return "?";
+}
+
+Vec3 center_of_mass_from_inertia(const MatNv& mass_matrix, const RobotState& state) noexcept {
+  const double mass_kg = mass_matrix(0, 0);
+  const Vec3 com_b(-mass_matrix(2, 4) / mass_kg, -mass_matrix(0, 5) / mass_kg, -mass_matrix(1, 3) / mass_kg);
+  return state.q.head<3>() + state.rotation_wb * com_b;
+}
+
+WholeBodyControl::WholeBodyControl(const ControlParams& params)
+    : params_(params),
+      data_(std::make_unique<dyn::Data>()),
+      estimator_(params.estimator),
+      wbc_(std::make_unique<wbc::WholeBodyController>(params.wbc)),
+      trot_(params.gait.trot),
+      requested_gait_(params.gait) {
+  tare_.running = params_.tare_samples > 0;
+}
+
+WholeBodyControl::~WholeBodyControl() = default;
+
+est::EstimateStatus WholeBodyControl::estimate(const hal::Measurements& m, double dt_s, const Stance& stance) noexcept {
+  const bool continuous = have_sequence_ && m.sequence == last_sequence_ + 1;
+  have_sequence_ = true;
+  last_sequence_ = m.sequence;
+  if (!continuous || estimator_.estimate().status == est::EstimateStatus::not_reset) {
+    return estimator_.reset(m, stance, start_xy_m_);
+  }
+  return estimator_.update(m, stance, dt_s).status;
+}
+
+// The tick's wrist wrench: the reading minus the tare, zero when not valid; the
+// tare collects while `collect`. rt: no alloc
+void WholeBodyControl::take_wrist(const hal::Measurements& m, bool collect) noexcept {
+  const bool valid = m.wrist.valid && m.wrist.force_n.allFinite() && m.wrist.torque_nm.allFinite();
+  if (valid && collect && tare_.running) {
+    tare_force_sum_n_ += m.wrist.force_n;
+    tare_torque_sum_nm_ += m.wrist.torque_nm;
+    if (++tare_.samples >= params_.tare_samples) {
+      tare_.force_n = tare_force_sum_n_ / static_cast<double>(tare_.samples);
+      tare_.torque_nm = tare_torque_sum_nm_ / static_cast<double>(tare_.samples);
+      tare_.running = false;
+      ++tare_.completed;
+    }
+  }
+  input_.wrist_force_n = valid ? Vec3(m.wrist.force_n - tare_.force_n) : Vec3::Zero();
+  input_.wrist_torque_nm = valid ? Vec3(m.wrist.torque_nm - tare_.torque_nm) : Vec3::Zero();
+}
+
+void WholeBodyControl::request_tare() noexcept {
+  tare_.running = params_.tare_samples > 0;
+  tare_.samples = 0;
+  tare_force_sum_n_.setZero();
+  tare_torque_sum_nm_.setZero();
+}
+
+bool WholeBodyControl::request_gait(const GaitCommand& command) noexcept {
+  if (command.kind == GaitKind::trot && gait::trot_params_error(command.trot) != nullptr) return false;
+  requested_gait_ = command;
+  gait_request_pending_ = true;
+  return true;
+}
+
+void WholeBodyControl::observe(const hal::Measurements& m, double dt_s, bool standing_still) noexcept {
+  (void)estimate(m, dt_s, kAllFeet);
+  state_.stance = kAllFeet;
+  take_wrist(m, standing_still);
+}
+
+// The shift of the trot's footholds (frame H; data_ holds this tick's kinematics)
+// that puts their pattern's centre on the ground (the stance feet's height) under
+// the static ZMP of the weight and the wrist's wrench. rt: no alloc
+Vec3 WholeBodyControl::footholds_shift_h(const Mat3& yaw) const noexcept {
+  const dyn::Data& d = *data_;
+  double feet_z_m = 0.0;
+  int stance_feet = 0;
+  for (int f = 0; f < kFeet; ++f) {
+    if (!state_.stance[f]) continue;
+    feet_z_m += d.frames[kFootFrames[f]].translation.z();
+    ++stance_feet;
+  }
+  if (stance_feet == 0) return Vec3::Zero();
+  feet_z_m /= stance_feet;
+  const dyn::Placement& wrist = d.frames[kWristFtFrame];
+  const Vec3 com = center_of_mass_from_inertia(d.M, state_);
+  Vec3 centre = gait::static_zmp(com, model_.total_mass_kg * kGravity_m_s2, wrist.translation,
+                                 wrist.rotation * input_.wrist_force_n, wrist.rotation * input_.wrist_torque_nm,
+                                 feet_z_m - kFootRadius_m);
+  centre.z() = feet_z_m;
+  if (!centre.allFinite()) return Vec3::Zero();
+  return yaw.transpose() * (centre - state_.q.head<3>()) - trot_.nominal_centre_h();
+}
+
+// Stance set and swing targets for this tick (data_ holds its kinematics). rt: no alloc
+void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
+  if (engaging) {
+    gait_state_ = GaitState::stand;
+    gait_request_pending_ = requested_gait_.kind == GaitKind::trot;
+  }
+  bool start_trot = false;
+  if (gait_request_pending_) {
+    if (gait_state_ == GaitState::trot) {
+      gait_state_ = GaitState::stopping;  // to stand, or to restart with new parameters once stood
+    }
+    if (requested_gait_.kind == GaitKind::stand) {
+      gait_request_pending_ = false;
+    } else if (gait_state_ == GaitState::stand) {
+      trot_ = gait::TrotGait(requested_gait_.trot);
+      gait_state_ = GaitState::trot;
+      gait_time_s_ = 0.0;
+      start_trot = true;
+      gait_request_pending_ = false;
+    }
+  }
+  Stance stance = kAllFeet;
+  if (gait_state_ != GaitState::stand) {
+    if (!start_trot) gait_time_s_ += dt_s;
+    // Feet relative to the trunk in its horizontal frame H (yaw axes); the trunk's
+    // tilt maps the references to trunk axes.
+    const Mat3& rot = state_.rotation_wb;
+    const Mat3 yaw = Eigen::AngleAxisd(std::atan2(rot(1, 0), rot(0, 0)), Vec3::UnitZ()).toRotationMatrix();
+    const Mat3 tilt = yaw.transpose() * rot;
+    std::array<Vec3, kFeet> feet_h;
+    for (int f = 0; f < kFeet; ++f) {
+      feet_h[f] = yaw.transpose() * (data_->frames[kFootFrames[f]].translation - state_.q.head<3>());
+    }
+    if (start_trot) trot_.start(feet_h);
+    const gait::ContactPlan& plan =
+        trot_.update(gait_time_s_, feet_h, tilt * state_.v.head<3>(), footholds_shift_h(yaw), tilt);
+    bool all_down = true;
+    for (int f = 0; f < kFeet; ++f) {
+      // Stopping: a foot on the ground stays there, a swinging one lands by the plan.
+      stance[f] = plan.stance[f] || (gait_state_ == GaitState::stopping && state_.stance[f]);
+      all_down = all_down && stance[f];
+      input_.swing[f].position_m = plan.swing[f].position_m;
+      input_.swing[f].velocity_m_s = plan.swing[f].velocity_m_s;
+      input_.swing[f].acceleration_m_s2 = plan.swing[f].acceleration_m_s2;
+    }
+    if (gait_state_ == GaitState::stopping && all_down) gait_state_ = GaitState::stand;
+  }
+  for (int f = 0; f < kFeet; ++f) stance_changes_ += stance[f] != state_.stance[f] ? 1 : 0;
+  state_.stance = stance;
+}
+
+TickStatus WholeBodyControl::tick(const hal::Measurements& m, double dt_s, hal::JointCommands& cmd,
+                                  const BaseTruth* truth) noexcept {
+  const est::EstimateStatus estimated = estimate(m, dt_s, state_.stance);  // last tick's stance
+  if (truth != nullptr) {
+    state_.q.head<7>() = truth->pose;
+    state_.q.tail<kNj>() = m.q_rad;
+    state_.v.head<6>() = truth->twist;
+    state_.v.tail<kNj>() = m.qd_rad_s;
+  } else {
+    if (estimated != est::EstimateStatus::ok) {
+      ++failed_ticks_;
+      return TickStatus::estimate_failed;
+    }
+    state_.q = estimator_.estimate().q;
+    state_.v = estimator_.estimate().v;
+  }
+  state_.set_rotation_from_q();
+  take_wrist(m, false);  // the tare collects in stand only (observe): a push here is not a bias
+
+  const bool engaging = !engaged_;
+  if (engaging) {
+    wbc_->set_reference(state_.q, *data_);  // the template's rest pose: this instant's
+    engaged_ = true;
+  }
+  dyn::compute_tick(model_, *data_, state_.q, state_.v);  // the tick's kinematics and dynamics, once
+  plan_gait(dt_s, engaging);
+
+  const wbc::WbcOutput& o = wbc_->tick(input_, *data_);
+  if (o.failed) {
+    ++failed_ticks_;
+    return TickStatus::qp_failed;
+  }
+  cmd.mode = hal::CommandMode::enabled;
+  cmd.tau_ff_nm = o.tau_nm;
+  cmd.q_des_rad = m.q_rad;
+  cmd.qd_des_rad_s.setZero();
+  cmd.kp_nm_per_rad.setZero();
+  cmd.kd_nms_per_rad.setZero();
+  return TickStatus::ok;
+}
+
+}  // namespace springbok::control

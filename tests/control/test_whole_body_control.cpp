@@ -1,0 +1,212 @@
+// springbok::control::WholeBodyControl on its own: the centre of mass from the mass
+// matrix against the dynamics' oracle, the wrist F/T tare, gait switching (a stop
+// lands every swinging foot and lifts none), refused gait requests, failed ticks
+// that leave the command to the supervisor, and allocation-free ticks.
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "alloc_trap.hpp"
+#include "springbok/control/whole_body_control.hpp"
+#include "springbok/wbc/stand_controller.hpp"
+
+namespace {
+using namespace springbok;
+using control::GaitKind;
+using control::GaitState;
+using control::TickStatus;
+using control::WholeBodyControl;
+
+constexpr double kDt_s = 0.001;
+
+VecNq standing_q() {
+  VecNq q = VecNq::Zero();
+  q[2] = 0.61233 + kFootRadius_m;
+  q[6] = 1.0;
+  q.segment<kNj>(7) = wbc::nominal_stance();
+  q.segment<kArmJoints>(7 + kFirstArmJoint) << 0.0, 0.6, 0.0, 1.9, 0.0, 0.9, 0.0;
+  return q;
+}
+
+// A robot standing still, as its sensors report it: joints at q, IMU level at rest.
+hal::Measurements standing_measurements(std::uint64_t sequence) {
+  hal::Measurements m;
+  m.sequence = sequence;
+  m.q_rad = standing_q().tail<kNj>();
+  m.imu.valid = true;
+  static const dyn::Model model;
+  const Mat3& r_bi = model.frame_placement[kImuFrame].rotation;  // the IMU's mounting in the trunk
+  m.imu.orientation = Quat(r_bi);                                // trunk level: world_from_imu = R_BI
+  m.imu.linear_accel_m_s2 = r_bi.transpose() * Vec3(0.0, 0.0, kGravity_m_s2);
+  m.wrist.valid = true;
+  return m;
+}
+
+TEST(CenterOfMass, FromTheMassMatrixEqualsTheDynamicsOracle) {
+  dyn::Model model;
+  auto data = std::make_unique<dyn::Data>();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < 20; ++i) {
+    RobotState s;
+    s.q.head<3>() = Vec3(u(rng), u(rng), u(rng));
+    Quat quat(u(rng), u(rng), u(rng), u(rng));
+    quat.normalize();
+    s.q.segment<4>(3) = quat.coeffs();
+    for (int j = 0; j < kNj; ++j) s.q[7 + j] = u(rng);
+    s.set_rotation_from_q();
+    dyn::compute_tick(model, *data, s.q, s.v);
+    const Vec3 oracle = dyn::center_of_mass(model, *data, s.q);
+    EXPECT_LT((control::center_of_mass_from_inertia(data->M, s) - oracle).norm(), 1e-12) << "state " << i;
+  }
+}
+
+struct Control : ::testing::Test {
+  control::ControlParams params;
+  std::unique_ptr<WholeBodyControl> c;
+  hal::JointCommands cmd;
+  std::uint64_t sequence = 0;
+
+  void make() { c = std::make_unique<WholeBodyControl>(params); }
+  hal::Measurements next() { return standing_measurements(++sequence); }
+};
+
+TEST_F(Control, TheTareIsTheMeanOfItsReadingsAndIsSubtracted) {
+  params.tare_samples = 4;
+  make();
+  const Vec3 forces[4] = {{1, 2, 3}, {3, 2, 1}, {2, 2, 2}, {2, 2, 6}};  // mean (2, 2, 3)
+  for (const Vec3& f : forces) {
+    hal::Measurements m = next();
+    m.wrist.force_n = f;
+    m.wrist.torque_nm = 0.5 * f;
+    c->observe(m, kDt_s, true);
+  }
+  EXPECT_FALSE(c->tare().running);
+  EXPECT_EQ(c->tare().completed, 1u);
+  EXPECT_EQ(c->tare().force_n, Vec3(2, 2, 3));
+  EXPECT_EQ(c->tare().torque_nm, Vec3(1, 1, 1.5));
+  hal::Measurements m = next();
+  m.wrist.force_n = Vec3(12, 2, 3);
+  ASSERT_EQ(c->tick(m, kDt_s, cmd), TickStatus::ok);
+  EXPECT_EQ(c->wrist_force_n(), Vec3(10, 0, 0));
+  // A re-tare collects in stand only, never in the control mode (a push is not a bias);
+  // a reading that is not valid counts as no wrench and is not collected.
+  c->request_tare();
+  for (int i = 0; i < 10; ++i) ASSERT_EQ(c->tick(m, kDt_s, cmd), TickStatus::ok);
+  EXPECT_EQ(c->tare().samples, 0u);
+  EXPECT_TRUE(c->tare().running);
+  EXPECT_EQ(c->tare().force_n, Vec3(2, 2, 3));  // the last tare holds meanwhile
+  m = next();
+  m.wrist.force_n = Vec3(std::numeric_limits<double>::quiet_NaN(), 0, 0);
+  c->observe(m, kDt_s, true);
+  ASSERT_EQ(c->tick(next(), kDt_s, cmd), TickStatus::ok);
+  EXPECT_EQ(c->tare().samples, 0u);
+  m = next();
+  m.wrist.force_n = Vec3(std::numeric_limits<double>::quiet_NaN(), 0, 0);
+  ASSERT_EQ(c->tick(m, kDt_s, cmd), TickStatus::ok);
+  EXPECT_EQ(c->wrist_force_n(), Vec3::Zero());
+}
+
+TEST_F(Control, ObservingWhileMovingDoesNotTare) {
+  params.tare_samples = 2;
+  make();
+  for (int i = 0; i < 5; ++i) {
+    hal::Measurements m = next();
+    m.wrist.force_n = Vec3(5, 0, 0);
+    c->observe(m, kDt_s, false);  // stand-up: the arm moves
+  }
+  EXPECT_EQ(c->tare().samples, 0u);
+  EXPECT_EQ(c->tare().completed, 0u);
+}
+
+TEST_F(Control, AFailedEstimateLeavesTheCommandToTheSupervisor) {
+  make();
+  c->observe(next(), kDt_s, true);
+  hal::Measurements m = next();
+  m.imu.valid = false;  // the IMU lost
+  cmd.tau_ff_nm.setConstant(42.0);
+  EXPECT_EQ(c->tick(m, kDt_s, cmd), TickStatus::estimate_failed);
+  EXPECT_EQ(cmd.tau_ff_nm, VecNj::Constant(42.0));
+  EXPECT_EQ(c->failed_ticks(), 1u);
+}
+
+TEST_F(Control, GaitRequestsOutsideTheTrotRangesAreRefused) {
+  make();
+  control::GaitCommand trot;
+  trot.kind = GaitKind::trot;
+  trot.trot.duty_factor = 0.4;
+  EXPECT_FALSE(c->request_gait(trot));
+  trot.trot.duty_factor = 0.65;
+  trot.trot.step_frequency_hz = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(c->request_gait(trot));
+  trot.trot.step_frequency_hz = 1.4;
+  EXPECT_TRUE(c->request_gait(trot));
+}
+
+// Stand -> trot -> stand on measurements of a robot standing still: the trot
+// alternates the diagonals; a stop lifts no new foot and stands once the swinging
+// pair has landed (within one swing time).
+TEST_F(Control, StandTrotStand) {
+  make();
+  c->observe(next(), kDt_s, true);
+  ASSERT_EQ(c->tick(next(), kDt_s, cmd), TickStatus::ok);
+  EXPECT_EQ(c->gait_state(), GaitState::stand);
+  control::GaitCommand trot;
+  trot.kind = GaitKind::trot;
+  trot.trot.step_frequency_hz = 2.0;
+  trot.trot.duty_factor = 0.6;
+  ASSERT_TRUE(c->request_gait(trot));
+  bool lifted = false;
+  for (int i = 0; i < 400 && !lifted; ++i) {  // the first lift-off is within one cycle (500 ms)
+    ASSERT_EQ(c->tick(next(), kDt_s, cmd), TickStatus::ok);
+    EXPECT_EQ(c->gait_state(), GaitState::trot);
+    lifted = c->state().stance != kAllFeet;
+  }
+  ASSERT_TRUE(lifted);
+  const Stance down_at_stop = c->state().stance;
+  EXPECT_NE(down_at_stop[0], down_at_stop[1]);  // one diagonal up
+  EXPECT_EQ(down_at_stop[0], down_at_stop[3]);
+  control::GaitCommand stand;
+  ASSERT_TRUE(c->request_gait(stand));
+  ASSERT_EQ(c->tick(next(), kDt_s, cmd), TickStatus::ok);
+  EXPECT_EQ(c->gait_state(), GaitState::stopping);
+  const int swing_ticks = static_cast<int>(std::ceil((1.0 - 0.6) / 2.0 / kDt_s));
+  int ticks = 0;
+  while (c->gait_state() != GaitState::stand && ticks <= swing_ticks + 1) {
+    ASSERT_EQ(c->tick(next(), kDt_s, cmd), TickStatus::ok);
+    for (int f = 0; f < kFeet; ++f) {
+      if (down_at_stop[f]) {
+        EXPECT_TRUE(c->state().stance[f]) << "foot " << f << " was down and lifted";
+      }
+    }
+    ++ticks;
+  }
+  EXPECT_EQ(c->gait_state(), GaitState::stand);
+  EXPECT_EQ(c->state().stance, kAllFeet);
+  for (int i = 0; i < 600; ++i) ASSERT_EQ(c->tick(next(), kDt_s, cmd), TickStatus::ok);
+  EXPECT_EQ(c->state().stance, kAllFeet);  // stays standing
+}
+
+TEST_F(Control, TicksDoNotAllocate) {
+  make();
+  c->observe(next(), kDt_s, true);
+  c->tick(next(), kDt_s, cmd);
+  control::GaitCommand trot;
+  trot.kind = GaitKind::trot;
+  std::size_t n = 0;
+  {
+    test::AllocationTrap trap;
+    (void)c->request_gait(trot);
+    for (int i = 0; i < 300; ++i) c->tick(next(), kDt_s, cmd);
+    c->request_tare();
+    for (int i = 0; i < 10; ++i) c->observe(next(), kDt_s, true);
+    c->disengage();
+    c->tick(next(), kDt_s, cmd);
+    n = trap.disarm();
+  }
+  EXPECT_EQ(n, 0u);
+}
+
+}  // namespace
