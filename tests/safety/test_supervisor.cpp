@@ -165,6 +165,46 @@ TEST_F(SupervisorTest, EveryModeTransition) {
   EXPECT_EQ(sup.faults(), 0u);
 }
 
+// CAN.md 6.4: a sensor the controller needs, lost in the control mode, is a latched
+// fault that names it (damping); lost in another mode only a warning, and it blocks
+// `mode control`.
+TEST_F(SupervisorTest, ANeededSensorLostInControlLatchesElsewhereWarns) {
+  for (const FaultMask which : {fault::kImuLost, fault::kWristFtLost}) {
+    SupervisorConfig c = config;
+    c.control_needs_imu = true;
+    c.control_needs_wrist_ft = true;
+    sup = Supervisor(c);
+    meas.imu.lost = which == fault::kImuLost;
+    meas.wrist.lost = which == fault::kWristFtLost;
+    tick();
+    EXPECT_EQ(sup.sensors_lost(), which);  // idle: a warning
+    EXPECT_EQ(sup.faults(), 0u);
+    ASSERT_EQ(ask(OperatorCommand::start), Verdict::accepted);
+    tick({true, true});
+    ASSERT_EQ(sup.mode(), Mode::stand);
+    EXPECT_EQ(sup.faults(), 0u);
+    EXPECT_EQ(ask(OperatorCommand::mode_control), Verdict::sensor_lost);  // refused while lost
+    meas.imu.lost = meas.wrist.lost = false;
+    tick();
+    EXPECT_EQ(sup.sensors_lost(), 0u);
+    ASSERT_EQ(ask(OperatorCommand::mode_control), Verdict::accepted);
+    tick();
+    meas.imu.lost = which == fault::kImuLost;
+    meas.wrist.lost = which == fault::kWristFtLost;
+    tick();
+    expect_damping();
+    EXPECT_EQ(sup.faults(), which);
+    EXPECT_STREQ(fault_name(which == fault::kImuLost ? 8 : 9), which == fault::kImuLost ? "imu_lost" : "wrist_ft_lost");
+  }
+  // Not needed (joint-PD control mode): never a fault.
+  sup = Supervisor(config);
+  meas.imu.lost = meas.wrist.lost = true;
+  go_to_control();
+  tick();
+  EXPECT_EQ(sup.mode(), Mode::control);
+  EXPECT_EQ(sup.sensors_lost(), 0u);
+}
+
 TEST_F(SupervisorTest, StopFromEveryModeGoesToDamping) {
   for (Mode target : {Mode::idle, Mode::stand_up, Mode::stand, Mode::control}) {
     Supervisor s(config);

@@ -253,6 +253,8 @@ void read_config(const YAML::Node& root, Reader& r, AppConfig& c) {
     r.text(n, "control", "controller", kind_name);
     if (kind_name == "wbc") {
       c.control_mode = ControlModeKind::wbc;
+      c.safety.control_needs_imu = true;  // the estimator's orientation and rate
+      c.safety.control_needs_wrist_ft = true;  // F_e, what the template renders
       if (!n["wbc"].IsDefined()) r.fail("control.wbc", "missing (control.controller is wbc)");
     } else if (kind_name == "joint_pd") {
       c.control_mode = ControlModeKind::joint_pd;

@@ -14,6 +14,7 @@ const char* to_string(LogEvent event) noexcept {
     case LogEvent::hal_io: return "hal_io";
     case LogEvent::stats: return "stats";
     case LogEvent::joint_limit: return "joint_limit";
+    case LogEvent::sensors_lost: return "sensors_lost";
   }
   return "unknown";
 }

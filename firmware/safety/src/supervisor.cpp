@@ -26,6 +26,8 @@ const char* fault_name(int bit) noexcept {
     case 5: return "drive_lost";
     case 6: return "operator_stop";
     case 7: return "hal_watchdog";
+    case 8: return "imu_lost";
+    case 9: return "wrist_ft_lost";
     default: return "unknown";
   }
 }
@@ -53,6 +55,7 @@ const char* to_string(Verdict verdict) noexcept {
     case Verdict::unsafe_joint_limit: return "not safe: a joint is beyond its limit";
     case Verdict::unsafe_drive: return "not safe: a drive is lost or in fault";
     case Verdict::unsafe_timing: return "not safe: overrun streak in progress";
+    case Verdict::sensor_lost: return "a sensor the controller needs is lost (imu or wrist F/T)";
   }
   return "unknown";
 }
@@ -133,6 +136,9 @@ void Supervisor::observe(const hal::Measurements& meas, hal::IoStatus io, std::u
     }
   }
   if (!last_drives_healthy_) found |= fault::kDriveLost;
+  sensors_lost_ = (config_.control_needs_imu && meas.imu.lost ? fault::kImuLost : 0u) |
+                  (config_.control_needs_wrist_ft && meas.wrist.lost ? fault::kWristFtLost : 0u);
+  if (mode_ == Mode::control) found |= sensors_lost_;
   latch(found);
 }
 
@@ -147,6 +153,7 @@ Verdict Supervisor::request(OperatorCommand command) noexcept {  // rt: no alloc
       return Verdict::accepted;
     case OperatorCommand::mode_control:
       if (mode_ != Mode::stand) return Verdict::not_standing;
+      if (sensors_lost_ != 0) return Verdict::sensor_lost;
       enter(Mode::control);
       return Verdict::accepted;
     case OperatorCommand::mode_stand:

@@ -67,6 +67,10 @@ class ControlLoop {
             supervisor_.limit_joint_position_rad());
       }
     }
+    if (supervisor_.sensors_lost() != sensors_lost_) {  // a warning outside the control mode, a fault in it
+      sensors_lost_ = supervisor_.sensors_lost();
+      log(info, rt::LogEvent::sensors_lost, sensors_lost_, static_cast<std::int64_t>(supervisor_.mode()));
+    }
     if (supervisor_.mode() != mode_before) {
       log(info, rt::LogEvent::mode_change, static_cast<std::int64_t>(mode_before),
           static_cast<std::int64_t>(supervisor_.mode()));
@@ -95,6 +99,7 @@ class ControlLoop {
   hal::Measurements meas_;
   hal::JointCommands cmd_;
   hal::IoStatus last_io_ = hal::IoStatus::ok;
+  safety::FaultMask sensors_lost_ = 0;
 };
 
 }  // namespace springbok::app

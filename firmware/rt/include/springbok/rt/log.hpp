@@ -23,6 +23,7 @@ enum class LogEvent : std::uint16_t {
   hal_io = 6,            // a: IoStatus, b: consecutive stale ticks
   stats = 7,             // a: ticks, b: overruns, x: max wake latency [us]
   joint_limit = 8,       // a: joint index, b: mode when latched, x: joint position [rad]
+  sensors_lost = 9,      // a: the needed sensors lost now (fault bits imu_lost, wrist_ft_lost; 0: back), b: mode
 };
 
 const char* to_string(LogEvent event) noexcept;

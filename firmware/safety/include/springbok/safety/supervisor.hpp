@@ -40,7 +40,9 @@ inline constexpr FaultMask kQpFailureStreak = 1u << 4; // N consecutive controll
 inline constexpr FaultMask kDriveLost = 1u << 5;       // a drive lost or in fault (HAL DriveStatus)
 inline constexpr FaultMask kOperatorStop = 1u << 6;    // operator `stop`
 inline constexpr FaultMask kHalWatchdog = 1u << 7;     // no fresh HAL data for N ticks
-inline constexpr int kCount = 8;
+inline constexpr FaultMask kImuLost = 1u << 8;         // the trunk IMU lost in a mode that needs it
+inline constexpr FaultMask kWristFtLost = 1u << 9;     // the wrist F/T lost in a mode that needs it
+inline constexpr int kCount = 10;
 }  // namespace fault
 // Name of one fault bit (index 0..fault::kCount-1).
 const char* fault_name(int bit) noexcept;
@@ -59,6 +61,7 @@ enum class Verdict : std::uint8_t {
   unsafe_joint_limit,   // reset with a joint beyond its limit + margin
   unsafe_drive,         // reset with a drive lost or in fault
   unsafe_timing,        // reset during an overrun streak
+  sensor_lost,          // mode control while a sensor the controller needs is lost
 };
 const char* to_string(Verdict verdict) noexcept;
 
@@ -73,6 +76,11 @@ struct SupervisorConfig {
   // D_start: the drives' damping in idle (MIT: kd of the command frame, so it
   // must lie in the drive's kd range; CiA 402: rendered on the host).
   VecNj idle_damping_nms_per_rad = VecNj::Constant(2.0);
+  // The sensors the control mode's controller needs (the WBC: both). Lost in the
+  // control mode (hal::Imu::lost, hal::Wrench::lost): a latched fault; lost in
+  // another mode: a warning (sensors_lost()); `mode control` is refused meanwhile.
+  bool control_needs_imu = false;
+  bool control_needs_wrist_ft = false;
 };
 
 // What the controller says about its tick.
@@ -103,6 +111,9 @@ class Supervisor {
   // Ticks completed in the current mode (0 in the first tick of a mode).
   std::uint64_t ticks_in_mode() const noexcept { return ticks_in_mode_; }
   std::uint32_t stale_ticks() const noexcept { return stale_ticks_; }
+  // The needed sensors lost at the last observe(), as fault bits (kImuLost,
+  // kWristFtLost), in any mode: the warning outside the control mode.
+  FaultMask sensors_lost() const noexcept { return sensors_lost_; }
   // The joint that latched fault::kJointLimit (-1: none) and its position then.
   int limit_joint() const noexcept { return limit_joint_; }
   double limit_joint_position_rad() const noexcept { return limit_joint_position_rad_; }
@@ -140,6 +151,7 @@ class Supervisor {
   bool last_within_limits_ = false;
   bool last_drives_healthy_ = false;
   double last_max_speed_rad_s_ = 0.0;
+  FaultMask sensors_lost_ = 0;
   bool have_last_good_ = false;
   hal::JointCommands last_good_;
 };
