@@ -208,6 +208,21 @@ FtReading FtAssembler::reading() const noexcept {
 }
 
 // ---- sensor side -----------------------------------------------------------------------------
+namespace {
+// The frames of one sample: the fields of each, the counter and status (plus the
+// clipping bit when a field saturated) in all. rt: no alloc
+template <std::size_t N>
+void emit_sample(const std::array<std::uint32_t, N>& ids, std::array<SensorFrameFields, N>& ff, std::uint8_t counter,
+                 std::uint8_t status, bool clipped, std::array<Frame, N>& out) noexcept {
+  const auto st = static_cast<std::uint8_t>(status | (clipped ? sensor_status::clipping : 0));
+  for (std::size_t i = 0; i < N; ++i) {
+    ff[i].counter = counter;
+    ff[i].status = st;
+    encode_sensor_frame(ids[i], ff[i], out[i]);
+  }
+}
+}  // namespace
+
 bool encode_imu_sample(const ImuConfig& cfg, const ImuReading& r, std::uint8_t counter, std::uint8_t status,
                        std::array<Frame, kImuFrames>& out) noexcept {
   if (!r.orientation.coeffs().allFinite() || !r.angular_rate_rad_s.allFinite() || !r.linear_accel_m_s2.allFinite()) {
@@ -217,12 +232,7 @@ bool encode_imu_sample(const ImuConfig& cfg, const ImuReading& r, std::uint8_t c
   bool clipped = encode_quaternion(r.orientation, cfg.scales.orientation_per_count, ff[imu_frame::orientation].v);
   clipped = encode_scaled(r.angular_rate_rad_s, cfg.scales.rate_rad_s_per_count, ff[imu_frame::rate].v) || clipped;
   clipped = encode_scaled(r.linear_accel_m_s2, cfg.scales.accel_m_s2_per_count, ff[imu_frame::accel].v) || clipped;
-  const auto st = static_cast<std::uint8_t>(status | (clipped ? sensor_status::clipping : 0));
-  for (std::size_t i = 0; i < ff.size(); ++i) {
-    ff[i].counter = counter;
-    ff[i].status = st;
-    encode_sensor_frame(cfg.ids[i], ff[i], out[i]);
-  }
+  emit_sample(cfg.ids, ff, counter, status, clipped, out);
   return true;
 }
 
@@ -232,12 +242,7 @@ bool encode_ft_sample(const FtConfig& cfg, const Eigen::Vector3d& force_n, const
   std::array<SensorFrameFields, kFtFrames> ff{};
   bool clipped = encode_counts(force_n, cfg.counts_per_n, ff[ft_frame::force].v);
   clipped = encode_counts(torque_nm, cfg.counts_per_nm, ff[ft_frame::torque].v) || clipped;
-  const auto st = static_cast<std::uint8_t>(status | (clipped ? sensor_status::clipping : 0));
-  for (std::size_t i = 0; i < ff.size(); ++i) {
-    ff[i].counter = counter;
-    ff[i].status = st;
-    encode_sensor_frame(cfg.ids[i], ff[i], out[i]);
-  }
+  emit_sample(cfg.ids, ff, counter, status, clipped, out);
   return true;
 }
 
