@@ -84,6 +84,17 @@ TEST(AppConfig, ControlSectionErrorsNameTheField) {
   const ConfigResult defaults = load_config_text(without_estimator);
   ASSERT_TRUE(defaults.ok) << defaults.errors.front();
   EXPECT_EQ(defaults.config.estimator.velocity_gain_per_s, est::EstimatorParams{}.velocity_gain_per_s);
+  EXPECT_EQ(defaults.config.gait.kind, control::GaitKind::stand);  // no control.gait: the control mode stands
+  // control.gait: the trot the control mode engages with, read as the scenario's gait: map.
+  const std::string estimator_line = text.substr(est_at, text.find('\n', est_at) - est_at);
+  const ConfigResult trot =
+      load_config_text(with(estimator_line, estimator_line + "\n  gait: {step_frequency: 1.2, duty_factor: 0.7}"));
+  ASSERT_TRUE(trot.ok) << trot.errors.front();
+  EXPECT_EQ(trot.config.gait.kind, control::GaitKind::trot);
+  EXPECT_EQ(trot.config.gait.trot.step_frequency_hz, 1.2);
+  EXPECT_EQ(trot.config.gait.trot.duty_factor, 0.7);
+  EXPECT_EQ(only_error(load_config_text(with(estimator_line, estimator_line + "\n  gait: {duty_factor: 0.3}"))),
+            "control.gait.duty_factor: must be in [0.5, 0.95], got 0.3");
 }
 
 TEST(AppConfig, UnknownKeyIsNamed) {

@@ -97,18 +97,15 @@ void expect_firmware_replays_the_tool(bool trot) {
   YAML::Node params = YAML::Clone(s.controller_params);
   config.estimator = est::read_estimator_params(config::Fields(params["estimator"], "estimator"));
   params.remove("estimator");
-  control::GaitCommand gait;
-  if (params["gait"]) {
-    gait.kind = control::GaitKind::trot;
-    gait.trot = gait::read_trot_params(config::Fields(params["gait"], "gait"));
+  if (params["gait"]) {  // control.gait: the control mode engages trotting
+    config.gait.kind = control::GaitKind::trot;
+    config.gait.trot = gait::read_trot_params(config::Fields(params["gait"], "gait"));
     params.remove("gait");
   }
   config.wbc = wbc::read_wbc_params(config::Fields(params, "wbc"));
   app::ControlMode firmware(config);
   firmware.controller().set_start_position_xy(start_xy);
-  if (trot) {
-    ASSERT_TRUE(firmware.controller().request_gait(gait));  // the operator's `gait trot`
-  }
+  ASSERT_EQ(firmware.controller().params().gait.kind, trot ? control::GaitKind::trot : control::GaitKind::stand);
 
   hal::JointCommands cmd;
   std::uint64_t control_ticks = 0, compared = 0, stance_changes_seen = 0;

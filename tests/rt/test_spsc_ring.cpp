@@ -80,5 +80,26 @@ TEST(LogDrainer, WritesEveryRecordAndReportsDrops) {
   EXPECT_NE(s.find("log: 3 records dropped"), std::string::npos);
 }
 
+TEST(LogDrainer, AppendsTheDescriptionOfARecord) {
+  auto ring = std::make_unique<LogRing>();
+  char* text = nullptr;
+  std::size_t size = 0;
+  std::FILE* out = open_memstream(&text, &size);
+  ASSERT_NE(out, nullptr);
+  ring->push(LogRecord{7, 0, LogEvent::fault_latched, 256, 256, 0.0});
+  ring->push(LogRecord{8, 0, LogEvent::overrun, 1, 2, 0.0});
+  {
+    LogDrainer drainer(*ring, out, 1, [](const LogRecord& r) {
+      return r.event == LogEvent::fault_latched ? std::string("new=imu_lost") : std::string();
+    });
+    drainer.stop();
+  }
+  std::fclose(out);
+  const std::string s(text, size);
+  std::free(text);
+  EXPECT_NE(s.find("tick=7 t_ns=0 fault_latched a=256 b=256 x=0 (new=imu_lost)\n"), std::string::npos) << s;
+  EXPECT_NE(s.find("tick=8 t_ns=0 overrun a=1 b=2 x=0\n"), std::string::npos) << s;
+}
+
 }  // namespace
 }  // namespace springbok::rt

@@ -248,7 +248,7 @@ void read_config(const YAML::Node& root, Reader& r, AppConfig& c) {
     }
   }
   if (const YAML::Node n = r.child(root, "", "control");
-      n.IsDefined() && r.map(n, "control", {"controller", "wbc", "estimator"})) {
+      n.IsDefined() && r.map(n, "control", {"controller", "wbc", "estimator", "gait"})) {
     std::string kind_name;
     r.text(n, "control", "controller", kind_name);
     if (kind_name == "wbc") {
@@ -269,6 +269,14 @@ void read_config(const YAML::Node& root, Reader& r, AppConfig& c) {
     try {  // optional: a missing map keeps every default (a const lookup of a missing key is not a node)
       if (n["estimator"].IsDefined()) {
         c.estimator = est::read_estimator_params(config::Fields(n["estimator"], "control.estimator"));
+      }
+    } catch (const config::ConfigError& e) {
+      r.fail(e.what());
+    }
+    try {  // optional: the trot the control mode engages with (the scenario's gait: map); absent: stand
+      if (n["gait"].IsDefined()) {
+        c.gait.kind = control::GaitKind::trot;
+        c.gait.trot = gait::read_trot_params(config::Fields(n["gait"], "control.gait"));
       }
     } catch (const config::ConfigError& e) {
       r.fail(e.what());

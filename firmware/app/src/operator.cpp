@@ -2,6 +2,11 @@
 
 #include <vector>
 
+#include <yaml-cpp/yaml.h>
+
+#include "springbok/config/fields.hpp"
+#include "springbok/gait/trot.hpp"
+
 namespace springbok::app {
 namespace {
 
@@ -28,7 +33,50 @@ ParsedLine command(safety::OperatorCommand c) {
   ParsedLine p;
   p.kind = ParsedLine::Kind::command;
   p.command = c;
+  p.name = safety::to_string(c);
   return p;
+}
+
+ParsedLine controller_request(ControllerRequest r, std::string name) {
+  ParsedLine p;
+  p.kind = ParsedLine::Kind::controller_request;
+  p.request = r;
+  p.name = std::move(name);
+  return p;
+}
+
+constexpr const char* kVerbs = "(start, stop, mode, reset, status, gait, tare, controller)";
+
+// `gait stand` or `gait trot key=value ...`: the trot's keys read by the config's
+// reader (the same ranges, the same messages).
+ParsedLine parse_gait(const std::vector<std::string_view>& words) {
+  if (words.size() < 2) return error("gait needs an argument: stand or trot [key=value ...]");
+  ControllerRequest r;
+  r.kind = ControllerRequest::Kind::gait;
+  if (words[1] == "stand") {
+    if (words.size() != 2) return error("gait stand takes no parameter");
+    r.gait.kind = control::GaitKind::stand;
+    return controller_request(r, "gait stand");
+  }
+  if (words[1] != "trot") return error("unknown gait '" + std::string(words[1]) + "' (stand or trot)");
+  YAML::Node params(YAML::NodeType::Map);
+  for (std::size_t i = 2; i < words.size(); ++i) {
+    const std::string_view word = words[i];
+    const std::size_t eq = word.find('=');
+    if (eq == std::string_view::npos || eq == 0 || eq + 1 == word.size()) {
+      return error("gait trot: expected key=value, got '" + std::string(word) + "'");
+    }
+    const std::string key(word.substr(0, eq));
+    if (params[key].IsDefined()) return error("gait trot." + key + ": given twice");
+    params[key] = std::string(word.substr(eq + 1));
+  }
+  try {
+    r.gait.kind = control::GaitKind::trot;
+    r.gait.trot = gait::read_trot_params(config::Fields(params, "gait trot"));
+  } catch (const config::ConfigError& e) {
+    return error(e.what());
+  }
+  return controller_request(r, "gait trot");
 }
 
 }  // namespace
@@ -41,7 +89,7 @@ ParsedLine parse_operator_line(std::string_view line) {
     if ((u < 0x20 && c != '\t') || u >= 0x7f) return error("non-printable byte in the command");
   }
   const std::vector<std::string_view> words = split_words(line);
-  if (words.empty()) return error("empty command (start, stop, mode, reset, status)");
+  if (words.empty()) return error(std::string("empty command ") + kVerbs);
   const std::string_view verb = words[0];
   const std::size_t args = words.size() - 1;
   if (verb == "start" || verb == "stop" || verb == "reset" || verb == "status") {
@@ -49,6 +97,7 @@ ParsedLine parse_operator_line(std::string_view line) {
     if (verb == "status") {
       ParsedLine p;
       p.kind = ParsedLine::Kind::status;
+      p.name = "status";
       return p;
     }
     if (verb == "start") return command(safety::OperatorCommand::start);
@@ -61,7 +110,16 @@ ParsedLine parse_operator_line(std::string_view line) {
     if (words[1] == "control") return command(safety::OperatorCommand::mode_control);
     return error("unknown mode '" + std::string(words[1]) + "' (stand or control)");
   }
-  return error("unknown command '" + std::string(verb) + "' (start, stop, mode, reset, status)");
+  if (verb == "gait") return parse_gait(words);
+  if (verb == "tare" || verb == "controller") {
+    if (args != 0) return error(std::string(verb) + " takes no argument");
+    if (verb == "tare") return controller_request(ControllerRequest{}, "tare");
+    ParsedLine p;
+    p.kind = ParsedLine::Kind::controller_status;
+    p.name = "controller";
+    return p;
+  }
+  return error("unknown command '" + std::string(verb) + "' " + kVerbs);
 }
 
 std::string fault_list(safety::FaultMask faults) {
@@ -73,6 +131,34 @@ std::string fault_list(safety::FaultMask faults) {
     out += safety::fault_name(bit);
   }
   return out;
+}
+
+std::string describe_log_record(const rt::LogRecord& r) {
+  const auto mode = [](std::int64_t m) {
+    return m >= 0 && m <= static_cast<std::int64_t>(safety::Mode::damping) ? safety::to_string(static_cast<safety::Mode>(m))
+                                                                          : "?";
+  };
+  const auto faults = [](std::int64_t bits) { return fault_list(static_cast<safety::FaultMask>(bits)); };
+  switch (r.event) {
+    case rt::LogEvent::mode_change: return std::string(mode(r.a)) + " -> " + mode(r.b);
+    case rt::LogEvent::fault_latched: return "new=" + faults(r.a) + " latched=" + faults(r.b);
+    case rt::LogEvent::sensors_lost: return "lost=" + faults(r.a) + " mode=" + mode(r.b);
+    case rt::LogEvent::command_accepted:
+    case rt::LogEvent::command_rejected: {
+      std::string words = r.a >= 0 && r.a <= static_cast<std::int64_t>(safety::OperatorCommand::reset)
+                              ? safety::to_string(static_cast<safety::OperatorCommand>(r.a))
+                              : "?";
+      if (r.event == rt::LogEvent::command_rejected && r.b >= 0 && r.b <= static_cast<std::int64_t>(safety::Verdict::sensor_lost)) {
+        words += std::string(": ") + safety::to_string(static_cast<safety::Verdict>(r.b));
+      }
+      return words;
+    }
+    case rt::LogEvent::controller_request:
+    case rt::LogEvent::controller_request_refused:
+      if (r.a == static_cast<std::int64_t>(ControllerRequest::Kind::tare)) return "tare";
+      return r.b == static_cast<std::int64_t>(control::GaitKind::trot) ? "gait trot" : "gait stand";
+    default: return {};
+  }
 }
 
 }  // namespace springbok::app

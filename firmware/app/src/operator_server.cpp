@@ -29,7 +29,7 @@ void send_line(int fd, const std::string& text) {
 
 }  // namespace
 
-OperatorServer::OperatorServer(OperatorMailbox& mailbox, const LoopStatus& status, const rt::PublishedStats& stats)
+OperatorServer::OperatorServer(OperatorMailbox& mailbox, LoopStatus& status, const rt::PublishedStats& stats)
     : mailbox_(mailbox), status_(status), stats_(stats) {}
 
 OperatorServer::~OperatorServer() {
@@ -103,30 +103,74 @@ std::string OperatorServer::status_line() const {
   return line;
 }
 
-std::string OperatorServer::handle_line(std::string_view line) {
-  const ParsedLine parsed = parse_operator_line(line);
-  if (parsed.kind == ParsedLine::Kind::error) return parsed.error;
-  if (parsed.kind == ParsedLine::Kind::status) return status_line();
-
-  const char* name = safety::to_string(parsed.command);
-  const std::uint64_t id = next_id_++;
-  if (!mailbox_.requests.push(OperatorRequest{id, parsed.command})) {
-    return std::string("error: ") + name + ": mailbox full, command dropped";
+// "lf,rh" (the feet on the ground) or "none".
+static std::string stance_list(const Stance& stance) {
+  static constexpr const char* kFootNames[kFeet] = {"lf", "rf", "lh", "rh"};
+  std::string out;
+  for (int f = 0; f < kFeet; ++f) {
+    if (!stance[static_cast<std::size_t>(f)]) continue;
+    if (!out.empty()) out += ',';
+    out += kFootNames[f];
   }
+  return out.empty() ? "none" : out;
+}
+
+std::string OperatorServer::controller_line() {
+  ControllerSnapshot c;
+  if (!status_.controller.read(c)) return "error: controller: no state published yet";
+  if (!c.wbc) return "ok controller controller=joint_pd";
+  char text[640];
+  const control::Tare& t = c.tare;
+  std::snprintf(
+      text, sizeof text,
+      "ok controller controller=wbc engaged=%d gait=%s step_frequency=%.3g duty_factor=%.3g stance=%s "
+      "last_tick=%s failed_ticks=%llu stance_changes=%llu tare=%s tares=%u tare_force_n=%.3f,%.3f,%.3f "
+      "wrist_force_n=%.3f,%.3f,%.3f base_position_m=%.4f,%.4f,%.4f base_velocity_m_s=%.4f,%.4f,%.4f",
+      c.engaged ? 1 : 0, control::to_string(c.gait), c.trot.step_frequency_hz, c.trot.duty_factor,
+      stance_list(c.stance).c_str(), control::to_string(c.last_tick), static_cast<unsigned long long>(c.failed_ticks),
+      static_cast<unsigned long long>(c.stance_changes), t.running ? "collecting" : (t.completed > 0 ? "done" : "none"),
+      t.completed, t.force_n.x(), t.force_n.y(), t.force_n.z(), c.wrist_force_n.x(), c.wrist_force_n.y(),
+      c.wrist_force_n.z(), c.base_position_m.x(), c.base_position_m.y(), c.base_position_m.z(),
+      c.base_velocity_m_s.x(), c.base_velocity_m_s.y(), c.base_velocity_m_s.z());
+  return text;
+}
+
+// One request through the mailbox; the verdict, or a timeout that cancels it.
+std::string OperatorServer::exchange(OperatorRequest request, const std::string& name) {
+  request.id = next_id_++;
+  if (!mailbox_.requests.push(request)) return "error: " + name + ": mailbox full, command dropped";
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kReplyTimeoutMs);
   OperatorReply reply;
   while (std::chrono::steady_clock::now() < deadline) {
     while (mailbox_.replies.pop(reply)) {
-      if (reply.id != id) continue;  // the late verdict of a request that timed out
+      if (reply.id != request.id) continue;  // the late verdict of a request that timed out
       const std::string state = std::string(" (mode=") + safety::to_string(reply.mode) +
                                 " faults=" + fault_list(reply.faults) + ")";
-      if (reply.verdict == safety::Verdict::accepted) return std::string("ok ") + name + state;
-      return std::string("error: ") + name + ": " + safety::to_string(reply.verdict) + state;
+      if (reply.accepted) return "ok " + name + state;
+      return "error: " + name + ": " + (reply.refusal != nullptr ? reply.refusal : "refused") + state;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  mailbox_.first_valid_id.store(id + 1, std::memory_order_release);  // never apply it later
-  return std::string("error: ") + name + ": controller not responding, command dropped";
+  mailbox_.first_valid_id.store(request.id + 1, std::memory_order_release);  // never apply it later
+  return "error: " + name + ": controller not responding, command dropped";
+}
+
+std::string OperatorServer::handle_line(std::string_view line) {
+  const ParsedLine parsed = parse_operator_line(line);
+  OperatorRequest request;
+  switch (parsed.kind) {
+    case ParsedLine::Kind::error: return parsed.error;
+    case ParsedLine::Kind::status: return status_line();
+    case ParsedLine::Kind::controller_status: return controller_line();
+    case ParsedLine::Kind::command:
+      request.command = parsed.command;
+      break;
+    case ParsedLine::Kind::controller_request:
+      request.for_controller = true;
+      request.request = parsed.request;
+      break;
+  }
+  return exchange(request, parsed.name);
 }
 
 void OperatorServer::run() {

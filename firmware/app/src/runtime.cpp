@@ -83,7 +83,7 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
     return 1;
   }
   const auto log_ring = std::make_unique<rt::LogRing>();
-  rt::LogDrainer drainer(*log_ring, log_file);
+  rt::LogDrainer drainer(*log_ring, log_file, 10, describe_log_record);
 
   for (auto step : {&hal::Hardware::configure, &hal::Hardware::activate}) {
     const hal::LifecycleResult r = (hardware.*step)();

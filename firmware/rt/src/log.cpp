@@ -15,12 +15,14 @@ const char* to_string(LogEvent event) noexcept {
     case LogEvent::stats: return "stats";
     case LogEvent::joint_limit: return "joint_limit";
     case LogEvent::sensors_lost: return "sensors_lost";
+    case LogEvent::controller_request: return "controller_request";
+    case LogEvent::controller_request_refused: return "controller_request_refused";
   }
   return "unknown";
 }
 
-LogDrainer::LogDrainer(LogRing& ring, std::FILE* out, std::int64_t period_ms)
-    : ring_(ring), out_(out), period_ms_(period_ms), thread_([this] { run(); }) {}
+LogDrainer::LogDrainer(LogRing& ring, std::FILE* out, std::int64_t period_ms, Describe describe)
+    : ring_(ring), out_(out), period_ms_(period_ms), describe_(describe), thread_([this] { run(); }) {}
 
 LogDrainer::~LogDrainer() { stop(); }
 
@@ -33,9 +35,15 @@ std::size_t LogDrainer::drain_once() {
   std::size_t n = 0;
   LogRecord r;
   while (ring_.pop(r)) {
-    std::fprintf(out_, "tick=%llu t_ns=%lld %s a=%lld b=%lld x=%.6g\n",
-                 static_cast<unsigned long long>(r.tick), static_cast<long long>(r.stamp_ns),
-                 to_string(r.event), static_cast<long long>(r.a), static_cast<long long>(r.b), r.x);
+    std::fprintf(out_, "tick=%llu t_ns=%lld %s a=%lld b=%lld x=%.6g", static_cast<unsigned long long>(r.tick),
+                 static_cast<long long>(r.stamp_ns), to_string(r.event), static_cast<long long>(r.a),
+                 static_cast<long long>(r.b), r.x);
+    const std::string words = describe_ != nullptr ? describe_(r) : std::string();
+    if (words.empty()) {
+      std::fputc('\n', out_);
+    } else {
+      std::fprintf(out_, " (%s)\n", words.c_str());
+    }
     ++n;
   }
   const std::uint64_t drops = ring_.dropped();

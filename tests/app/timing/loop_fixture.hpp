@@ -109,14 +109,29 @@ struct LoopRig {
 
   // An operator command through the mailbox, applied in the next tick.
   safety::Verdict command(safety::OperatorCommand c) {
-    mailbox.requests.push(OperatorRequest{++last_id, c});
+    OperatorRequest r;
+    r.command = c;
+    return exchange(r).verdict;
+  }
+  // A request for the controller: nullptr (accepted) or why not.
+  const char* request(const ControllerRequest& c) {
+    OperatorRequest r;
+    r.for_controller = true;
+    r.request = c;
+    return exchange(r).refusal;
+  }
+  OperatorReply exchange(OperatorRequest r) {
+    r.id = ++last_id;
+    mailbox.requests.push(r);
     executive->run_tick();
     OperatorReply reply;
     while (mailbox.replies.pop(reply)) {
-      if (reply.id == last_id) return reply.verdict;
+      if (reply.id == last_id) return reply;
     }
     ADD_FAILURE() << "no reply";
-    return safety::Verdict::not_idle;
+    reply.verdict = safety::Verdict::not_idle;
+    reply.refusal = "no reply";
+    return reply;
   }
   std::uint64_t last_id = 0;
 };

@@ -163,9 +163,14 @@ TEST_F(LoopTest, LogRingRecordsModeChangesAndVerdicts) {
 TEST_F(LoopTest, WholeTicksAllocateNothing) {
   rig->executive->run_ticks(5);
   springbok::test::AllocationTrap trap;
-  rig->mailbox.requests.push(OperatorRequest{100, OperatorCommand::start});
+  OperatorRequest request;
+  request.id = 100;
+  request.command = OperatorCommand::start;
+  rig->mailbox.requests.push(request);
   rig->executive->run_ticks(600);  // stand_up -> stand
-  rig->mailbox.requests.push(OperatorRequest{101, OperatorCommand::mode_control});
+  request.id = 101;
+  request.command = OperatorCommand::mode_control;
+  rig->mailbox.requests.push(request);
   rig->executive->run_ticks(100);
   hardware.read_time_ns = 1'200'000;  // overruns, log records
   rig->executive->run_ticks(5);

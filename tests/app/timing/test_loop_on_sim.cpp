@@ -3,7 +3,8 @@
 // without a joint-limit fault; it stands up from a crouch without a fault, and a whole tick
 // (read -> controller -> safety -> write + physics step) allocates nothing;
 // in control mode the whole-body controller on the estimated base state
-// renders a push at the hand.
+// renders a push at the hand, and the operator's requests switch it between
+// stand and trot and re-tare the wrist F/T.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include "../../../firmware/app/sim/stepped_bullet_robot.hpp"
 #include "alloc_trap.hpp"
 #include "springbok/app/control_mode.hpp"
+#include "springbok/app/operator_server.hpp"
 #include "loop_fixture.hpp"
 
 namespace springbok::app::test {
@@ -147,6 +149,105 @@ TEST(LoopOnSim, ControlModeRunsTheWholeBodyControllerOnTheEstimatedState) {
                        ee_start.translation().x();
   EXPECT_NEAR(ee_dx, 0.09, 0.02);
   EXPECT_GT(robot.robot().ground_truth().q[2], 0.5);
+}
+
+// The shipped configuration's controller (control.wbc), standing up as in the HIL config.
+AppConfig shipped_wbc_config() {
+  const ConfigResult loaded = load_config_file(SPRINGBOK_APP_CONFIG);
+  EXPECT_TRUE(loaded.ok);
+  AppConfig config = loaded.config;
+  config.stand_up_duration_s = 1.0;
+  config.stand_tolerance_rad = 0.15;
+  config.wrist_tare_samples = 300;
+  return config;
+}
+
+// The operator's controller requests through the mailbox, as the socket sends them:
+// gait changes only in the control mode, stand -> trot -> stand on the simulated robot
+// (every foot lifts, all four down after the stop, no fault), a tare in stand; and
+// `controller` reports it.
+TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
+  rt::SteppedClock clock(0);
+  SteppedBulletRobot robot(crouched_sim_config(1000));
+  ASSERT_TRUE(robot.configure().ok);
+  ASSERT_TRUE(robot.activate().ok);
+  const AppConfig config = shipped_wbc_config();
+  ASSERT_EQ(config.control_mode, ControlModeKind::wbc);
+  auto rig = std::make_unique<LoopRig<SteppedBulletRobot, ControlMode>>(clock, robot, config);
+  OperatorServer server(rig->mailbox, rig->status, rig->executive->published());  // not opened: reports only
+  ControllerRequest trot;
+  trot.kind = ControllerRequest::Kind::gait;
+  trot.gait.kind = control::GaitKind::trot;
+  trot.gait.trot.step_frequency_hz = 1.4;
+  trot.gait.trot.duty_factor = 0.65;
+  ControllerRequest stand;
+  stand.kind = ControllerRequest::Kind::gait;
+  stand.gait.kind = control::GaitKind::stand;
+  const ControllerRequest tare;  // Kind::tare
+
+  rig->executive->run_ticks(10);
+  EXPECT_STREQ(rig->request(trot), "gait changes need mode control");
+  ASSERT_EQ(rig->command(safety::OperatorCommand::start), safety::Verdict::accepted);
+  rig->executive->run_ticks(2500);
+  ASSERT_EQ(rig->supervisor.mode(), safety::Mode::stand);
+  EXPECT_STREQ(rig->request(trot), "gait changes need mode control");
+  EXPECT_EQ(rig->control.controller().tare().completed, 1u) << "tared in stand";
+  EXPECT_EQ(rig->request(tare), nullptr);  // a second tare, in stand: collected now
+  EXPECT_TRUE(rig->control.controller().tare().running);
+  rig->executive->run_ticks(config.wrist_tare_samples + 10);
+  EXPECT_EQ(rig->control.controller().tare().completed, 2u);
+
+  ASSERT_EQ(rig->command(safety::OperatorCommand::mode_control), safety::Verdict::accepted);
+  rig->executive->run_ticks(300);
+  EXPECT_EQ(rig->request(trot), nullptr);
+  std::array<bool, kFeet> lifted{};
+  for (int t = 0; t < 3000; ++t) {
+    rig->executive->run_tick();
+    for (int f = 0; f < kFeet; ++f) lifted[f] = lifted[f] || !rig->control.controller().state().stance[f];
+  }
+  EXPECT_EQ(rig->control.controller().gait_state(), control::GaitState::trot);
+  for (int f = 0; f < kFeet; ++f) EXPECT_TRUE(lifted[f]) << "foot " << f;
+  std::string report = server.handle_line("controller");
+  EXPECT_NE(report.find("ok controller controller=wbc engaged=1 gait=trot step_frequency=1.4 duty_factor=0.65"),
+            std::string::npos)
+      << report;
+
+  EXPECT_EQ(rig->request(stand), nullptr);
+  rig->executive->run_ticks(1000);  // the swinging feet land within a swing time (0.25 s)
+  EXPECT_EQ(rig->control.controller().gait_state(), control::GaitState::stand);
+  EXPECT_EQ(rig->control.controller().state().stance, kAllFeet);
+  EXPECT_EQ(rig->request(tare), nullptr);  // in control: taken at the next stand, never during a push
+  rig->executive->run_ticks(100);
+  EXPECT_TRUE(rig->control.controller().tare().running);
+  EXPECT_EQ(rig->control.controller().tare().samples, 0u);
+  report = server.handle_line("controller");
+  EXPECT_NE(report.find("gait=stand step_frequency=1.4 duty_factor=0.65 stance=lf,rf,lh,rh last_tick=ok failed_ticks=0"),
+            std::string::npos)
+      << report;
+  EXPECT_NE(report.find("tare=collecting tares=2 "), std::string::npos) << report;
+  EXPECT_EQ(rig->supervisor.mode(), safety::Mode::control);
+  EXPECT_EQ(rig->supervisor.faults(), 0u) << fault_list(rig->supervisor.faults());
+  EXPECT_GT(robot.robot().ground_truth().q[2], 0.5);
+  EXPECT_FALSE(robot.robot().ground_truth().non_foot_ground_contact);
+
+  // Leaving the control mode ends the operator's gait: the next engagement stands.
+  ASSERT_EQ(rig->command(safety::OperatorCommand::mode_stand), safety::Verdict::accepted);
+  rig->executive->run_ticks(config.wrist_tare_samples + 10);
+  EXPECT_EQ(rig->control.controller().tare().completed, 3u);
+  EXPECT_STREQ(rig->request(trot), "gait changes need mode control");
+}
+
+TEST(LoopOnSim, TheJointPdControlModeRefusesControllerRequests) {
+  rt::SteppedClock clock(0);
+  KinematicTestHardware hardware(clock);
+  AppConfig config = test_config();
+  config.control_mode = ControlModeKind::joint_pd;
+  auto rig = std::make_unique<LoopRig<KinematicTestHardware, ControlMode>>(clock, hardware, config);
+  OperatorServer server(rig->mailbox, rig->status, rig->executive->published());
+  EXPECT_EQ(server.handle_line("controller"), "error: controller: no state published yet");
+  const ControllerRequest tare;
+  EXPECT_STREQ(rig->request(tare), kNotTheWbc);
+  EXPECT_EQ(server.handle_line("controller"), "ok controller controller=joint_pd");
 }
 
 }  // namespace

@@ -27,14 +27,75 @@ TEST(OperatorLine, Parsing) {
   EXPECT_EQ(parse_operator_line("start").kind, K::command);
   EXPECT_EQ(parse_operator_line("  mode   control \r").command, safety::OperatorCommand::mode_control);
   EXPECT_EQ(parse_operator_line("status").kind, K::status);
-  EXPECT_EQ(parse_operator_line("").error, "error: empty command (start, stop, mode, reset, status)");
-  EXPECT_EQ(parse_operator_line("START").error, "error: unknown command 'START' (start, stop, mode, reset, status)");
+  EXPECT_EQ(parse_operator_line("").error, "error: empty command (start, stop, mode, reset, status, gait, tare, controller)");
+  EXPECT_EQ(parse_operator_line("START").error, "error: unknown command 'START' (start, stop, mode, reset, status, gait, tare, controller)");
   EXPECT_EQ(parse_operator_line("stop now").error, "error: stop takes no argument");
   EXPECT_EQ(parse_operator_line("mode").error, "error: mode needs one argument: stand or control");
   EXPECT_EQ(parse_operator_line("mode idle").error, "error: unknown mode 'idle' (stand or control)");
   EXPECT_EQ(parse_operator_line(std::string("st\0art", 6)).error, "error: non-printable byte in the command");
   EXPECT_EQ(parse_operator_line("reset \xff").error, "error: non-printable byte in the command");
   EXPECT_EQ(parse_operator_line(std::string(300, 'a')).error, "error: line too long (at most 255 bytes)");
+}
+
+// The controller's requests; gait trot's keys checked by the config's reader.
+TEST(OperatorLine, ControllerRequests) {
+  using K = ParsedLine::Kind;
+  const ParsedLine trot = parse_operator_line("gait trot step_frequency=1.2 duty_factor=0.7");
+  ASSERT_EQ(trot.kind, K::controller_request) << trot.error;
+  EXPECT_EQ(trot.name, "gait trot");
+  EXPECT_EQ(trot.request.kind, ControllerRequest::Kind::gait);
+  EXPECT_EQ(trot.request.gait.kind, control::GaitKind::trot);
+  EXPECT_DOUBLE_EQ(trot.request.gait.trot.step_frequency_hz, 1.2);
+  EXPECT_DOUBLE_EQ(trot.request.gait.trot.duty_factor, 0.7);
+  EXPECT_DOUBLE_EQ(trot.request.gait.trot.step_height_m, gait::TrotParams{}.step_height_m);  // default kept
+  const ParsedLine plain = parse_operator_line("gait trot");
+  EXPECT_EQ(plain.kind, K::controller_request);
+  EXPECT_DOUBLE_EQ(plain.request.gait.trot.duty_factor, gait::TrotParams{}.duty_factor);
+  const ParsedLine stand = parse_operator_line(" gait  stand ");
+  EXPECT_EQ(stand.kind, K::controller_request);
+  EXPECT_EQ(stand.request.gait.kind, control::GaitKind::stand);
+  EXPECT_EQ(parse_operator_line("tare").request.kind, ControllerRequest::Kind::tare);
+  EXPECT_EQ(parse_operator_line("controller").kind, K::controller_status);
+
+  EXPECT_EQ(parse_operator_line("gait trot duty_factor=0.3").error,
+            "error: gait trot.duty_factor: must be in [0.5, 0.95], got 0.3");
+  EXPECT_EQ(parse_operator_line("gait trot step_frequency=nan").error,
+            "error: gait trot.step_frequency: must be a finite number, got 'nan'");
+  EXPECT_EQ(parse_operator_line("gait trot step_frequency=1.4x").error,
+            "error: gait trot.step_frequency: must be a number, got '1.4x'");
+  EXPECT_EQ(parse_operator_line("gait trot speed=3").error.rfind("error: gait trot.speed: unknown key", 0), 0u);
+  EXPECT_EQ(parse_operator_line("gait trot duty_factor").error, "error: gait trot: expected key=value, got 'duty_factor'");
+  EXPECT_EQ(parse_operator_line("gait trot =1").error, "error: gait trot: expected key=value, got '=1'");
+  EXPECT_EQ(parse_operator_line("gait trot duty_factor=0.6 duty_factor=0.7").error,
+            "error: gait trot.duty_factor: given twice");
+  EXPECT_EQ(parse_operator_line("gait").error, "error: gait needs an argument: stand or trot [key=value ...]");
+  EXPECT_EQ(parse_operator_line("gait walk").error, "error: unknown gait 'walk' (stand or trot)");
+  EXPECT_EQ(parse_operator_line("gait stand now").error, "error: gait stand takes no parameter");
+  EXPECT_EQ(parse_operator_line("tare now").error, "error: tare takes no argument");
+  EXPECT_EQ(parse_operator_line("controller x").error, "error: controller takes no argument");
+}
+
+// The log's words: what the numbers of a record mean, sensor and fault names included.
+TEST(OperatorLine, LogRecordsAreDescribedByName) {
+  using safety::fault::kImuLost;
+  using safety::fault::kWristFtLost;
+  const auto describe = [](rt::LogEvent e, std::int64_t a, std::int64_t b) {
+    return describe_log_record(rt::LogRecord{1, 0, e, a, b, 0.0});
+  };
+  EXPECT_EQ(describe(rt::LogEvent::fault_latched, kImuLost, kImuLost | kWristFtLost),
+            "new=imu_lost latched=imu_lost,wrist_ft_lost");
+  EXPECT_EQ(describe(rt::LogEvent::sensors_lost, kWristFtLost, static_cast<std::int64_t>(safety::Mode::stand)),
+            "lost=wrist_ft_lost mode=stand");
+  EXPECT_EQ(describe(rt::LogEvent::mode_change, static_cast<std::int64_t>(safety::Mode::control),
+                     static_cast<std::int64_t>(safety::Mode::damping)),
+            "control -> damping");
+  EXPECT_EQ(describe(rt::LogEvent::command_rejected, static_cast<std::int64_t>(safety::OperatorCommand::mode_control),
+                     static_cast<std::int64_t>(safety::Verdict::sensor_lost)),
+            std::string("mode control: ") + safety::to_string(safety::Verdict::sensor_lost));
+  EXPECT_EQ(describe(rt::LogEvent::controller_request, 0, 1), "gait trot");
+  EXPECT_EQ(describe(rt::LogEvent::controller_request_refused, 1, 0), "tare");
+  EXPECT_EQ(describe(rt::LogEvent::mode_change, 99, -1), "? -> ?");
+  EXPECT_EQ(describe(rt::LogEvent::overrun, 1, 2), "");
 }
 
 int connect_to(const std::string& path) {
@@ -107,15 +168,15 @@ TEST_F(OperatorSocket, CommandsAndMalformedLines) {
     const int fd = connect_to(path);
     for (const char* line : {"status\n", "mode control\n", "frobnicate\n", "mode\n", "start now\n",
                              "\x01\x02\n", "mode fly\n", "status\n", "start\n", "start\n", "stop\n", "reset\n",
-                             "status\n"}) {
+                             "status\n", "gait trot duty_factor=0.65\n", "tare\n", "controller\n"}) {
       replies.push_back(exchange(fd, line));
     }
     ::close(fd);
   });
-  ASSERT_EQ(replies.size(), 13u);
+  ASSERT_EQ(replies.size(), 16u);
   EXPECT_EQ(replies[0].substr(0, 38), "ok status mode=idle faults=none ticks=");
   EXPECT_EQ(replies[1], "error: mode control: mode control needs mode stand (mode=idle faults=none)");
-  EXPECT_EQ(replies[2], "error: unknown command 'frobnicate' (start, stop, mode, reset, status)");
+  EXPECT_EQ(replies[2], "error: unknown command 'frobnicate' (start, stop, mode, reset, status, gait, tare, controller)");
   EXPECT_EQ(replies[3], "error: mode needs one argument: stand or control");
   EXPECT_EQ(replies[4], "error: start takes no argument");
   EXPECT_EQ(replies[5], "error: non-printable byte in the command");
@@ -126,6 +187,10 @@ TEST_F(OperatorSocket, CommandsAndMalformedLines) {
   EXPECT_EQ(replies[10], "ok stop (mode=damping faults=operator_stop)");
   EXPECT_EQ(replies[11], "ok reset (mode=idle faults=none)");
   EXPECT_EQ(replies[12].substr(0, 31), "ok status mode=idle faults=none");
+  // The rig's control mode is joint_pd: the controller's requests are refused, saying why.
+  EXPECT_EQ(replies[13], std::string("error: gait trot: ") + kNotTheWbc + " (mode=idle faults=none)");
+  EXPECT_EQ(replies[14], std::string("error: tare: ") + kNotTheWbc + " (mode=idle faults=none)");
+  EXPECT_EQ(replies[15], "ok controller controller=joint_pd");
 }
 
 TEST_F(OperatorSocket, ClientsCannotBlockOrFloodTheServer) {

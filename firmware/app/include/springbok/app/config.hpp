@@ -11,6 +11,7 @@
 
 #include <Eigen/Geometry>  // model.hpp names Eigen::Quaterniond but includes only Eigen/Core
 
+#include "springbok/control/whole_body_control.hpp"
 #include "springbok/estimation/base_estimator.hpp"
 #include "springbok/model/model.hpp"
 #include "springbok/rt/realtime.hpp"
@@ -43,6 +44,7 @@ struct AppConfig {
   ControlModeKind control_mode = ControlModeKind::wbc;
   wbc::WbcParams wbc;                    // control.wbc (wbc_config.hpp's YAML)
   est::EstimatorParams estimator;        // control.estimator (every key optional)
+  control::GaitCommand gait;             // control.gait (optional trot map): the gait the control mode engages with
   std::uint32_t wrist_tare_samples = 500;  // the wrist F/T tare: the backend's (can.sensors.wrist_ft.tare_samples)
   std::string operator_socket;
   std::string log_path;                  // "-" = standard error

@@ -1,6 +1,6 @@
 // One tick of the firmware, the executive's body:
-//   HAL read -> operator mailbox -> supervisor checks -> controller
-//   -> supervisor (damping, clamping) -> HAL write
+//   HAL read -> operator mailbox (to the supervisor or the controller) -> supervisor
+//   checks -> controller -> its state published -> supervisor (damping, clamping) -> HAL write
 // Fixed-size structs passed by reference; the controller is a template
 // parameter (no virtual call, no std::function); one virtual call per HAL
 // exchange. Mode and fault changes, verdicts and HAL errors go to the log ring.
@@ -31,13 +31,7 @@ class ControlLoop {
     supervisor_.observe(meas_, io, info.overrun_streak, info.overruns_in_window);
 
     OperatorRequest request;
-    if (mailbox_.take(request)) {
-      const safety::Verdict verdict = supervisor_.request(request.command);
-      mailbox_.replies.push(OperatorReply{request.id, verdict, supervisor_.mode(), supervisor_.faults()});
-      log(info, verdict == safety::Verdict::accepted ? rt::LogEvent::command_accepted
-                                                     : rt::LogEvent::command_rejected,
-          static_cast<std::int64_t>(request.command), static_cast<std::int64_t>(verdict));
-    }
+    if (mailbox_.take(request)) take(info, request);
 
     safety::ControllerReport report;
     const safety::Mode mode = supervisor_.mode();
@@ -49,6 +43,7 @@ class ControlLoop {
       input.meas = &meas_;
       report = controller_.compute(input, cmd_);
     }
+    controller_.publish(status_.controller);
     cmd_.sequence = info.index;
     supervisor_.finish(meas_, report, cmd_);
     const hal::IoStatus wio = hal_.write(cmd_);
@@ -86,6 +81,29 @@ class ControlLoop {
   const hal::JointCommands& commands() const noexcept { return cmd_; }
 
  private:
+  // An operator's request: the supervisor's command or the controller's request,
+  // and the verdict back. rt: no alloc, no block
+  void take(const rt::TickInfo& info, const OperatorRequest& request) noexcept {
+    OperatorReply reply;
+    reply.id = request.id;
+    if (request.for_controller) {
+      reply.refusal = controller_.request(request.request, supervisor_.mode());
+      reply.accepted = reply.refusal == nullptr;
+      log(info, reply.accepted ? rt::LogEvent::controller_request : rt::LogEvent::controller_request_refused,
+          static_cast<std::int64_t>(request.request.kind), static_cast<std::int64_t>(request.request.gait.kind),
+          request.request.gait.trot.step_frequency_hz);
+    } else {
+      reply.verdict = supervisor_.request(request.command);
+      reply.accepted = reply.verdict == safety::Verdict::accepted;
+      reply.refusal = reply.accepted ? nullptr : safety::to_string(reply.verdict);
+      log(info, reply.accepted ? rt::LogEvent::command_accepted : rt::LogEvent::command_rejected,
+          static_cast<std::int64_t>(request.command), static_cast<std::int64_t>(reply.verdict));
+    }
+    reply.mode = supervisor_.mode();
+    reply.faults = supervisor_.faults();
+    mailbox_.replies.push(reply);
+  }
+
   void log(const rt::TickInfo& info, rt::LogEvent event, std::int64_t a, std::int64_t b, double x = 0.0) noexcept {
     if (log_ != nullptr) log_->push(rt::LogRecord{info.index, info.wake_ns, event, a, b, x});
   }

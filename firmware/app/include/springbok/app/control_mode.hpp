@@ -31,6 +31,9 @@ class ControlMode {
   safety::ControllerReport compute(const ControlInput& in, hal::JointCommands& cmd) noexcept;
   // Stand-up and stand ticks. rt: no alloc, no block
   void observe(const ControlInput& in) noexcept;
+  // Gait changes in the control mode; a tare in any mode. rt: no alloc, no block
+  const char* request(const ControllerRequest& r, safety::Mode mode) noexcept;
+  void publish(rt::LatestValue<ControllerSnapshot>& out) noexcept;  // rt: no alloc, no block
 
   control::WholeBodyControl& controller() noexcept { return *control_; }
   const control::WholeBodyControl& controller() const noexcept { return *control_; }

@@ -2,8 +2,17 @@
 // lock-free mailbox that carries checked commands to the RT thread and its
 // verdicts back. One line per command, one line per reply:
 //
-//   start | stop | reset | mode stand | mode control | status
+//   the supervisor's:  start | stop | reset | mode stand | mode control | status
+//   the controller's:  gait stand | gait trot [key=value ...] | tare | controller
 //   -> "ok ..." or "error: ..."  (a malformed line changes nothing)
+//
+// `gait trot` takes the keys of the scenario's and config's `gait:` map
+// (step_frequency, duty_factor, step_height, velocity_gain, touchdown_depth),
+// checked by the same reader (gait::read_trot_params: the error names the key);
+// missing keys keep their defaults. Gait changes are taken in the control mode
+// only; `tare` asks for a new wrist F/T tare, collected while the robot stands
+// (now in stand, at the next stand otherwise); `controller` reports the
+// whole-body controller's state.
 #pragma once
 
 #include <atomic>
@@ -11,6 +20,9 @@
 #include <string>
 #include <string_view>
 
+#include "springbok/control/whole_body_control.hpp"
+#include "springbok/rt/latest_value.hpp"
+#include "springbok/rt/log.hpp"
 #include "springbok/rt/spsc_ring.hpp"
 #include "springbok/safety/supervisor.hpp"
 
@@ -18,9 +30,17 @@ namespace springbok::app {
 
 inline constexpr std::size_t kMaxOperatorLine = 255;  // bytes, without the newline
 
+// A request for the control mode's controller (taken by the RT thread at a tick).
+struct ControllerRequest {
+  enum class Kind : std::uint8_t { gait, tare } kind = Kind::tare;
+  control::GaitCommand gait;  // with kind == gait
+};
+
 struct ParsedLine {
-  enum class Kind : std::uint8_t { command, status, error } kind = Kind::error;
-  safety::OperatorCommand command = safety::OperatorCommand::stop;
+  enum class Kind : std::uint8_t { command, controller_request, status, controller_status, error } kind = Kind::error;
+  safety::OperatorCommand command = safety::OperatorCommand::stop;  // Kind::command
+  ControllerRequest request;                                        // Kind::controller_request
+  std::string name;   // the command as the replies name it ("start", "gait trot")
   std::string error;  // for Kind::error: the reply, "error: ..."
 };
 
@@ -30,11 +50,15 @@ ParsedLine parse_operator_line(std::string_view line);
 struct OperatorRequest {
   std::uint64_t id = 0;
   safety::OperatorCommand command = safety::OperatorCommand::stop;
+  bool for_controller = false;  // request (the controller's) instead of command (the supervisor's)
+  ControllerRequest request;
 };
 
 struct OperatorReply {
   std::uint64_t id = 0;
-  safety::Verdict verdict = safety::Verdict::accepted;
+  bool accepted = false;
+  const char* refusal = nullptr;  // why not (a static string), when !accepted
+  safety::Verdict verdict = safety::Verdict::accepted;  // the supervisor's, for its commands
   safety::Mode mode = safety::Mode::idle;  // after the command
   safety::FaultMask faults = 0;
 };
@@ -54,6 +78,22 @@ struct OperatorMailbox {
   }
 };
 
+// The control mode's controller as `controller` reports it (published every tick).
+struct ControllerSnapshot {
+  bool wbc = false;  // control.controller is wbc (joint_pd: nothing else is meaningful)
+  bool engaged = false;
+  control::GaitState gait = control::GaitState::stand;
+  gait::TrotParams trot;  // of the running (or last) trot
+  control::TickStatus last_tick = control::TickStatus::ok;
+  Stance stance = kAllFeet;
+  std::uint64_t failed_ticks = 0;
+  std::uint64_t stance_changes = 0;
+  control::Tare tare;
+  Vec3 wrist_force_n = Vec3::Zero();  // tared, EE frame, as the controller used it
+  Vec3 base_position_m = Vec3::Zero();
+  Vec3 base_velocity_m_s = Vec3::Zero();  // world axes
+};
+
 // What the loop publishes every tick for `status` (read by the server thread).
 struct LoopStatus {
   std::atomic<std::uint8_t> mode{0};
@@ -62,9 +102,15 @@ struct LoopStatus {
   std::atomic<std::uint64_t> hal_errors{0};  // ticks whose HAL read or write was not ok
   std::atomic<std::int32_t> limit_joint{-1};  // the joint that latched joint_limit, -1: none
   std::atomic<double> limit_joint_position_rad{0.0};
+  rt::LatestValue<ControllerSnapshot> controller;
 };
 
 // "overrun_streak,hal_watchdog" or "none".
 std::string fault_list(safety::FaultMask faults);
+
+// The words of a loop log record (rt::LogDrainer::Describe): modes, fault and
+// sensor names, commands and verdicts ("new=imu_lost latched=imu_lost"); "" for
+// records whose numbers say it all.
+std::string describe_log_record(const rt::LogRecord& record);
 
 }  // namespace springbok::app

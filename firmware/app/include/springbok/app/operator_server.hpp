@@ -19,7 +19,8 @@ class OperatorServer {
   static constexpr int kMaxClients = 8;
   static constexpr int kReplyTimeoutMs = 500;
 
-  OperatorServer(OperatorMailbox& mailbox, const LoopStatus& status, const rt::PublishedStats& stats);
+  // `status`: the server thread is the only reader of status.controller.
+  OperatorServer(OperatorMailbox& mailbox, LoopStatus& status, const rt::PublishedStats& stats);
   ~OperatorServer();
   OperatorServer(const OperatorServer&) = delete;
   OperatorServer& operator=(const OperatorServer&) = delete;
@@ -35,9 +36,11 @@ class OperatorServer {
  private:
   void run();
   std::string status_line() const;
+  std::string controller_line();
+  std::string exchange(OperatorRequest request, const std::string& name);
 
   OperatorMailbox& mailbox_;
-  const LoopStatus& status_;
+  LoopStatus& status_;
   const rt::PublishedStats& stats_;
   std::string path_;
   int listen_fd_ = -1;

@@ -13,6 +13,7 @@
 #include <concepts>
 
 #include "springbok/app/config.hpp"
+#include "springbok/app/operator.hpp"
 #include "springbok/hal/types.hpp"
 #include "springbok/safety/supervisor.hpp"
 
@@ -26,12 +27,19 @@ struct ControlInput {
 };
 
 // A controller of the control mode; `in.ticks_in_mode` is 0 on its first tick.
-// observe() sees the stand-up and stand ticks (an estimator keeps running).
+// observe() sees the stand-up and stand ticks (an estimator keeps running);
+// request() takes an operator's request in `mode` (nullptr: accepted, else why
+// not, a static string); publish() writes its state for `controller` (every tick).
 template <class C>
-concept ControlModeController = requires(C& c, const ControlInput& in, hal::JointCommands& cmd) {
+concept ControlModeController = requires(C& c, const ControlInput& in, hal::JointCommands& cmd,
+                                         const ControllerRequest& r, rt::LatestValue<ControllerSnapshot>& out) {
   { c.compute(in, cmd) } noexcept -> std::same_as<safety::ControllerReport>;
   { c.observe(in) } noexcept;
+  { c.request(r, safety::Mode::control) } noexcept -> std::same_as<const char*>;
+  { c.publish(out) } noexcept;
 };
+
+inline constexpr const char* kNotTheWbc = "the control mode runs joint_pd (control.controller), no whole-body controller";
 
 // rt: no alloc
 inline void joint_pd_command(const VecNj& q_des_rad, const VecNj& qd_des_rad_s, const JointGains& gains,
@@ -55,6 +63,8 @@ class JointPdHold {
     return {};
   }
   void observe(const ControlInput&) noexcept {}
+  const char* request(const ControllerRequest&, safety::Mode) noexcept { return kNotTheWbc; }
+  void publish(rt::LatestValue<ControllerSnapshot>& out) noexcept { out.publish(ControllerSnapshot{}); }
 
  private:
   VecNj posture_rad_;
@@ -102,6 +112,10 @@ class PostureModes {
     }
     return {};
   }
+
+  // The control mode's controller's. rt: no alloc
+  const char* request(const ControllerRequest& r, safety::Mode mode) noexcept { return control_.request(r, mode); }
+  void publish(rt::LatestValue<ControllerSnapshot>& out) noexcept { control_.publish(out); }
 
  private:
   Control& control_;

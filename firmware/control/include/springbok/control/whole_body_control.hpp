@@ -106,8 +106,13 @@ class WholeBodyControl {
   TickStatus tick(const hal::Measurements& m, double dt_s, hal::JointCommands& cmd,
                   const BaseTruth* truth = nullptr) noexcept;
 
-  // Leaving the control mode: the next tick() engages anew. rt: no alloc
-  void disengage() noexcept { engaged_ = false; }
+  // Leaving the control mode: the next tick() engages anew, with the configured
+  // gait (params().gait; an operator's gait request ends with the mode). rt: no alloc
+  void disengage() noexcept {
+    engaged_ = false;
+    requested_gait_ = params_.gait;
+    gait_request_pending_ = false;
+  }
 
   // Operator requests, taken at the next tick. request_gait refuses (false) a
   // trot with parameters outside read_trot_params' ranges. rt: no alloc

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <string>
 #include <thread>
 
 #include "springbok/rt/spsc_ring.hpp"
@@ -24,6 +25,8 @@ enum class LogEvent : std::uint16_t {
   stats = 7,             // a: ticks, b: overruns, x: max wake latency [us]
   joint_limit = 8,       // a: joint index, b: mode when latched, x: joint position [rad]
   sensors_lost = 9,      // a: the needed sensors lost now (fault bits imu_lost, wrist_ft_lost; 0: back), b: mode
+  controller_request = 10,          // a: request kind (0 gait, 1 tare), b: gait (0 stand, 1 trot), x: f_s [Hz]
+  controller_request_refused = 11,  // as controller_request
 };
 
 const char* to_string(LogEvent event) noexcept;
@@ -44,7 +47,9 @@ using LogRing = SpscRing<LogRecord, 4096>;
 // reports drops. Start-up code (allocates); never runs on the tick path.
 class LogDrainer {
  public:
-  LogDrainer(LogRing& ring, std::FILE* out, std::int64_t period_ms = 10);
+  // `describe` (may be null) gives a record's words ("imu_lost") appended to its line.
+  using Describe = std::string (*)(const LogRecord&);
+  LogDrainer(LogRing& ring, std::FILE* out, std::int64_t period_ms = 10, Describe describe = nullptr);
   ~LogDrainer();
   LogDrainer(const LogDrainer&) = delete;
   LogDrainer& operator=(const LogDrainer&) = delete;
@@ -60,6 +65,7 @@ class LogDrainer {
   LogRing& ring_;
   std::FILE* out_;
   std::int64_t period_ms_;
+  Describe describe_;
   std::uint64_t reported_drops_ = 0;
   std::atomic<bool> stop_{false};
   std::atomic<std::uint64_t> written_{0};
