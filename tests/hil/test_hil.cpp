@@ -17,12 +17,14 @@
 #include <cstdio>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "alloc_trap.hpp"
+#include "springbok/app/config.hpp"
 #include "springbok/can/can_hardware.hpp"
 #include "springbok/can/config_yaml.hpp"
 #include "springbok/can/mit.hpp"
@@ -479,23 +481,54 @@ std::string operator_line(const std::string& socket_path, const std::string& lin
   return reply;
 }
 
+// One line of the emulator's ground-truth trace (--truth-log; bullet_motion.hpp names the columns).
 struct TruthSample {
-  double t_s, trunk_z_m, tilt_rad;
-  int non_foot_contact;
+  double t_s = 0.0, trunk_z_m = 0.0, tilt_rad = 0.0;
+  int non_foot_contact = 0;
+  double trunk_x_m = 0.0, trunk_y_m = 0.0;
+  Vec3 hand_m = Vec3::Zero(), hand_force_n = Vec3::Zero();
+  int foot_contacts = 0;  // bit per foot: lf 1, rf 2, lh 4, rh 8
+  char command = 'o';     // what the drives were told: o off, z zero torque, d damping, p position PD, t torque
+  unsigned long long step = 0;
 };
 
-// The emulator's ground-truth trace (--truth-log), as far as it is written.
+// The emulator's ground-truth trace, as far as it is written (a partial last line is skipped).
 std::vector<TruthSample> read_truth(const std::string& path) {
   std::vector<TruthSample> out;
   std::ifstream in(path);
-  TruthSample t{};
-  while (in >> t.t_s >> t.trunk_z_m >> t.tilt_rad >> t.non_foot_contact) out.push_back(t);
+  for (std::string line; std::getline(in, line);) {
+    TruthSample t;
+    double hx, hy, hz, fx, fy, fz;
+    if (std::sscanf(line.c_str(), "%lf %lf %lf %d %lf %lf %lf %lf %lf %lf %lf %lf %d %c %llu", &t.t_s, &t.trunk_z_m,
+                    &t.tilt_rad, &t.non_foot_contact, &t.trunk_x_m, &t.trunk_y_m, &hx, &hy, &hz, &fx, &fy, &fz,
+                    &t.foot_contacts, &t.command, &t.step) != 15) {
+      continue;
+    }
+    t.hand_m = Vec3(hx, hy, hz);
+    t.hand_force_n = Vec3(fx, fy, fz);
+    out.push_back(t);
+  }
   return out;
 }
 
+// The time of the trace's last complete line (reads only the file's tail).
 double truth_time(const std::string& path) {
-  const std::vector<TruthSample> t = read_truth(path);
-  return t.empty() ? 0.0 : t.back().t_s;
+  std::ifstream in(path, std::ios::ate);
+  const std::streamoff size = in.tellg();
+  if (size <= 0) return 0.0;
+  in.seekg(std::max<std::streamoff>(0, size - 400));
+  std::string tail((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t end = tail.rfind('\n');
+  if (end == std::string::npos) return 0.0;
+  const std::size_t start = tail.rfind('\n', end == 0 ? 0 : end - 1);
+  if (start == std::string::npos) return 0.0;
+  return std::atof(tail.c_str() + start + 1);
+}
+
+// The deployed binary's --time-scale: SPRINGBOK_HIL_TIME_SCALE or `fallback`.
+int hil_time_scale(int fallback) {
+  const char* env = std::getenv("SPRINGBOK_HIL_TIME_SCALE");
+  return env != nullptr ? std::atoi(env) : fallback;
 }
 
 // Waits (wall clock) until done() or the firmware exits or `limit_s` passes.
@@ -533,8 +566,7 @@ double standing_height_m(const VecNj& q_joints) {
 // arrives before its receive deadline. All times below are simulated unless said wall.
 TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
   REQUIRE_VCAN(7);
-  const char* scale_env = std::getenv("SPRINGBOK_HIL_TIME_SCALE");
-  const int time_scale = scale_env != nullptr ? std::atoi(scale_env) : 50;
+  const int time_scale = hil_time_scale(20);
   ASSERT_GE(time_scale, 1);
   const std::string config = kConfigDir + "stand_mit7.yaml";
   const std::string socket_path = "/tmp/springbok_hil_stand.sock";  // operator.socket of the config
@@ -605,6 +637,387 @@ TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
   EXPECT_EQ(non_foot, 0) << "only the feet touch the ground";
   // Lockstep held: every step had the commands of all 19 drives.
   EXPECT_NE(summary.find("forced_steps 0\n"), std::string::npos) << summary;
+}
+
+// ---- Issue 18: the deployed whole-body controller over CAN, with the trunk IMU and the wrist
+// F/T on the sensor bus (vcan7), against the emulator's Bullet world in lockstep. Simulated
+// times below (the emulator's clock; 0 = the end of its settling; sensor sample k = step k).
+
+const std::string kWbcConfig = kConfigDir + "wbc_mit8.yaml";
+const std::string kWbcSocket = "/tmp/springbok_hil_wbc.sock";  // operator.socket of that config
+
+app::AppConfig wbc_hil_config() {
+  const app::ConfigResult r = app::load_config_file(kWbcConfig);
+  EXPECT_TRUE(r.ok) << (r.errors.empty() ? "" : r.errors.front());
+  return r.config;
+}
+
+std::uint32_t wbc_hil_stale_ticks() {
+  const CanConfig cfg = load("wbc_mit8.yaml");
+  EXPECT_EQ(cfg.sensors.imu.stale_ticks, cfg.sensors.wrist_ft.stale_ticks);
+  return cfg.sensors.imu.stale_ticks;
+}
+
+// The operator's path to the control mode: start (stand-up from the crouch), stand, the wrist
+// F/T tared, mode control. Returns the simulated time control was entered (< 0: it was not).
+double enter_control(Firmware& fw, const std::string& truth, double wall_per_sim_s, std::string& why) {
+  std::string reply;
+  if (!wait_for(fw, 120.0, [&] { return !(reply = operator_line(kWbcSocket, "start")).empty(); })) {
+    why = "no operator socket";
+    return -1.0;
+  }
+  if (reply.rfind("ok start", 0) != 0) {
+    why = reply;
+    return -1.0;
+  }
+  if (!wait_for(fw, 4.0 * wall_per_sim_s, [&] {
+        reply = operator_line(kWbcSocket, "status");
+        return reply.find("mode=stand ") != std::string::npos || reply.find("mode=damping") != std::string::npos;
+      }) ||
+      reply.find("mode=stand ") == std::string::npos) {
+    why = "no stand: " + reply;
+    return -1.0;
+  }
+  if (!wait_for(fw, 2.0 * wall_per_sim_s, [&] {
+        reply = operator_line(kWbcSocket, "controller");
+        return reply.find("tare=done") != std::string::npos;
+      })) {
+    why = "no tare: " + reply;
+    return -1.0;
+  }
+  reply = operator_line(kWbcSocket, "mode control");
+  if (reply.rfind("ok mode control", 0) != 0) {
+    why = reply;
+    return -1.0;
+  }
+  return truth_time(truth);
+}
+
+// The template (SPEC section 2) along one axis, driven by `force_n(t)`: RK4 at the trace's
+// steps. x_b, x_e are the trunk's and the hand's displacements. Independent of the firmware's
+// exact discretisation (wbc::ImpedanceTemplate).
+struct TemplateAxis {
+  double mb, db, kb, me, de, ke;
+  double xb = 0.0, xe = 0.0, vb = 0.0, ve = 0.0;
+  void step(double f, double dt) {
+    const auto deriv = [&](const std::array<double, 4>& s) {
+      const double spring = de * (s[3] - s[2]) + ke * (s[1] - s[0]);
+      return std::array<double, 4>{s[2], s[3], (spring - db * s[2] - kb * s[0]) / mb, (f - spring) / me};
+    };
+    const std::array<double, 4> s0{xb, xe, vb, ve};
+    const auto add = [](const std::array<double, 4>& a, const std::array<double, 4>& d, double h) {
+      return std::array<double, 4>{a[0] + h * d[0], a[1] + h * d[1], a[2] + h * d[2], a[3] + h * d[3]};
+    };
+    const auto k1 = deriv(s0), k2 = deriv(add(s0, k1, dt / 2)), k3 = deriv(add(s0, k2, dt / 2)),
+               k4 = deriv(add(s0, k3, dt));
+    std::array<double, 4> n{};
+    for (int i = 0; i < 4; ++i) n[i] = s0[i] + dt / 6.0 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i]);
+    xb = n[0];
+    xe = n[1];
+    vb = n[2];
+    ve = n[3];
+  }
+};
+
+// The first step from `from_step` on whose drive command is damping, 0 if none.
+unsigned long long first_damping_step(const std::vector<TruthSample>& samples, unsigned long long from_step) {
+  for (const TruthSample& t : samples) {
+    if (t.step >= from_step && t.command == 'd') return t.step;
+  }
+  return 0;
+}
+
+// Cases 1 and 2: stand, tare, control; a 30 N step at the hand rendered as the template; trot
+// 4.5 s on the operator's command; then a streak of corrupt quaternions. DISABLED: it does not
+// pass yet (issue 18 stays open). Measured at the time scale 20 (2 vCPUs): the push's NRMSE
+// base 14.2 %, hand 5.9 % (targets 10 %, 5 %), the trunk's end displacement 37.6 mm against
+// F/K 30 mm; the trot ends one cycle in (0.72 s) in a QP-failure streak after the trunk rolled
+// to 0.09 rad on the first diagonal. springbok-on-sim trots the same controller for 8 s with one
+// tick of joint latency and MIT quantization (not with the CAN IMU path): the difference is
+// being looked for. Run it with --gtest_also_run_disabled_tests; SPRINGBOK_HIL_KEEP=<dir>
+// keeps the trace, the controller's reports and the firmware's output.
+TEST(Hil, DISABLED_DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
+  REQUIRE_VCAN(8);
+  const int time_scale = hil_time_scale(20);
+  ASSERT_GE(time_scale, 1);
+  const double wall_per_sim_s = time_scale * 1.3 + 5.0;
+  const app::AppConfig config = wbc_hil_config();
+  const std::uint32_t stale_ticks = wbc_hil_stale_ticks();
+  constexpr double kPushStart_s = 3.0, kPushEnd_s = 6.5, kForce_n = 30.0, kTrotAt_s = 7.0, kTrotUntil_s = 11.5;
+  constexpr unsigned long long kStreakAt = 12000;
+  const std::string truth = "/tmp/springbok_hil_wbc_truth_" + std::to_string(::getpid()) + ".txt";
+  Emulator emu(kWbcConfig,
+               "faults:\n"
+               "  - {kind: corrupt_quaternion, sensor: imu, at: 2500, count: 3}\n"
+               "  - {kind: corrupt_quaternion, sensor: imu, at: 12000, count: 1000000}\n",
+               {"--motion", "bullet", "--truth-log", truth, "--truth-every", "1", "--settle-s", "0.1",
+                "--hand-force-n", std::to_string(kForce_n), "--hand-force-axis", "x", "--hand-force-start-s",
+                std::to_string(kPushStart_s), "--hand-force-duration-s", std::to_string(kPushEnd_s - kPushStart_s)});
+  ASSERT_TRUE(emu.ready());
+  ::unlink(kWbcSocket.c_str());
+  const auto wall_start = std::chrono::steady_clock::now();
+  Firmware fw(kWbcConfig, time_scale);
+  std::string why;
+  const double t_control_s = enter_control(fw, truth, wall_per_sim_s, why);
+  ASSERT_GE(t_control_s, 0.0) << why << "\n" << fw.stop();
+  ASSERT_LT(t_control_s, 2.4) << "the control mode must be on before the IMU burst and the push";
+
+  ASSERT_TRUE(wait_for(fw, (kTrotAt_s - t_control_s + 1.0) * wall_per_sim_s,
+                       [&] { return truth_time(truth) >= kTrotAt_s; }));
+  std::string status = operator_line(kWbcSocket, "status");
+  EXPECT_NE(status.find("mode=control faults=none"), std::string::npos) << status;
+  const std::string trot = operator_line(kWbcSocket, "gait trot step_frequency=1.4 duty_factor=0.65");
+  EXPECT_EQ(trot.rfind("ok gait trot (mode=control faults=none)", 0), 0u) << trot;
+  const double t_trot_s = truth_time(truth);
+  const char* keep = std::getenv("SPRINGBOK_HIL_KEEP");  // a directory: the trace and the controller's reports go there
+  std::ofstream reports(keep != nullptr ? std::string(keep) + "/controller_reports.txt" : std::string("/dev/null"));
+  ASSERT_TRUE(wait_for(fw, (kTrotUntil_s - t_trot_s + 1.0) * wall_per_sim_s, [&] {
+    const double t = truth_time(truth);
+    if (keep != nullptr) reports << t << " " << operator_line(kWbcSocket, "controller") << "\n";
+    return t >= kTrotUntil_s;
+  }));
+  status = operator_line(kWbcSocket, "status");
+  EXPECT_NE(status.find("mode=control faults=none"), std::string::npos) << status;
+  const std::string report = operator_line(kWbcSocket, "controller");
+  EXPECT_NE(report.find("gait=trot step_frequency=1.4 duty_factor=0.65"), std::string::npos) << report;
+  ASSERT_TRUE(wait_for(fw, 1.5 * wall_per_sim_s, [&] { return truth_time(truth) >= kStreakAt / 1000.0 + 0.1; }));
+  status = operator_line(kWbcSocket, "status");
+  EXPECT_NE(status.find("mode=damping faults=imu_lost"), std::string::npos) << status;
+  const std::string fw_out = fw.stop();
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  const std::string summary = emu.stop();
+  const std::vector<TruthSample> samples = read_truth(truth);
+  if (keep != nullptr) {
+    std::ofstream(std::string(keep) + "/truth.txt") << std::ifstream(truth).rdbuf();
+    std::ofstream(std::string(keep) + "/firmware.txt") << fw_out;
+  }
+  ::unlink(truth.c_str());
+  ASSERT_FALSE(samples.empty());
+
+  // 4: the first actuating steps damp (CAN.md 4.2 step 5); zero torque never.
+  char first_actuating = 'o';
+  int zero_torque_steps = 0;
+  for (const TruthSample& t : samples) {
+    if (first_actuating == 'o') first_actuating = t.command;
+    zero_torque_steps += t.command == 'z' ? 1 : 0;
+  }
+  EXPECT_EQ(first_actuating, 'd');
+  EXPECT_EQ(zero_torque_steps, 0);
+
+  // 1: the push, rendered. Displacements from the pose just before it; the template driven by
+  // the force on the hand (what the tared F/T measures), integrated here from rest.
+  const wbc::TemplateParams& tp = config.wbc.template_params;
+  TemplateAxis axis{tp.mass_base_kg.x(), tp.damping_base_ns_per_m.x(), tp.stiffness_base_n_per_m.x(),
+                    tp.mass_ee_kg.x(),   tp.damping_ee_ns_per_m.x(),   tp.stiffness_ee_n_per_m.x()};
+  double base0 = 0.0, hand0 = 0.0;
+  int n0 = 0;
+  for (const TruthSample& t : samples) {
+    if (t.t_s >= kPushStart_s - 0.1 && t.t_s < kPushStart_s) {
+      base0 += t.trunk_x_m;
+      hand0 += t.hand_m.x();
+      ++n0;
+    }
+  }
+  ASSERT_GT(n0, 50);
+  base0 /= n0;
+  hand0 /= n0;
+  double sq_b = 0.0, sq_e = 0.0, lo_b = 1e9, hi_b = -1e9, lo_e = 1e9, hi_e = -1e9, end_b = 0.0, end_e = 0.0;
+  int n = 0, n_end = 0;
+  double t_prev = kPushStart_s - 0.001;
+  for (const TruthSample& t : samples) {
+    if (t.t_s < kPushStart_s - 1e-6 || t.t_s > kPushEnd_s) continue;
+    axis.step(t.hand_force_n.x(), t.t_s - t_prev);
+    t_prev = t.t_s;
+    const double b = t.trunk_x_m - base0, e = t.hand_m.x() - hand0;
+    sq_b += (b - axis.xb) * (b - axis.xb);
+    sq_e += (e - axis.xe) * (e - axis.xe);
+    lo_b = std::min(lo_b, axis.xb);
+    hi_b = std::max(hi_b, axis.xb);
+    lo_e = std::min(lo_e, axis.xe);
+    hi_e = std::max(hi_e, axis.xe);
+    ++n;
+    if (t.t_s >= kPushEnd_s - 0.5) {
+      end_b += b;
+      end_e += e;
+      ++n_end;
+    }
+  }
+  ASSERT_GT(n, 3000);
+  ASSERT_GT(n_end, 400);
+  const double nrmse_b = std::sqrt(sq_b / n) / (hi_b - lo_b), nrmse_e = std::sqrt(sq_e / n) / (hi_e - lo_e);
+  end_b /= n_end;
+  end_e /= n_end;
+  const double fk_b = kForce_n / tp.stiffness_base_n_per_m.x();
+  const double fk_e = fk_b + kForce_n / tp.stiffness_ee_n_per_m.x();
+
+  // 2: the trot, from the emulator's ground truth.
+  std::array<bool, kFeet> lifted{};
+  int non_foot = 0;
+  double z_min = 1e9, tilt_max = 0.0;
+  for (const TruthSample& t : samples) {
+    if (t.t_s < t_trot_s || t.t_s > kTrotUntil_s) continue;
+    for (int f = 0; f < kFeet; ++f) lifted[f] = lifted[f] || (t.foot_contacts & (1 << f)) == 0;
+    non_foot += t.non_foot_contact;
+    z_min = std::min(z_min, t.trunk_z_m);
+    tilt_max = std::max(tilt_max, t.tilt_rad);
+  }
+  // 3: the streak of corrupt quaternions: damping within stale_ticks + 2 steps of its first sample.
+  const unsigned long long damped_at = first_damping_step(samples, kStreakAt);
+
+  std::printf("HIL wbc (time scale %d, wall %.0f s): control from %.3f s; 30 N push %.1f..%.1f s: NRMSE base %.2f %% "
+              "hand %.2f %%, end displacement base %.4f m (F/K %.4f) hand %.4f m (%.4f); trot %.2f..%.2f s: lifted "
+              "%d%d%d%d, min trunk z %.3f m, max tilt %.3f rad; corrupt-quaternion streak from step %llu: damping at "
+              "step %llu (stale_ticks %u)\n",
+              time_scale, wall_s, t_control_s, kPushStart_s, kPushEnd_s, 100 * nrmse_b, 100 * nrmse_e, end_b, fk_b,
+              end_e, fk_e, t_trot_s, kTrotUntil_s, lifted[0], lifted[1], lifted[2], lifted[3], z_min, tilt_max,
+              kStreakAt, damped_at, stale_ticks);
+  RecordProperty("nrmse_base_pct", std::to_string(100 * nrmse_b));
+  RecordProperty("nrmse_ee_pct", std::to_string(100 * nrmse_e));
+  EXPECT_LE(nrmse_e, 0.05);
+  EXPECT_LE(nrmse_b, 0.10);
+  EXPECT_NEAR(end_b, fk_b, 0.02 * fk_b);
+  EXPECT_NEAR(end_e, fk_e, 0.02 * fk_e);
+  for (int f = 0; f < kFeet; ++f) EXPECT_TRUE(lifted[f]) << "foot " << f;
+  EXPECT_EQ(non_foot, 0) << "only the feet touch the ground";
+  EXPECT_GT(z_min, 0.45);
+  EXPECT_LT(tilt_max, 0.3);
+  ASSERT_GT(damped_at, 0u) << fw_out;
+  EXPECT_LE(damped_at, kStreakAt + stale_ticks + 2);
+  EXPECT_GE(damped_at, kStreakAt + stale_ticks - 1) << "damped before the IMU was lost";
+  // Logged with the sensor's name; the burst at 2.5 s counted, never a fault before the streak.
+  EXPECT_NE(fw_out.find("fault_latched"), std::string::npos) << fw_out;
+  EXPECT_NE(fw_out.find("(new=imu_lost latched=imu_lost)"), std::string::npos) << fw_out;
+  EXPECT_NE(fw_out.find("(control -> damping)"), std::string::npos) << fw_out;
+  EXPECT_EQ(fw_out.find("fault_latched", fw_out.find("fault_latched") + 1), std::string::npos)
+      << "one fault only\n" << fw_out;
+  const auto at = fw_out.find("can sensor imu: ");
+  ASSERT_NE(at, std::string::npos) << fw_out;
+  unsigned long long bad_quaternion = 0;
+  ASSERT_EQ(std::sscanf(fw_out.c_str() + fw_out.find("bad_quaternion=", at), "bad_quaternion=%llu", &bad_quaternion), 1);
+  EXPECT_GE(bad_quaternion, 3u + stale_ticks);
+  EXPECT_NE(summary.find("forced_steps 0\n"), std::string::npos) << summary;
+}
+
+// Case 3: a sensor the controller needs, lost in the control mode: damping within
+// stale_ticks + 2 ticks, latched, logged with its name.
+void expect_sensor_loss_damps(const std::string& fault_yaml, unsigned long long fault_at, const std::string& fault_name) {
+  const int time_scale = hil_time_scale(20);
+  ASSERT_GE(time_scale, 1);
+  const double wall_per_sim_s = time_scale * 1.3 + 5.0;
+  const std::uint32_t stale_ticks = wbc_hil_stale_ticks();
+  const std::string truth = "/tmp/springbok_hil_wbc_truth_" + std::to_string(::getpid()) + ".txt";
+  Emulator emu(kWbcConfig, fault_yaml, {"--motion", "bullet", "--truth-log", truth, "--truth-every", "1", "--settle-s", "0.1"});
+  ASSERT_TRUE(emu.ready());
+  ::unlink(kWbcSocket.c_str());
+  Firmware fw(kWbcConfig, time_scale);
+  std::string why;
+  const double t_control_s = enter_control(fw, truth, wall_per_sim_s, why);
+  ASSERT_GE(t_control_s, 0.0) << why << "\n" << fw.stop();
+  ASSERT_LT(t_control_s, fault_at / 1000.0 - 0.2) << "the control mode must be on before the fault";
+  ASSERT_TRUE(wait_for(fw, (fault_at / 1000.0 - t_control_s + 0.5) * wall_per_sim_s,
+                       [&] { return truth_time(truth) >= fault_at / 1000.0 + 0.2; }));
+  const std::string status = operator_line(kWbcSocket, "status");
+  const std::string reset = operator_line(kWbcSocket, "mode control");
+  const std::string fw_out = fw.stop();
+  emu.stop();
+  const std::vector<TruthSample> samples = read_truth(truth);
+  ::unlink(truth.c_str());
+  // The idle ticks damp too: the first damping step after the control mode's torques.
+  unsigned long long control_steps = 0, after_control = 0;
+  for (const TruthSample& t : samples) {
+    control_steps += t.command == 't' ? 1 : 0;
+    if (t.command == 't') after_control = 0;
+    if (t.command == 'd' && after_control == 0 && control_steps > 0) after_control = t.step;
+  }
+  std::printf("HIL wbc: %s from step %llu: damping at step %llu (stale_ticks %u); %llu torque-controlled steps before\n",
+              fault_name.c_str(), fault_at, after_control, stale_ticks, control_steps);
+  EXPECT_GT(control_steps, 200u) << "the whole-body controller ran before the fault";
+  EXPECT_EQ(samples.front().command, 'd') << "the first actuating step damps (CAN.md 4.2 step 5)";
+  EXPECT_LE(after_control, fault_at + stale_ticks + 2);
+  EXPECT_GE(after_control, fault_at + stale_ticks - 1) << "damped before the sensor was lost";
+  EXPECT_NE(status.find("mode=damping faults="), std::string::npos) << status;
+  EXPECT_NE(status.find(fault_name), std::string::npos) << status;
+  EXPECT_EQ(reset.rfind("error: mode control", 0), 0u) << "latched: " << reset;
+  EXPECT_NE(fw_out.find("(new=" + fault_name + " latched=" + fault_name + ")"), std::string::npos) << fw_out;
+  EXPECT_NE(fw_out.find("(control -> damping)"), std::string::npos) << fw_out;
+}
+
+// Case 3's corrupt quaternions and case 4: the first actuating steps damp (CAN.md 4.2 step 5),
+// zero torque never; in the control mode a burst of corrupt IMU quaternions is counted and
+// rejected without a fault; a streak of them loses the IMU: damping within stale_ticks + 2
+// steps, latched, logged with the sensor's name.
+TEST(Hil, DeployedWholeBodyControllerStartsDampedAndRejectsCorruptQuaternions) {
+  REQUIRE_VCAN(8);
+  const int time_scale = hil_time_scale(20);
+  ASSERT_GE(time_scale, 1);
+  const double wall_per_sim_s = time_scale * 1.3 + 5.0;
+  const std::uint32_t stale_ticks = wbc_hil_stale_ticks();
+  constexpr unsigned long long kBurstAt = 2500, kBurst = 3, kStreakAt = 3000;
+  const std::string truth = "/tmp/springbok_hil_wbc_truth_" + std::to_string(::getpid()) + ".txt";
+  Emulator emu(kWbcConfig,
+               "faults:\n"
+               "  - {kind: corrupt_quaternion, sensor: imu, at: 2500, count: 3}\n"
+               "  - {kind: corrupt_quaternion, sensor: imu, at: 3000, count: 1000000}\n",
+               {"--motion", "bullet", "--truth-log", truth, "--truth-every", "1", "--settle-s", "0.1"});
+  ASSERT_TRUE(emu.ready());
+  ::unlink(kWbcSocket.c_str());
+  Firmware fw(kWbcConfig, time_scale);
+  std::string why;
+  const double t_control_s = enter_control(fw, truth, wall_per_sim_s, why);
+  ASSERT_GE(t_control_s, 0.0) << why << "\n" << fw.stop();
+  ASSERT_LT(t_control_s, kBurstAt / 1000.0 - 0.2) << "the control mode must be on before the burst";
+  ASSERT_TRUE(wait_for(fw, (kStreakAt / 1000.0 - t_control_s + 0.5) * wall_per_sim_s,
+                       [&] { return truth_time(truth) >= kStreakAt / 1000.0 - 0.1; }));
+  const std::string after_burst = operator_line(kWbcSocket, "status");
+  ASSERT_TRUE(wait_for(fw, 1.0 * wall_per_sim_s, [&] { return truth_time(truth) >= kStreakAt / 1000.0 + 0.2; }));
+  const std::string after_streak = operator_line(kWbcSocket, "status");
+  const std::string fw_out = fw.stop();
+  const std::string summary = emu.stop();
+  const std::vector<TruthSample> samples = read_truth(truth);
+  ::unlink(truth.c_str());
+  ASSERT_FALSE(samples.empty());
+
+  char first_actuating = 'o';
+  int zero_torque_steps = 0;
+  unsigned long long torque_steps = 0, damped_at = 0;
+  for (const TruthSample& t : samples) {
+    if (first_actuating == 'o') first_actuating = t.command;
+    zero_torque_steps += t.command == 'z' ? 1 : 0;
+    torque_steps += t.command == 't' ? 1 : 0;
+    if (damped_at == 0 && torque_steps > 0 && t.command == 'd') damped_at = t.step;
+  }
+  std::printf("HIL wbc: first actuating command '%c', zero-torque steps %d; %llu torque-controlled steps; corrupt "
+              "quaternions: burst of %llu at step %llu, streak from step %llu: damping at step %llu (stale_ticks %u)\n",
+              first_actuating, zero_torque_steps, torque_steps, kBurst, kBurstAt, kStreakAt, damped_at, stale_ticks);
+  EXPECT_EQ(first_actuating, 'd');
+  EXPECT_EQ(zero_torque_steps, 0);
+  EXPECT_GT(torque_steps, 300u) << "the whole-body controller ran";
+  EXPECT_NE(after_burst.find("mode=control faults=none"), std::string::npos) << after_burst;
+  EXPECT_NE(after_streak.find("mode=damping faults="), std::string::npos) << after_streak;
+  EXPECT_NE(after_streak.find("imu_lost"), std::string::npos) << after_streak;
+  EXPECT_LE(damped_at, kStreakAt + stale_ticks + 2);
+  EXPECT_GE(damped_at, kStreakAt + stale_ticks - 1) << "damped before the IMU was lost";
+  EXPECT_NE(fw_out.find("(new=imu_lost latched=imu_lost)"), std::string::npos) << fw_out;
+  EXPECT_NE(fw_out.find("(control -> damping)"), std::string::npos) << fw_out;
+  // The first fault is the IMU's (a collapsing arm may trip the drives' checks after it).
+  EXPECT_EQ(fw_out.find("fault_latched"), fw_out.find("fault_latched a=256 b=256")) << fw_out;
+  const auto at = fw_out.find("can sensor imu: ");
+  ASSERT_NE(at, std::string::npos) << fw_out;
+  unsigned long long bad_quaternion = 0;
+  ASSERT_EQ(std::sscanf(fw_out.c_str() + fw_out.find("bad_quaternion=", at), "bad_quaternion=%llu", &bad_quaternion), 1);
+  EXPECT_GE(bad_quaternion, kBurst + stale_ticks) << "the burst's and the streak's samples counted";
+  EXPECT_NE(summary.find("forced_steps 0\n"), std::string::npos) << summary;
+}
+
+TEST(Hil, DeployedWholeBodyControllerDampsWhenTheImuFallsSilent) {
+  REQUIRE_VCAN(8);
+  expect_sensor_loss_damps("faults: [{kind: silent, sensor: imu, at: 2600}]\n", 2600, "imu_lost");
+}
+
+TEST(Hil, DeployedWholeBodyControllerDampsWhenTheWristFtReportsInvalid) {
+  REQUIRE_VCAN(8);
+  expect_sensor_loss_damps("faults: [{kind: status_invalid, sensor: wrist_ft, at: 2600, count: 1000000}]\n", 2600,
+                           "wrist_ft_lost");
 }
 
 TEST(Hil, RoundTripTime) {

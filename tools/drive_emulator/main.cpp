@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
   double duration_s = 0.0;
   std::uint32_t can_timeout_ms = 0;
   bool layout_only = false;
-  double hand_force_n = 0.0, hand_force_start_s = 0.0;
+  double hand_force_n = 0.0, hand_force_start_s = 0.0, hand_force_duration_s = 0.0;
   std::string hand_force_axis = "x";
   double imu_gyro_noise = 0.0, imu_accel_noise = 0.0, imu_gyro_bias = 0.0, imu_accel_bias = 0.0;
   std::uint64_t imu_seed = 1;
@@ -95,7 +95,8 @@ int main(int argc, char** argv) {
                  "joint: a 1-DoF model per drive; bullet: the joints of the simulated robot (sim_hal), "
                  "stepped once per host tick, the robot spawned crouched on its feet")
       ->check(CLI::IsMember({"joint", "bullet"}));
-  app.add_option("--truth-log", truth_log, "bullet: trace of the trunk ground truth (t_s trunk_z_m tilt_rad non_foot_contact)");
+  app.add_option("--truth-log", truth_log,
+                 "bullet: trace of the ground truth, one line per --truth-every steps (columns: bullet_motion.hpp)");
   app.add_option("--truth-every", truth_every, "bullet: one trace line every this many steps")->check(CLI::Range(1, 1000000));
   app.add_option("--settle-s", settle_s, "bullet: the robot lies unpowered this long before the drives boot")
       ->check(CLI::Range(0.0, 60.0));
@@ -104,6 +105,8 @@ int main(int argc, char** argv) {
   app.add_option("--hand-force-axis", hand_force_axis, "bullet: its direction, world axes")
       ->check(CLI::IsMember({"x", "y", "z", "-x", "-y", "-z"}));
   app.add_option("--hand-force-start-s", hand_force_start_s, "bullet: when it starts, s after the settling")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--hand-force-duration-s", hand_force_duration_s, "bullet: how long it lasts (0 = until the end)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--imu-gyro-noise-rad-s", imu_gyro_noise, "bullet: IMU gyro white noise std (sim_hal model)")
       ->check(CLI::Range(0.0, 10.0));
@@ -154,6 +157,7 @@ int main(int argc, char** argv) {
       options.hand_force = true;
       options.hand.force_n = hand_force_n;
       options.hand.start_s = hand_force_start_s;
+      if (hand_force_duration_s > 0.0) options.hand.duration_s = hand_force_duration_s;
       const double sign = hand_force_axis.front() == '-' ? -1.0 : 1.0;
       options.hand.axis_world = sign * Eigen::Vector3d::Unit(hand_force_axis.back() - 'x');
     }

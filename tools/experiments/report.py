@@ -159,7 +159,14 @@ def main():
               "the *measured* wrist force and integrated exactly (ZOH matrix exponential). Scores are fractions "
               "(NRMSE = RMS(measured - template) / peak-to-peak(template) from the WBC start; steady state = "
               "|mean of the last second - F/K| / |F/K|). The chirp amplitude, 20 N, is our choice: the paper does not "
-              "give one.", ""]
+              "give one.", "",
+              "**One controller.** Every stance and trot run below is `springbok::control::WholeBodyControl` "
+              "(`firmware/control/`), the object the deployed binary `springbok` runs in its control mode over CAN "
+              "and `springbok-on-sim` on the simulated robot; `springbok-sim` adds only the ground-truth override "
+              "(where a scenario asks for it), the scoring and the CSV. `tests/control/test_one_controller.cpp` "
+              "replays a run's recorded measurements through the firmware's control mode and gets the same torques "
+              "bit for bit; the HIL suite (`tools/hil`) runs it over virtual CAN with the IMU and the wrist F/T on "
+              "the bus.", ""]
     lines += ["## Step responses", "",
               "| scenario | NRMSE base x | NRMSE EE x | steady state base x | steady state EE x | peak dev base x [mm] | "
               "peak dev EE x [mm] | 90 % rise base / EE [s] | QP failures | max tau/limit | fell | joint limit | "

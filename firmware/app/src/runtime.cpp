@@ -166,6 +166,7 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   print_histogram("wake latency", s.wake_latency);
   print_histogram("compute", s.compute);
   std::printf("log records dropped=%llu\n", static_cast<unsigned long long>(log_ring->dropped()));
+  std::printf("%s", hardware.diagnostics_report().c_str());
   return 0;
 }
 

@@ -524,4 +524,42 @@ hal::IoStatus CanHardware::write(const hal::JointCommands& cmd) noexcept {
   return rejected_commands_ == rejected_before ? hal::IoStatus::ok : hal::IoStatus::error;
 }
 
+std::string CanHardware::diagnostics_report() const {
+  std::string out;
+  char line[512];
+  for (int b = 0; b < bus_count_; ++b) {
+    const BusDiagnostics& d = diagnostics(b);
+    std::snprintf(line, sizeof line,
+                  "can bus %s: fault=%s sent=%llu received=%llu tx_dropped=%llu bad_frames=%llu unexpected=%llu "
+                  "foreign=%llu duplicates=%llu sensor_frames=%llu error_frames=%llu error_passive=%d\n",
+                  (config_.buses[static_cast<std::size_t>(b)].name + " (" +
+                   config_.buses[static_cast<std::size_t>(b)].interface + ")")
+                      .c_str(),
+                  to_string(d.fault), static_cast<unsigned long long>(d.frames_sent),
+                  static_cast<unsigned long long>(d.frames_received), static_cast<unsigned long long>(d.tx_dropped),
+                  static_cast<unsigned long long>(d.bad_frames), static_cast<unsigned long long>(d.unexpected_frames),
+                  static_cast<unsigned long long>(d.foreign_frames), static_cast<unsigned long long>(d.duplicates),
+                  static_cast<unsigned long long>(d.sensor_frames), static_cast<unsigned long long>(d.error_frames),
+                  d.error_passive ? 1 : 0);
+    out += line;
+  }
+  const auto sensor = [&](const char* name, bool enabled, const SensorDiagnostics& d) {
+    if (!enabled) return;
+    std::snprintf(line, sizeof line,
+                  "can sensor %s: frames=%llu accepted=%llu wrong_dlc=%llu reserved_bits=%llu status_invalid=%llu "
+                  "bad_quaternion=%llu counter_jumps=%llu stale_counters=%llu late_frames=%llu "
+                  "incomplete_dropped=%llu clipped=%llu\n",
+                  name, static_cast<unsigned long long>(d.frames), static_cast<unsigned long long>(d.samples_accepted),
+                  static_cast<unsigned long long>(d.wrong_dlc), static_cast<unsigned long long>(d.reserved_bits),
+                  static_cast<unsigned long long>(d.status_invalid), static_cast<unsigned long long>(d.bad_quaternion),
+                  static_cast<unsigned long long>(d.counter_jumps), static_cast<unsigned long long>(d.stale_counters),
+                  static_cast<unsigned long long>(d.late_frames), static_cast<unsigned long long>(d.incomplete_dropped),
+                  static_cast<unsigned long long>(d.clipped));
+    out += line;
+  };
+  sensor("imu", config_.sensors.imu.enabled, imu_diagnostics());
+  sensor("wrist_ft", config_.sensors.wrist_ft.enabled, wrist_diagnostics());
+  return out;
+}
+
 }  // namespace springbok::can

@@ -138,6 +138,11 @@ LifecycleResult CanHardware::enable_bus(int b) {
   if (bus.any_cia) {
     if (LifecycleResult r = enable_cia402(b); !r.ok) return r;
   }
+  // The first cyclic command, sent by the first read before the loop's first write: damping
+  // (CAN.md 4.2 step 5, 4.3 step 5), never zero torque.
+  hal::JointCommands damping;
+  damping.mode = hal::CommandMode::enabled;
+  damping.kd_nms_per_rad.setConstant(config_.timing.damping_kd_nms_per_rad);
   for (int k = 0; k < bus.count; ++k) {
     JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
     jr.status = hal::DriveStatus{};
@@ -145,7 +150,7 @@ LifecycleResult CanHardware::enable_bus(int b) {
     jr.last_rx_tick = tick_;
     jr.last_heartbeat_tick = tick_;
     jr.implausible_in_row = 0;
-    queue_zero_command(bus.joints[k]);
+    queue_command(bus.joints[k], damping);
   }
   return LifecycleResult::success();
 }

@@ -53,6 +53,9 @@ BulletMotion::BulletMotion(std::FILE* trace, int trace_every, const BulletOption
           h.axis_world.norm() > 0.0)) {
       throw std::runtime_error("hand force: need a finite force, a start >= 0 and a non-zero axis");
     }
+    if (!(h.duration_s > 0.0)) {
+      throw std::runtime_error("hand force: need a duration > 0");
+    }
     const std::optional<sim::FrameRef> ee = sim::find_frame(robot::kFrames[kEeFrame].name);
     if (!ee) throw std::runtime_error("hand force: no end-effector frame in the model");
     sim::ExternalWrench w;
@@ -63,6 +66,9 @@ BulletMotion::BulletMotion(std::FILE* trace, int trace_every, const BulletOption
     w.profile.amplitude = h.force_n;
     // Simulated time, which also runs while the robot settles before the drives boot.
     w.profile.start_s = settle_s + h.start_s;
+    w.profile.duration_s = h.duration_s;
+    hand_ = h;
+    hand_force_ = true;
     if (!robot_->robot().add_external_wrench(w)) throw std::runtime_error("hand force: the wrench table is full");
   }
   const hal::LifecycleResult a = robot_->activate();
@@ -150,12 +156,50 @@ void BulletMotion::step() {
   if (const std::optional<sim::FrameRef> ee = sim::find_frame(robot::kFrames[kEeFrame].name)) {
     truth_.ee_orientation = Eigen::Quaterniond(robot_->robot().frame_placement(*ee).linear()).normalized();
   }
-  if (on_step_ && settled_) on_step_(m.imu, m.wrist);
+  if (!settled_) return;
+  ++settled_steps_;
+  if (on_step_) on_step_(m.imu, m.wrist);
   if (trace_ != nullptr && truth_.steps % static_cast<std::uint64_t>(trace_every_) == 0) {
-    std::fprintf(trace_, "%.4f %.5f %.5f %d\n", truth_.time_s, truth_.trunk_z_m, truth_.trunk_tilt_rad,
-                 truth_.non_foot_ground_contact ? 1 : 0);
+    Eigen::Vector3d hand = Eigen::Vector3d::Zero();
+    if (const std::optional<sim::FrameRef> ee = sim::find_frame(robot::kFrames[kEeFrame].name)) {
+      hand = robot_->robot().frame_placement(*ee).translation();
+    }
+    Eigen::Vector3d force = Eigen::Vector3d::Zero();
+    if (hand_force_ && truth_.time_s >= hand_.start_s && truth_.time_s < hand_.start_s + hand_.duration_s) {
+      force = hand_.force_n * hand_.axis_world.normalized();
+    }
+    int contacts = 0;
+    for (int f = 0; f < kFeet; ++f) contacts |= gt.foot_contact[static_cast<std::size_t>(f)] ? 1 << f : 0;
+    std::fprintf(trace_, "%.4f %.5f %.5f %d %.5f %.5f %.5f %.5f %.5f %.3f %.3f %.3f %d %c %llu\n", truth_.time_s,
+                 truth_.trunk_z_m, truth_.trunk_tilt_rad, truth_.non_foot_ground_contact ? 1 : 0, gt.q[0], gt.q[1],
+                 hand.x(), hand.y(), hand.z(), force.x(), force.y(), force.z(), contacts,
+                 static_cast<char>(command_class()), static_cast<unsigned long long>(settled_steps_));
     std::fflush(trace_);
   }
+}
+
+// The class of this step's drive laws (MIT's "zero" torque is half an LSB off: ~0.005 N m).
+// Damping is the host's damping command (CAN.md 4.2 step 5, 4.4): no stiffness and no position
+// or velocity target on any joint (|p_des|, |v_des| within a quantum of zero), damping in the
+// drive (kd) or as a torque the host computes (-D qd). A controller's torque command carries
+// the measured positions as p_des (never all zero: the knees stand at +-1.4 rad).
+CommandClass BulletMotion::command_class() const noexcept {
+  // Within a quantum of zero: MIT's p (16 bits over 25 rad) and v (12 bits over 130 rad/s).
+  constexpr double kZeroTorque_nm = 0.05, kZeroPosition_rad = 1e-3, kZeroVelocity_rad_s = 0.05;
+  bool any_enabled = false, any_kp = false, any_kd = false, any_torque = false, no_target = true;
+  for (std::size_t j = 0; j < law_.size(); ++j) {
+    if (!enabled_[j]) continue;
+    any_enabled = true;
+    any_kp = any_kp || law_[j].kp > 0.0;
+    any_kd = any_kd || law_[j].kd > 0.0;
+    any_torque = any_torque || std::abs(law_[j].t_ff_nm) > kZeroTorque_nm;
+    no_target = no_target && std::abs(law_[j].p_des_rad) < kZeroPosition_rad &&
+                std::abs(law_[j].v_des_rad_s) < kZeroVelocity_rad_s;
+  }
+  if (!any_enabled) return CommandClass::off;
+  if (any_kp) return CommandClass::position;
+  if (!any_kd && !any_torque) return CommandClass::zero;
+  return no_target ? CommandClass::damping : CommandClass::torque;
 }
 
 }  // namespace springbok::emu

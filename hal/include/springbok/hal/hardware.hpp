@@ -45,6 +45,10 @@ class Hardware {
 
   // Damping then power off; safe to call more than once.
   virtual void deactivate() noexcept = 0;
+
+  // What the backend counted (errors, rejected frames), one line per part, for the
+  // operator at shut-down; "" when it keeps nothing. Not real-time.
+  virtual std::string diagnostics_report() const { return {}; }
 };
 
 }  // namespace springbok::hal

@@ -109,6 +109,8 @@ class CanHardware final : public hal::Hardware {
   // Damping (kp = 0, kd = D) for damping_time_ms or until every |qd| is below
   // the stop speed, then disable (CAN.md 4.4). Safe to call more than once.
   void deactivate() noexcept override;
+  // "can bus lf (vcan0): fault=none bad_frames=0 ..." per bus, "can sensor imu: ..." per sensor.
+  std::string diagnostics_report() const override;
 
   // Operator recovery after a bus fault: reopen, re-run start-up and enable for that bus.
   hal::LifecycleResult recover_bus(int bus);

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <memory>
 
 #include "springbok/drive_emulator/drives.hpp"
@@ -43,7 +44,14 @@ struct HandForce {
   double force_n = 0.0;
   Eigen::Vector3d axis_world = Eigen::Vector3d::UnitX();
   double start_s = 0.0;
+  double duration_s = std::numeric_limits<double>::infinity();
 };
+
+// What the drives were told to do in a step, as the truth trace names it (one letter):
+// every drive disabled (o), zero torque (z: no stiffness, no damping, no torque), damping
+// (d: the host's damping command, no position or velocity target; CAN.md 4.2 step 5, 4.4),
+// position PD (p: some stiffness), torque (t: a controller's torques).
+enum class CommandClass : char { off = 'o', zero = 'z', damping = 'd', position = 'p', torque = 't' };
 
 struct BulletOptions {
   double settle_s = 0.0;
@@ -61,8 +69,12 @@ class BulletMotion final : public Motion {
  public:
   // The robot spawns as the deployed loop's simulation does (app::crouched_sim_config,
   // set down on its feet), then lies unpowered for `settle_s` (the drives off: it comes to
-  // rest before the host sees it). `trace` (may be null) gets one line "t_s trunk_z_m
-  // tilt_rad non_foot_contact" every `trace_every` steps; time 0 is the end of the settling.
+  // rest before the host sees it). `trace` (may be null) gets one line every `trace_every`
+  // steps; time 0 is the end of the settling, step 1 its first step (the sensors' sample 1):
+  //   t_s trunk_z_m tilt_rad non_foot_contact trunk_x_m trunk_y_m hand_x_m hand_y_m hand_z_m
+  //   hand_force_x_n hand_force_y_n hand_force_z_n foot_contacts command step
+  // (world axes; the hand is the end-effector frame's origin; hand_force the scripted force;
+  // foot_contacts a bit per foot, lf 1, rf 2, lh 4, rh 8; command a CommandClass letter).
   BulletMotion(std::FILE* trace, int trace_every, double settle_s = 0.0);
   BulletMotion(std::FILE* trace, int trace_every, const BulletOptions& options);
   ~BulletMotion() override;
@@ -84,6 +96,7 @@ class BulletMotion final : public Motion {
 
  private:
   void step();
+  CommandClass command_class() const noexcept;
 
   std::unique_ptr<app::SteppedBulletRobot> robot_;
   std::array<DriveLaw, kNj> law_{};
@@ -96,6 +109,9 @@ class BulletMotion final : public Motion {
   int trace_every_;
   double time_origin_s_ = 0.0;
   bool settled_ = false;  // the constructor's settling steps are over
+  std::uint64_t settled_steps_ = 0;
+  HandForce hand_;
+  bool hand_force_ = false;
   std::function<void(const hal::Imu&, const hal::Wrench&)> on_step_;
 };
 
