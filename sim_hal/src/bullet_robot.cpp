@@ -149,6 +149,9 @@ std::string check_config(const SimConfig& c) {
   for (double s : {n.gyro_noise_rad_s, n.accel_noise_m_s2, n.gyro_bias_rad_s, n.accel_bias_m_s2}) {
     if (!(std::isfinite(s) && s >= 0.0)) return "imu noise and bias must be finite and >= 0";
   }
+  for (int t : {c.latency.joint_measurement_ticks, c.latency.sensor_measurement_ticks, c.latency.command_ticks}) {
+    if (t < 0 || t > Latency::kMaxTicks) return "latency ticks must be in [0, 4]";
+  }
   if (!all_finite(c.initial_q)) return "initial_q must be finite";
   if (c.initial_q.segment<4>(3).norm() < 0.5) return "initial_q: the base quaternion is far from unit norm";
   if (!all_finite(c.initial_v)) return "initial_v must be finite";
@@ -193,7 +196,20 @@ struct BulletRobot::Impl {
   bool active = false;
   std::int64_t tick = 0;
   std::uint64_t read_sequence = 0;
-  hal::JointCommands command;
+  hal::JointCommands command;  // the last write()
+  hal::JointCommands applied;  // what the drives apply in this step (command, `command_ticks` ago)
+  // The last kMaxTicks + 1 ticks, by tick modulo the size (Latency).
+  struct Sampled {
+    VecNj q_rad = VecNj::Zero(), qd_rad_s = VecNj::Zero(), tau_nm = VecNj::Zero();
+    hal::Imu imu;
+    hal::Wrench wrist;
+  };
+  static constexpr int kHistory = Latency::kMaxTicks + 1;
+  std::array<Sampled, kHistory> sampled{};
+  std::array<hal::JointCommands, kHistory> written{};
+  static std::size_t slot(std::int64_t tick, int ago) noexcept {
+    return static_cast<std::size_t>(((tick - ago) % kHistory + kHistory) % kHistory);
+  }
   std::array<ExternalWrench, kMaxExternalWrenches> wrenches{};
   int wrench_count = 0;
   GroundTruth truth;
@@ -409,7 +425,7 @@ void BulletRobot::Impl::read_state(VecNq& q, VecNv& v) const noexcept {
 
 void BulletRobot::Impl::apply_drive_torques() noexcept {
   for (int j = 0; j < kNj; ++j) {
-    double tau = active ? hal::drive_torque_nm(command, j, body->getJointPos(j), body->getJointVel(j)) : 0.0;
+    double tau = active ? hal::drive_torque_nm(applied, j, body->getJointPos(j), body->getJointVel(j)) : 0.0;
     if (config.saturate_torques) {
       const double limit = robot::kJoints[j].limits.effort_nm;
       tau = std::clamp(tau, -limit, limit);
@@ -523,6 +539,13 @@ void BulletRobot::Impl::update_sensors(bool first) noexcept {
   wrist.stamp_ns = stamp_ns;
   wrist.force_n = world_from_ft.linear().transpose() * force;
   wrist.torque_nm = world_from_ft.linear().transpose() * torque;
+
+  Sampled now{truth.q.tail<kNj>(), truth.v.tail<kNj>(), truth.tau_applied_nm, imu, wrist};
+  if (first) {
+    sampled.fill(now);  // as if at rest there for as long as the latency reaches back
+  } else {
+    sampled[slot(tick, 0)] = now;
+  }
 }
 
 // ---- BulletRobot --------------------------------------------------------------
@@ -556,18 +579,20 @@ hal::IoStatus BulletRobot::read(hal::Measurements& out) noexcept {
   Impl& s = *impl_;
   if (!s.configured) return hal::IoStatus::error;
   out.sequence = ++s.read_sequence;
-  out.stamp_ns = s.imu.stamp_ns;
-  out.q_rad = s.truth.q.tail<kNj>();
-  out.qd_rad_s = s.truth.v.tail<kNj>();
-  out.tau_nm = s.truth.tau_applied_nm;
+  const Impl::Sampled& joints = s.sampled[Impl::slot(s.tick, s.config.latency.joint_measurement_ticks)];
+  const Impl::Sampled& sensors = s.sampled[Impl::slot(s.tick, s.config.latency.sensor_measurement_ticks)];
+  out.q_rad = joints.q_rad;
+  out.qd_rad_s = joints.qd_rad_s;
+  out.tau_nm = joints.tau_nm;
   for (auto& drive : out.drives) {
     drive.state = s.active ? hal::DriveState::enabled : hal::DriveState::ready;
     drive.fresh = true;
     drive.fault_code = 0;
     drive.missed_in_row = 0;
   }
-  out.imu = s.imu;
-  out.wrist = s.wrist;
+  out.stamp_ns = sensors.imu.stamp_ns;
+  out.imu = sensors.imu;
+  out.wrist = sensors.wrist;
   return hal::IoStatus::ok;
 }
 
@@ -600,6 +625,8 @@ void BulletRobot::step() noexcept {
   s.truth.ground_force_n.setZero();
   s.truth.non_foot_ground_contact = false;
   const double t0_s = static_cast<double>(s.tick) * s.config.step_s;
+  s.written[Impl::slot(s.tick, 0)] = s.command;
+  s.applied = s.written[Impl::slot(s.tick, s.config.latency.command_ticks)];
   for (int k = 0; k < s.config.substeps; ++k) {
     s.apply_drive_torques();
     s.apply_external_wrenches(t0_s + k * s.substep_s);

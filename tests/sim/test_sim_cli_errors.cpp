@@ -24,6 +24,10 @@ const Broken kBroken[] = {
     {"out_of_range", "duration_s: 1\nsim: {ground_friction: -1}\ncontroller: {type: stand}\n",
      "sim.ground_friction: must be in"},
     {"nested_unknown", "duration_s: 1\nsim: {imu: {sede: 3}}\ncontroller: {type: stand}\n", "sim.imu.sede: unknown key"},
+    {"latency_fraction", "duration_s: 1\nsim: {latency: {command_ticks: 1.5}}\ncontroller: {type: stand}\n",
+     "sim.latency.command_ticks: must be an integer"},
+    {"latency_too_long", "duration_s: 1\nsim: {latency: {joint_measurement_ticks: 9}}\ncontroller: {type: stand}\n",
+     "sim.latency.joint_measurement_ticks: must be in"},
     {"bad_vector", "duration_s: 1\ninitial: {base_position_m: [0, 1]}\ncontroller: {type: stand}\n",
      "initial.base_position_m: must be a list of 3 numbers"},
     {"joint_limit", "duration_s: 1\ninitial: {joint_positions_rad: [0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0]}\n"

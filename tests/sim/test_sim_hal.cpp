@@ -48,6 +48,49 @@ TEST(SimHal, BadConfigurationIsRefusedWithTheField) {
   EXPECT_NE(r.message.find("ground_friction"), std::string::npos) << r.message;
 }
 
+// The CAN path's delays (CAN.md 3.3): a command acts one step after it is written, a joint
+// state is read one tick after the world was in it.
+TEST(SimHal, LatencyDelaysCommandsAndJointStatesByWholeTicks) {
+  sim::SimConfig ideal_config = resting_fixed_base();
+  ideal_config.gravity_m_s2 = 0.0;
+  sim::SimConfig delayed_config = ideal_config;
+  delayed_config.latency = sim::Latency{1, 0, 1};
+  sim::BulletRobot ideal(ideal_config), delayed(delayed_config);
+  for (sim::BulletRobot* r : {&ideal, &delayed}) {
+    ASSERT_TRUE(r->configure().ok);
+    ASSERT_TRUE(r->activate().ok);
+  }
+  hal::JointCommands c;
+  c.mode = hal::CommandMode::enabled;
+  c.tau_ff_nm[0] = 5.0;
+  std::array<double, 4> ideal_truth{}, delayed_truth{}, delayed_read{};
+  for (int k = 0; k < 4; ++k) {
+    hal::Measurements m;
+    ASSERT_EQ(ideal.write(c), hal::IoStatus::ok);
+    ASSERT_EQ(delayed.write(c), hal::IoStatus::ok);
+    ideal.step();
+    delayed.step();
+    ideal_truth[k] = ideal.ground_truth().v[6];
+    delayed_truth[k] = delayed.ground_truth().v[6];
+    ASSERT_EQ(delayed.read(m), hal::IoStatus::ok);
+    delayed_read[k] = m.qd_rad_s[0];
+  }
+  EXPECT_GT(ideal_truth[0], 0.0);
+  EXPECT_EQ(delayed_truth[0], 0.0);  // the first command acts in the second step
+  for (int k = 1; k < 4; ++k) EXPECT_DOUBLE_EQ(delayed_truth[k], ideal_truth[k - 1]) << k;
+  EXPECT_EQ(delayed_read[0], 0.0);
+  EXPECT_EQ(delayed_read[1], 0.0);  // the state after step 1, before the command acted
+  EXPECT_DOUBLE_EQ(delayed_read[2], delayed_truth[1]);
+  EXPECT_DOUBLE_EQ(delayed_read[3], delayed_truth[2]);
+
+  sim::SimConfig too_long = ideal_config;
+  too_long.latency.command_ticks = sim::Latency::kMaxTicks + 1;
+  sim::BulletRobot refused(too_long);
+  const hal::LifecycleResult r = refused.configure();
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("latency"), std::string::npos) << r.message;
+}
+
 TEST(SimHal, ReadAndWriteDoNotAllocate) {
   sim::BulletRobot robot(resting_fixed_base());
   ASSERT_TRUE(robot.configure().ok);

@@ -59,7 +59,7 @@ VecNj joint_positions(const YAML::Node& n, const std::string& field) {
 
 void read_sim(const Fields& f, sim::SimConfig& c) {
   f.allow_only({"step_s", "substeps", "solver_iterations", "gravity_m_s2", "ground_friction", "ground_restitution",
-                "fixed_base", "imu"});
+                "fixed_base", "imu", "latency"});
   c.step_s = f.number("step_s", c.step_s, 1e-5, 0.01);
   c.substeps = static_cast<int>(f.number("substeps", c.substeps, 1, 100));
   if (f.has("substeps") && f.child("substeps").as<double>() != c.substeps) fail(f.field("substeps"), "must be an integer");
@@ -75,6 +75,16 @@ void read_sim(const Fields& f, sim::SimConfig& c) {
   c.imu.gyro_bias_rad_s = imu.number("gyro_bias_rad_s", 0.0, 0.0, 10.0);
   c.imu.accel_bias_m_s2 = imu.number("accel_bias_m_s2", 0.0, 0.0, 100.0);
   c.imu.seed = static_cast<std::uint64_t>(imu.number("seed", 1.0, 0.0, 4294967295.0));
+  const Fields latency(f.child("latency"), f.field("latency"));
+  latency.allow_only({"joint_measurement_ticks", "sensor_measurement_ticks", "command_ticks"});
+  const auto ticks = [&](const char* key) {
+    const double t = latency.number(key, 0.0, 0.0, sim::Latency::kMaxTicks);
+    if (t != std::floor(t)) fail(latency.field(key), "must be an integer");
+    return static_cast<int>(t);
+  };
+  c.latency.joint_measurement_ticks = ticks("joint_measurement_ticks");
+  c.latency.sensor_measurement_ticks = ticks("sensor_measurement_ticks");
+  c.latency.command_ticks = ticks("command_ticks");
 }
 
 void read_initial(const Fields& f, Scenario& s) {

@@ -25,6 +25,19 @@ struct ImuNoise {
   std::uint64_t seed = 1;
 };
 
+// The deployed CAN path's transport delays (CAN.md 3.3), in ticks. A joint state reaches
+// read() `joint_measurement_ticks` ticks after the world was in it (a drive's reply, sampled
+// when the command arrives, is read at the next tick's start); the trunk IMU and the wrist
+// F/T `sensor_measurement_ticks` after (they push their sample as the world moves); a write()
+// acts on the world `command_ticks` steps later (sent at the start of the next tick). All 0:
+// the ideal lockstep. The CAN backend against the drive emulator is {1, 0, 1}.
+struct Latency {
+  static constexpr int kMaxTicks = 4;
+  int joint_measurement_ticks = 0;
+  int sensor_measurement_ticks = 0;
+  int command_ticks = 0;
+};
+
 struct SimConfig {
   double step_s = 0.001;                   // one controller tick
   int substeps = 1;                        // physics steps per tick (drive law re-evaluated each)
@@ -36,6 +49,7 @@ struct SimConfig {
   bool fixed_base = false;                 // trunk welded to the world (tests)
   bool saturate_torques = true;            // clamp drive torques to the model's effort limits
   ImuNoise imu;
+  Latency latency;
   VecNq initial_q = default_q();           // [p_WB, quaternion xyzw, joints]
   VecNv initial_v = VecNv::Zero();         // [v_B, w_B trunk frame, joint rates]
 
