@@ -120,6 +120,13 @@ TEST(CanConfig, StructuralErrors) {
   EXPECT_NE(load_can_config_text("can: {layout: classic7, max_bus_load: 1.5}").error.find("can.max_bus_load"),
             std::string::npos);
   EXPECT_NE(load_can_config_file("/nonexistent/can.yaml").error.find("cannot open"), std::string::npos);
+  for (const char* bad : {"-1", "500", ".nan"}) {
+    const std::string text = std::string("can: {layout: classic7, mit_velocity_observer_rad_s: ") + bad + "}";
+    EXPECT_NE(load_can_config_text(text).error.find("can.mit_velocity_observer_rad_s"), std::string::npos) << bad;
+  }
+  EXPECT_DOUBLE_EQ(load_can_config_text("can: {layout: classic7, mit_velocity_observer_rad_s: 0}")
+                       .config.mit_velocity_observer_rad_s,
+                   0.0);
 }
 
 TEST(CanConfig, LayoutWideMitRangesOverrideTheGainRangesOfEveryMitDrive) {

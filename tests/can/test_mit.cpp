@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <random>
 
 #include "alloc_trap.hpp"
@@ -169,6 +170,69 @@ TEST(MitCodec, EncodeAndDecodeDoNotAllocate) {
     }
   });
   EXPECT_EQ(n, 0u);
+}
+
+// A joint's true motion through the drive's truncating reply and the host's decoder.
+Reply through_the_wire(double q_rad, double v_rad_s, const Ranges& r) {
+  Frame f;
+  encode_reply(0x101, Reply{1, q_rad, v_rad_s, 0.0}, r, false, f);
+  Reply out;
+  EXPECT_EQ(decode_reply(f, r, out), FrameStatus::ok);
+  return out;
+}
+
+// The reply's velocity is 0.0317 rad/s coarse and truncated: at rest it reads -0.016 rad/s,
+// creeping at 5 mrad/s it reads one constant code. The observer recovers both from the finer
+// position within a few time constants; the correction stays within its bound.
+TEST(MitVelocityObserver, RemovesTheTruncationBiasAndTheDeadbandOfTheVelocityField) {
+  const Ranges r;
+  const double lsb = velocity_lsb_rad_s(r);
+  EXPECT_NEAR(lsb, 130.0 / 4095.0, 1e-12);
+  for (const double v_true : {0.0, 0.005, -0.025, 0.41}) {
+    VelocityObserver obs;
+    obs.configure(40.0, 3.0 * lsb);
+    double q = 0.3, raw_bias = 0.0, bias = 0.0, worst = 0.0;
+    constexpr int kTicks = 2000, kSettled = 500;
+    for (int k = 0; k < kTicks; ++k) {
+      q += 0.001 * v_true;
+      const Reply rep = through_the_wire(q, v_true, r);
+      const double v = obs.update(rep.p_rad, rep.v_rad_s, k == 0 ? -1.0 : 0.001);
+      if (k >= kSettled) {
+        raw_bias += (rep.v_rad_s - v_true) / (kTicks - kSettled);
+        bias += (v - v_true) / (kTicks - kSettled);
+        worst = std::max(worst, std::abs(v - v_true));
+      }
+      EXPECT_LE(std::abs(obs.correction_rad_s()), 3.0 * lsb);
+    }
+    EXPECT_GT(std::abs(raw_bias), 0.3 * lsb) << v_true;  // the raw field: a constant error of a fraction of an LSB
+    EXPECT_LT(std::abs(bias), 0.03 * lsb) << v_true;     // the observer's: its mean is the true velocity
+    EXPECT_LT(worst, 0.15 * lsb) << v_true;              // within the position's quantisation ripple
+  }
+}
+
+// Above its bandwidth the observer passes the reply's velocity through: a 10 Hz oscillation
+// of 0.5 rad/s keeps its amplitude (no lag added to the control loop's damping).
+TEST(MitVelocityObserver, PassesFastMotionThroughAndRestartsAfterAGap) {
+  const Ranges r;
+  VelocityObserver obs;
+  obs.configure(40.0, 3.0 * velocity_lsb_rad_s(r));
+  double err_max = 0.0;
+  for (int k = 0; k < 2000; ++k) {
+    const double t = 0.001 * k, w = 2.0 * std::numbers::pi * 10.0;
+    const double q = 0.05 / w * std::sin(w * t) * 10.0, v = 0.5 * std::cos(w * t);
+    const Reply rep = through_the_wire(q, v, r);
+    const double out = obs.update(rep.p_rad, rep.v_rad_s, k == 0 ? -1.0 : 0.001);
+    if (k > 200) err_max = std::max(err_max, std::abs(out - v));
+  }
+  EXPECT_LT(err_max, 1.5 * velocity_lsb_rad_s(r));
+  // A same-tick duplicate changes nothing; a gap longer than the observer can bridge restarts it.
+  const double c = obs.correction_rad_s();
+  EXPECT_DOUBLE_EQ(obs.update(0.0, 0.25, 0.0), 0.25 + c);
+  EXPECT_DOUBLE_EQ(obs.update(0.0, 0.25, 1.0), 0.25);
+  EXPECT_DOUBLE_EQ(obs.correction_rad_s(), 0.0);
+  VelocityObserver off;
+  off.configure(0.0, 1.0);
+  EXPECT_DOUBLE_EQ(off.update(1.0, -0.3, 0.001), -0.3);
 }
 
 }  // namespace

@@ -131,8 +131,10 @@ void CanHardware::process_mit_reply(int b, const Frame& f) noexcept {
   if (!accept_position(j, r.p_rad)) return;
   if (jr.replies_this_tick > 0) ++bus.diag.duplicates;  // keep the newest
   ++jr.replies_this_tick;
+  // A duplicate in the same tick restarts nothing: it updates with the same dt as the first.
+  const double dt_s = jr.have_state ? static_cast<double>(tick_ - jr.last_rx_tick) * 1e-6 * config_.timing.tick_us : -1.0;
+  jr.qd_rad_s = jr.velocity.update(r.p_rad, r.v_rad_s, dt_s);
   jr.q_rad = r.p_rad;
-  jr.qd_rad_s = r.v_rad_s;
   jr.tau_nm = r.t_nm;
   jr.have_state = true;
   jr.last_rx_tick = tick_;

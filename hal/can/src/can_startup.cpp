@@ -99,6 +99,9 @@ LifecycleResult CanHardware::configure() {
       JointRuntime& jr = joints_[static_cast<std::size_t>(d.joint)];
       jr.cfg = d;
       jr.bus = b;
+      // The correction stays within a few LSB: the drive's truncation error is below one.
+      jr.velocity.configure(d.protocol == Protocol::mit ? config_.mit_velocity_observer_rad_s : 0.0,
+                            3.0 * mit::velocity_lsb_rad_s(d.mit_ranges));
       bus.joints[static_cast<std::size_t>(bus.count++)] = d.joint;
       bus.any_mit = bus.any_mit || d.protocol == Protocol::mit;
       bus.any_cia = bus.any_cia || d.protocol == Protocol::cia402;

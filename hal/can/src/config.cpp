@@ -173,6 +173,10 @@ std::string validate(const CanConfig& c) {
   if (c.buses.empty()) return "can.buses: no bus configured";
   if (static_cast<int>(c.buses.size()) > kMaxBuses) return "can.buses: more than " + std::to_string(kMaxBuses) + " buses";
   if (!(c.max_bus_load > 0.0 && c.max_bus_load <= 1.0)) return "can.max_bus_load: must be in (0, 1]";
+  // The discrete observer needs 1.4 w dt < 1 with margin at the tick: 200 rad/s at 1 kHz.
+  if (!(c.mit_velocity_observer_rad_s >= 0.0 && c.mit_velocity_observer_rad_s <= 200.0e3 / c.timing.tick_us)) {
+    return "can.mit_velocity_observer_rad_s: must be in [0, 200 x 1000 / timing.tick_us] rad/s (0: off)";
+  }
   const Timing& t = c.timing;
   if (t.tick_us == 0) return "can.timing.tick_us: must be > 0";
   if (t.missed_replies_lost == 0) return "can.timing.missed_replies_lost: must be >= 1";

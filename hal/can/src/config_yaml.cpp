@@ -301,8 +301,8 @@ CanConfig parse_can(const YAML::Node& n) {
   const std::string path = "can";
   if (!n) fail(path, "missing section");
   check_keys(n, path,
-             {"layout", "protocol", "interface_prefix", "max_bus_load", "mit_ranges", "timing", "buses", "extra_buses",
-              "sensors"});
+             {"layout", "protocol", "interface_prefix", "max_bus_load", "mit_velocity_observer_rad_s", "mit_ranges",
+              "timing", "buses", "extra_buses", "sensors"});
   const std::string prefix = n["interface_prefix"] ? scalar(n["interface_prefix"], path + ".interface_prefix") : "can";
   const Protocol protocol = n["protocol"] ? parse_protocol(n["protocol"], path + ".protocol") : Protocol::mit;
   CanConfig c;
@@ -338,6 +338,7 @@ CanConfig parse_can(const YAML::Node& n) {
     }
   }
   read_double(n, "max_bus_load", path, c.max_bus_load);
+  read_double(n, "mit_velocity_observer_rad_s", path, c.mit_velocity_observer_rad_s);
   if (const YAML::Node t = n["timing"]) parse_timing(t, path + ".timing", c.timing);
   if (const YAML::Node s = n["sensors"]) c.sensors = parse_sensors(s, path + ".sensors");
   return c;

@@ -35,6 +35,7 @@
 #include <string_view>
 
 #include "springbok/can/config.hpp"
+#include "springbok/can/mit.hpp"
 #include "springbok/can/sensors.hpp"
 #include "springbok/can/socketcan.hpp"
 #include "springbok/hal/hardware.hpp"
@@ -71,6 +72,7 @@ struct JointRuntime {
   hal::DriveStatus status;
   bool have_state = false;
   double q_rad = 0.0, qd_rad_s = 0.0, tau_nm = 0.0;
+  mit::VelocityObserver velocity;  // MIT: qd_rad_s from the replies' velocity and position
   std::uint64_t last_rx_tick = 0;
   bool awaiting = false;          // a command / SYNC went out: a reply is due at the next read
   int replies_this_tick = 0;      // MIT replies / CiA TPDO1 since the last read

@@ -67,6 +67,9 @@ struct CanConfig {
   std::vector<BusConfig> buses;
   Timing timing;
   double max_bus_load = 0.8;  // worst-case (CAN.md section 3) load a bus may have
+  // MIT drives: the bandwidth of the velocity observer on their replies (mit::VelocityObserver)
+  // [rad/s]; 0: the replies' velocity as sent.
+  double mit_velocity_observer_rad_s = 40.0;
   SensorsConfig sensors;      // trunk IMU and wrist F/T (CAN.md section 6); each optional
 };
 

@@ -69,4 +69,57 @@ void encode_reply(std::uint32_t reply_can_id, const Reply& reply, const Ranges& 
 // rt: no alloc
 FrameStatus decode_reply(const Frame& f, const Ranges& r, Reply& out) noexcept;
 
+// A joint's velocity from its replies. The reply's velocity is coarse: 12 bits (0.0317
+// rad/s at +-65 rad/s) and truncated by the drive, so a joint at rest reads -0.016 rad/s
+// and one creeping at a few mrad/s reads a constant code; the WBC's template renders
+// those as forces (a 30 N push rendered with a 14 % NRMSE instead of 0.6 %, in HIL and
+// in tests/app/timing). The 16-bit position (0.38 mrad) is finer. A second-order observer
+// integrates the reply's velocity plus a correction b that it learns from the position
+// residual, so that the velocity integrates to the measured position:
+//     q^ += dt (v + b);   e = q - q^;   q^ += dt l1 e;   b += dt l2 e;   velocity = v + b
+// with l1 = 2 zeta w, l2 = w^2 (zeta = 0.7): b follows the quantisation error below w
+// [rad/s]; above it the reply's velocity passes unchanged (no added lag). b is bounded by
+// `max_correction` (a few LSB: the truncation error is below one).
+class VelocityObserver {
+ public:
+  // w = 0: the reply's velocity as sent. Start-up only.
+  void configure(double bandwidth_rad_s, double max_correction_rad_s) noexcept {
+    l1_ = 1.4 * bandwidth_rad_s;
+    l2_ = bandwidth_rad_s * bandwidth_rad_s;
+    max_correction_ = max_correction_rad_s;
+    started_ = false;
+  }
+  // One reply, `dt_s` after the previous one: 0 for a second reply in the same tick (no
+  // update), < 0 (no previous reply) or too long for the observer: restart from this reply.
+  // Returns the joint velocity. rt: no alloc
+  double update(double q_rad, double v_rad_s, double dt_s) noexcept {
+    if (l2_ <= 0.0) return v_rad_s;
+    if (!started_ || !(dt_s >= 0.0 && dt_s * l1_ < 1.0)) {
+      started_ = true;
+      q_hat_ = q_rad;
+      correction_ = 0.0;
+      return v_rad_s;
+    }
+    if (dt_s == 0.0) return v_rad_s + correction_;
+    q_hat_ += dt_s * (v_rad_s + correction_);
+    const double e = q_rad - q_hat_;
+    q_hat_ += dt_s * l1_ * e;
+    correction_ += dt_s * l2_ * e;
+    if (correction_ > max_correction_) correction_ = max_correction_;
+    if (correction_ < -max_correction_) correction_ = -max_correction_;
+    return v_rad_s + correction_;
+  }
+  double correction_rad_s() const noexcept { return correction_; }
+
+ private:
+  double l1_ = 0.0, l2_ = 0.0, max_correction_ = 0.0;
+  bool started_ = false;
+  double q_hat_ = 0.0, correction_ = 0.0;
+};
+
+// The LSB of the reply's velocity field for these ranges [rad/s].
+inline double velocity_lsb_rad_s(const Ranges& r) noexcept {
+  return (r.v_max_rad_s - r.v_min_rad_s) / static_cast<double>((1u << kVelocityBits) - 1u);
+}
+
 }  // namespace springbok::can::mit
