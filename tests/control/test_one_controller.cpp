@@ -46,8 +46,6 @@ std::string scenario_yaml(bool trot) {
       "    template:\n"
       "      base: {mass: 92, damping: 610, stiffness: 1000}\n"
       "      ee: {mass: 10, damping: 142, stiffness: 500}\n"
-      "    base_orientation: {kp: 1600, kd: 160}\n"
-      "    limits: {joint_horizon_s: 0.05}\n"
       "    estimator: {velocity_gain: 30, position_gain: 10}\n";
   if (trot) y += "    gait: {step_frequency: 1.4, duty_factor: 0.65, step_height: 0.08}\n";
   y += "external_wrenches:\n"

@@ -53,9 +53,13 @@ using VecArm = Vec<kArmDofs>;
 struct WbcParams {
   TemplateParams template_params;
 
-  // Rotational PD of the base (eq. 5) and the desired rotational inertia I_b.
-  Vec3 kr_nm_per_rad{800.0, 800.0, 800.0};
-  Vec3 dr_nms_per_rad{80.0, 80.0, 80.0};
+  // Rotational PD of the base (eq. 5) and the desired rotational inertia I_b. Stiff enough
+  // for the trot: on one diagonal the ground cannot hold the trunk's roll, and with the
+  // CAN path's two ticks from measurement to torque (CAN.md 3.3) 800/80 let it roll
+  // 0.09 rad and fall within a cycle (the in-process twin of the HIL case,
+  // tests/app/timing); stance renders identically with either.
+  Vec3 kr_nm_per_rad{1600.0, 1600.0, 1600.0};
+  Vec3 dr_nms_per_rad{160.0, 160.0, 160.0};
   // Diagonal of I_b [kg m^2]; a non-positive entry means "the robot's composite
   // rotational inertia at the reference pose" (the default).
   Vec3 base_rot_inertia_kgm2{0.0, 0.0, 0.0};
@@ -90,8 +94,10 @@ struct WbcParams {
   // leaves the base 4-8 % past its static displacement under a horizontal push.
   double foot_contact_radius_m = kFootRadius_m;
 
-  // Joint-acceleration bounds that stop at a limit within this horizon (eq. 17).
-  double joint_limit_horizon_s = 0.2;
+  // Joint-acceleration bounds that stop at a limit within this horizon (eq. 17). A knee
+  // arrives at touch-down at 8-10 rad/s: 0.2 s together with "stance feet do not
+  // accelerate" had no solution for a few ticks at every step of a trot.
+  double joint_limit_horizon_s = 0.05;
   double torque_limit_scale = 1.0;   // fraction of the URDF effort the QP may use
 
   // Swing foot Cartesian PD (relative to the base, base axes).
