@@ -26,7 +26,7 @@ have_sim=0
 
 # File lists: what each package must hold.
 list=$(dpkg-deb -c "$fw" | awk '{print $6}')
-for f in ./usr/bin/springbok ./etc/springbok/springbok.yaml ./usr/lib/systemd/system/springbok.service; do
+for f in ./usr/bin/springbok ./usr/bin/springbok-can-up ./etc/springbok/springbok.yaml ./usr/lib/systemd/system/springbok.service; do
   grep -qx "$f" <<<"$list" || fail "$fw lacks $f"
 done
 grep -q 'springbok-sim\|springbok-on-sim' <<<"$list" && fail "$fw holds a simulation binary"
@@ -53,12 +53,14 @@ dpkg-deb -x "$fw" "$root"
 [[ $have_sim == 1 ]] && dpkg-deb -x "$sim" "$root"
 unit=$root/usr/lib/systemd/system/springbok.service
 grep -q '^ExecStart=/usr/bin/springbok --config /etc/springbok/springbok.yaml' "$unit" || fail "unit ExecStart: $(grep ExecStart= "$unit")"
+grep -q '^ExecStartPre=+/usr/bin/springbok-can-up --config /etc/springbok/springbok.yaml' "$unit" ||
+  fail "unit ExecStartPre: $(grep ExecStartPre= "$unit")"
 for key in LimitRTPRIO LimitMEMLOCK User=springbok; do grep -q "^$key" "$unit" || fail "unit lacks $key"; done
 # systemd-analyze verify checks that ExecStart's binary exists: a copy of the unit
 # whose paths point into the scratch root is verified against this machine's units.
 if command -v systemd-analyze >/dev/null; then
   scratch_unit=$root/springbok.service
-  sed "s#=/usr/bin/#=$root/usr/bin/#; s#--config /etc/#--config $root/etc/#" "$unit" >"$scratch_unit"
+  sed "s#=\(+\?\)/usr/bin/#=\1$root/usr/bin/#; s#--config /etc/#--config $root/etc/#" "$unit" >"$scratch_unit"
   out=$(systemd-analyze verify "$scratch_unit" 2>&1) || fail "systemd-analyze verify: $out"
   [[ -z $out ]] || fail "systemd-analyze verify warns: $out"
   echo "check_packages: systemd-analyze verify: ok"
@@ -68,6 +70,9 @@ fi
 out=$("${emulator[@]}" "$root/usr/bin/springbok" --check-config --config "$root/etc/springbok/springbok.yaml" 2>&1) ||
   fail "installed springbok --check-config on the installed config: $out"
 grep -q 'config OK' <<<"$out" || fail "--check-config said: $out"
+out=$("${emulator[@]}" "$root/usr/bin/springbok-can-up" --dry-run --config "$root/etc/springbok/springbok.yaml" 2>&1) ||
+  fail "installed springbok-can-up --dry-run: $out"
+[[ $(grep -c ' up$' <<<"$out") == 8 ]] || fail "springbok-can-up brings up $(grep -c ' up$' <<<"$out") interfaces, not 8: $out"
 ver=$("${emulator[@]}" "$root/usr/bin/springbok" --version)
 [[ $ver == "springbok $version (revision "*")" ]] || fail "--version said: $ver"
 [[ $have_sim == 0 ]] || "$root/usr/bin/springbok-sim" --help >/dev/null || fail "springbok-sim --help"
