@@ -163,12 +163,17 @@ TEST(MitCodec, DecodersRejectBadFrames) {
 TEST(MitCodec, EncodeAndDecodeDoNotAllocate) {
   Frame f;
   Reply r;
+  VelocityObserver obs;
+  obs.configure(40.0, 0.1);
+  double v = 0.0;
   const std::size_t n = test::count_allocations([&] {
     for (int k = 0; k < 100; ++k) {
       (void)encode_command(3, Command{1.0, -2.0, 50.0, 1.0, 3.0 + k}, Ranges{}, f);
       (void)decode_reply(f, Ranges{}, r);
+      v += obs.update(r.p_rad, r.v_rad_s, k == 0 ? -1.0 : 0.001);
     }
   });
+  EXPECT_TRUE(std::isfinite(v));
   EXPECT_EQ(n, 0u);
 }
 

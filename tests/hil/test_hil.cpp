@@ -786,10 +786,8 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
 
   // 1: the push, rendered. Displacements from the pose just before it; the template driven by
   // the force on the hand (what the tared F/T measures), integrated here from rest.
-  const wbc::TemplateParams& tp = config.wbc.template_params;
-  springbok::test::PushScore score({tp.mass_base_kg.x(), tp.damping_base_ns_per_m.x(), tp.stiffness_base_n_per_m.x(),
-                                    tp.mass_ee_kg.x(), tp.damping_ee_ns_per_m.x(), tp.stiffness_ee_n_per_m.x()},
-                                   kPushStart_s, kPushEnd_s, 0.5);
+  springbok::test::PushScore score(springbok::test::template_axis_x(config.wbc.template_params), kPushStart_s,
+                                   kPushEnd_s, 0.5);
   double base0 = 0.0, hand0 = 0.0;
   int n0 = 0;
   for (const TruthSample& t : samples) {

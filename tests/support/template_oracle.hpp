@@ -37,6 +37,13 @@ struct TemplateAxis {
   }
 };
 
+// The template's axis x from a controller's parameters (wbc::TemplateParams: per-axis vectors).
+template <class Params>
+TemplateAxis template_axis_x(const Params& tp) {
+  return TemplateAxis{tp.mass_base_kg.x(), tp.damping_base_ns_per_m.x(), tp.stiffness_base_n_per_m.x(),
+                      tp.mass_ee_kg.x(),   tp.damping_ee_ns_per_m.x(),   tp.stiffness_ee_n_per_m.x()};
+}
+
 // Feed one sample per step from the push's start (the template starts at rest there);
 // displacements from the pose just before the push.
 class PushScore {

@@ -358,10 +358,8 @@ TEST(LoopOnSim, TheHilConfigRendersAPushThenTrotsWithTheCanPathsDelays) {
   ASSERT_EQ(rig->control.controller().tare().completed, 1u);
   ASSERT_EQ(rig->command(safety::OperatorCommand::mode_control), safety::Verdict::accepted);
 
-  const wbc::TemplateParams& tp = config.wbc.template_params;
-  springbok::test::PushScore score({tp.mass_base_kg.x(), tp.damping_base_ns_per_m.x(), tp.stiffness_base_n_per_m.x(),
-                                    tp.mass_ee_kg.x(), tp.damping_ee_ns_per_m.x(), tp.stiffness_ee_n_per_m.x()},
-                                   kPushStart_s, kPushEnd_s, 0.5);
+  springbok::test::PushScore score(springbok::test::template_axis_x(config.wbc.template_params), kPushStart_s,
+                                   kPushEnd_s, 0.5);
   double base0_m = 0.0, hand0_m = 0.0;
   int n0 = 0;
   run_until(kPushStart_s, [&] {
