@@ -101,6 +101,51 @@ bool decode_quaternion(const std::array<std::int16_t, 3>& xyz, double per_count,
   return true;
 }
 
+Eigen::Quaterniond OrientationTrack::update(const std::array<std::int16_t, 3>& xyz, double per_count,
+                                            const Eigen::Vector3d& rate_rad_s, double dt_s) noexcept {
+  Eigen::Vector3d v = decode_scaled(xyz, per_count);
+  // |q_xyz| within the counts +- half a count each.
+  const double h = 0.5 * per_count;
+  double near2 = 0.0, far2 = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    const double a = std::abs(v[i]);
+    near2 += std::max(0.0, a - h) * std::max(0.0, a - h);
+    far2 += (a + h) * (a + h);
+  }
+  double m_lo = std::sqrt(std::max(0.0, 1.0 - far2));
+  double m_hi = std::sqrt(std::max(0.0, 1.0 - near2));
+  const bool fresh = !started_ || !(dt_s > 0.0) || !std::isfinite(dt_s);
+  if (!fresh && v.dot(q_.vec()) < 0.0) {  // the sender's q_w >= 0 flipped the sign: q_w < 0 here
+    v = -v;
+    const double t = m_lo;
+    m_lo = -m_hi;
+    m_hi = -t;
+  }
+  double w = std::sqrt(std::max(0.0, 1.0 - v.squaredNorm()));  // a fresh start: CAN.md 6.1's q_w
+  if (fresh) {
+    lo_ = m_lo;
+    hi_ = m_hi;
+  } else {
+    // q (x) [1, w dt / 2]: q_w changes by -q_xyz . w dt / 2 (the rate at the interval's middle).
+    const Eigen::Vector3d rate_mid = 0.5 * (rate_rad_s + rate_rad_s_);
+    const double dw = -0.5 * dt_s * q_.vec().dot(rate_mid);
+    const double widen = 0.5 * dt_s * kRateUncertainty_rad_s;
+    const double p_lo = lo_ + dw - widen, p_hi = hi_ + dw + widen;
+    lo_ = std::max(p_lo, m_lo);
+    hi_ = std::min(p_hi, m_hi);
+    if (lo_ > hi_) {  // the rate and the sample disagree: trust the sample
+      lo_ = m_lo;
+      hi_ = m_hi;
+    }
+    w = std::clamp(q_.w() + dw, lo_, hi_);
+  }
+  started_ = true;
+  rate_rad_s_ = rate_rad_s;
+  q_ = Eigen::Quaterniond(w, v.x(), v.y(), v.z());
+  q_.normalize();
+  return q_.w() < 0.0 ? Eigen::Quaterniond(-q_.w(), -q_.x(), -q_.y(), -q_.z()) : q_;
+}
+
 bool encode_quaternion(const Eigen::Quaterniond& q, double per_count, std::array<std::int16_t, 3>& out) noexcept {
   const double n = q.norm();
   if (!(std::isfinite(n) && n > 0.0)) {
@@ -152,6 +197,9 @@ int index_of(const std::array<std::uint32_t, N>& ids, std::uint32_t id) noexcept
 void ImuAssembler::configure(const ImuConfig& cfg, std::uint64_t tick) {
   cfg_ = cfg;
   asm_.configure(cfg.stale_ticks, cfg.clip_streak, tick);
+  track_.reset();
+  orientation_ = Eigen::Quaterniond::Identity();
+  track_tick_ = tick;
 }
 
 int ImuAssembler::frame_index(std::uint32_t id) const noexcept { return index_of(cfg_.ids, id); }
@@ -165,15 +213,26 @@ SensorEvent ImuAssembler::push(const Frame& f, std::uint64_t tick) noexcept {
     corrupt = decode_sensor_frame(f, ff) == FrameStatus::ok &&
               !decode_quaternion(ff.v, cfg_.scales.orientation_per_count, q);
   }
-  return asm_.push(index, f, corrupt, tick);
+  const SensorEvent e = asm_.push(index, f, corrupt, tick);
+  if (e == SensorEvent::accepted) {
+    const auto& s = asm_.newest();
+    // Samples since the last accepted one; after a gap the track starts afresh (dt 0).
+    const auto samples = static_cast<std::uint8_t>(s.counter - track_counter_);
+    const bool continuous = asm_.diagnostics().samples_accepted > 1 && samples <= cfg_.stale_ticks &&
+                            tick - track_tick_ <= cfg_.stale_ticks + 1u && cfg_.rate_hz > 0.0;
+    const double dt_s = continuous ? samples / cfg_.rate_hz : 0.0;
+    track_counter_ = s.counter;
+    track_tick_ = tick;
+    orientation_ = track_.update(s.fields[imu_frame::orientation], cfg_.scales.orientation_per_count,
+                                 decode_scaled(s.fields[imu_frame::rate], cfg_.scales.rate_rad_s_per_count), dt_s);
+  }
+  return e;
 }
 
 ImuReading ImuAssembler::reading() const noexcept {
   const auto& s = asm_.newest();
   ImuReading r;
-  if (!decode_quaternion(s.fields[imu_frame::orientation], cfg_.scales.orientation_per_count, r.orientation)) {
-    r.orientation = Eigen::Quaterniond::Identity();  // never accepted: checked at push
-  }
+  r.orientation = orientation_;
   r.angular_rate_rad_s = decode_scaled(s.fields[imu_frame::rate], cfg_.scales.rate_rad_s_per_count);
   r.linear_accel_m_s2 = decode_scaled(s.fields[imu_frame::accel], cfg_.scales.accel_m_s2_per_count);
   return r;

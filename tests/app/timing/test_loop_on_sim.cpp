@@ -16,6 +16,7 @@
 #include "loop_fixture.hpp"
 #include "springbok/can/config_yaml.hpp"
 #include "springbok/can/mit.hpp"
+#include "springbok/can/sensors.hpp"
 #include "template_oracle.hpp"
 
 namespace springbok::app::test {
@@ -246,6 +247,8 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
 // decoded by the host and its velocity through the backend's observer (the config's
 // can.mit_velocity_observer_rad_s), with the ranges of `can`; each joint with the viscous
 // friction of the emulator's joints (emu::JointModel: 0.5 N m s/rad), which the WBC does not model.
+// The trunk IMU and the wrist F/T go through CAN.md 6's counts and the backend's assemblers
+// (the IMU's q_w reconstructed by the host: OrientationTrack).
 class MitWire final : public hal::Hardware {
  public:
   MitWire(hal::Hardware& inner, const can::CanConfig& can) : inner_(inner) {
@@ -256,6 +259,8 @@ class MitWire final : public hal::Hardware {
         velocity_[j].configure(can.mit_velocity_observer_rad_s, 3.0 * can::mit::velocity_lsb_rad_s(d.mit_ranges));
       }
     }
+    imu_.configure(can.sensors.imu, 0);
+    ft_.configure(can.sensors.wrist_ft, 0);
   }
   std::string_view name() const noexcept override { return "mit wire"; }
   hal::LifecycleResult configure() override { return inner_.configure(); }
@@ -274,6 +279,37 @@ class MitWire final : public hal::Hardware {
       m.tau_nm[j] = r.t_nm;
     }
     started_ = true;
+    ++tick_;
+    // The sensors as CAN.md 6 sends them: counts, q_w left to the host (the backend's assemblers).
+    if (m.imu.valid) {
+      const can::ImuReading r{m.imu.orientation, m.imu.angular_rate_rad_s, m.imu.linear_accel_m_s2};
+      std::array<can::Frame, can::kImuFrames> frames{};
+      if (!can::encode_imu_sample(imu_.config(), r, static_cast<std::uint8_t>(tick_), can::sensor_status::valid,
+                                  frames)) {
+        return hal::IoStatus::error;
+      }
+      for (const can::Frame& f : frames) (void)imu_.push(f, tick_);
+      const can::ImuReading d = imu_.reading();
+      m.imu.orientation = d.orientation;
+      m.imu.angular_rate_rad_s = d.angular_rate_rad_s;
+      m.imu.linear_accel_m_s2 = d.linear_accel_m_s2;
+    }
+    if (m.wrist.valid) {
+      Eigen::Vector3d force_s_n = m.wrist.force_n, torque_s_nm = m.wrist.torque_nm;
+      if (ft_.config().has_offset) {
+        can::wrench_ee_to_sensor(can::wrench_transform(ft_.config().offset), m.wrist.force_n, m.wrist.torque_nm,
+                                 force_s_n, torque_s_nm);
+      }
+      std::array<can::Frame, can::kFtFrames> frames{};
+      if (!can::encode_ft_sample(ft_.config(), force_s_n, torque_s_nm, static_cast<std::uint8_t>(tick_),
+                                 can::sensor_status::valid, frames)) {
+        return hal::IoStatus::error;
+      }
+      for (const can::Frame& f : frames) (void)ft_.push(f, tick_);
+      const can::FtReading d = ft_.reading();
+      m.wrist.force_n = d.force_n;
+      m.wrist.torque_nm = d.torque_nm;
+    }
     return s;
   }
   hal::IoStatus write(const hal::JointCommands& cmd) noexcept override {
@@ -306,6 +342,9 @@ class MitWire final : public hal::Hardware {
   std::array<can::mit::Ranges, kNj> ranges_{};
   std::array<can::mit::VelocityObserver, kNj> velocity_{};
   bool started_ = false;
+  std::uint64_t tick_ = 0;
+  can::ImuAssembler imu_;
+  can::FtAssembler ft_;
 };
 
 // The HIL case of the deployed whole-body controller (tests/hil: DeployedWholeBodyController

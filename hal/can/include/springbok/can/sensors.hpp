@@ -113,6 +113,40 @@ bool decode_quaternion(const std::array<std::int16_t, 3>& xyz, double per_count,
 // The sensor side: normalised, sign chosen so that q_w >= 0, the vector part encoded.
 bool encode_quaternion(const Eigen::Quaterniond& q, double per_count, std::array<std::int16_t, 3>& out) noexcept;
 
+// q_w where the wire leaves it vague. The sender rounds q_x, q_y, q_z to the nearest count, so
+// the true |q_xyz| lies within the counts +- half a count each, and q_w = sqrt(1 - |q_xyz|^2)
+// anywhere in the matching interval. Its width is about (count x |q_xyz|) / q_w: negligible
+// for q_w near 1, but where q_w is small (the trunk IMU is mounted upside down, so in stance
+// q_w ~ pitch / 2) up to 0.007, 0.014 rad about one axis, and decode_quaternion's
+// sqrt(max(0, .)) of a noisy argument is biased upwards there: the firmware then sees the
+// trunk pitched by a few mrad that it is not. The track keeps the set of q_w (signed, in a
+// hemisphere that follows the samples: the wire's q_w >= 0 convention flips q_xyz when q_w
+// changes sign, which says on which side of zero it is) still consistent with every sample:
+// the previous set moved by what the sample's angular rate predicts and widened by the rate's
+// uncertainty, intersected with the sample's interval (a fresh start from the sample's
+// interval when they disagree). The estimate is the gyro's prediction clamped into that set,
+// so it moves smoothly and never leaves what the wire allows; a fresh start takes CAN.md 6.1's
+// q_w = sqrt(max(0, 1 - |q_xyz|^2)).
+class OrientationTrack {
+ public:
+  // Rate uncertainty (rad/s) the set widens by: rounding of the rate plus a gyro's bias.
+  static constexpr double kRateUncertainty_rad_s = 0.01;
+
+  void reset() noexcept { started_ = false; }
+  // One accepted sample: its q_xyz counts, its angular rate (sensor frame) and the time since
+  // the previous accepted sample (<= 0 or not finite: start afresh from this sample).
+  // Returns the orientation, q_w >= 0. The counts must have passed decode_quaternion.
+  // rt: no alloc, no block
+  Eigen::Quaterniond update(const std::array<std::int16_t, 3>& xyz, double per_count,
+                            const Eigen::Vector3d& rate_rad_s, double dt_s) noexcept;
+
+ private:
+  bool started_ = false;
+  Eigen::Quaterniond q_ = Eigen::Quaterniond::Identity();  // the track, in its own hemisphere
+  Eigen::Vector3d rate_rad_s_ = Eigen::Vector3d::Zero();   // of the previous sample
+  double lo_ = 0.0, hi_ = 0.0;                             // the consistent set of q_w (signed)
+};
+
 // The wrench measured in the sensor frame, expressed in (and about the origin of) the
 // end-effector frame, for a sensor at `offset` in the EE frame; and back (the emulator).
 struct WrenchTransform {
@@ -379,6 +413,10 @@ class ImuAssembler {
  private:
   ImuConfig cfg_;
   SampleAssembler<kImuFrames> asm_;
+  OrientationTrack track_;
+  Eigen::Quaterniond orientation_ = Eigen::Quaterniond::Identity();  // of the newest sample
+  std::uint8_t track_counter_ = 0;   // of the last accepted sample
+  std::uint64_t track_tick_ = 0;     // when it was accepted
 };
 
 struct FtReading {
