@@ -28,10 +28,16 @@ std::string with(const std::string& from, const std::string& to) {
   return text;
 }
 
+// The one error of `r`, without its " (line N)" (every error names its line: checked here).
+std::string without_line(const std::string& e) {
+  const auto at = e.rfind(" (line ");
+  EXPECT_NE(at, std::string::npos) << e;
+  return at == std::string::npos ? e : e.substr(0, at);
+}
 std::string only_error(const ConfigResult& r) {
   EXPECT_FALSE(r.ok);
   EXPECT_EQ(r.errors.size(), 1u);
-  return r.errors.empty() ? std::string() : r.errors.front();
+  return r.errors.empty() ? std::string() : without_line(r.errors.front());
 }
 
 TEST(AppConfig, TheShippedFileLoads) {
@@ -59,7 +65,7 @@ TEST(AppConfig, TheShippedFileLoads) {
 
 TEST(AppConfig, ControlSectionErrorsNameTheField) {
   EXPECT_EQ(only_error(load_config_text(with("  controller: wbc", "  controller: mpc"))),
-            "control.controller: expected wbc or joint_pd, got 'mpc'");
+            "control.controller: must be one of wbc, joint_pd, got 'mpc'");
   EXPECT_EQ(only_error(load_config_text(with("base: {mass: 92,", "base: {mass: -92,"))).rfind("control.wbc.template.base.mass", 0),
             0u);
   EXPECT_EQ(only_error(load_config_text(with("{velocity_gain: 30,", "{velocity_gian: 30,")))
@@ -99,8 +105,9 @@ TEST(AppConfig, ControlSectionErrorsNameTheField) {
 
 TEST(AppConfig, UnknownKeyIsNamed) {
   EXPECT_EQ(only_error(load_config_text(with("  priority: 80", "  priority: 80\n  priorty: 81"))),
-            "rt.priorty: unknown key");
-  EXPECT_EQ(only_error(load_config_text(shipped_text() + "extra: 1\n")), "extra: unknown key");
+            "rt.priorty: unknown key (known: enabled, require, priority, cpu, lock_memory, prefault_heap_mib, "
+            "cpu_dma_latency)");
+  EXPECT_EQ(only_error(load_config_text(shipped_text() + "extra: 1\n")).rfind("extra: unknown key (known: loop, rt,", 0), 0u);
 }
 
 TEST(AppConfig, MissingKeyIsNamed) {
@@ -111,47 +118,49 @@ TEST(AppConfig, MissingKeyIsNamed) {
 
 TEST(AppConfig, WrongTypeIsNamed) {
   EXPECT_EQ(only_error(load_config_text(with("rate_hz: 1000", "rate_hz: fast"))),
-            "loop.rate_hz: wrong type: expected an integer, got 'fast'");
+            "loop.rate_hz: must be an integer (decimal or 0x hex), got 'fast'");
   EXPECT_EQ(only_error(load_config_text(with("rate_hz: 1000", "rate_hz: 999.5"))),
-            "loop.rate_hz: wrong type: expected an integer, got '999.5'");
+            "loop.rate_hz: must be an integer (decimal or 0x hex), got '999.5'");
   EXPECT_EQ(only_error(load_config_text(with("lock_memory: true", "lock_memory: maybe"))),
-            "rt.lock_memory: wrong type: expected true or false, got 'maybe'");
+            "rt.lock_memory: must be true or false, got 'maybe'");
   EXPECT_EQ(only_error(load_config_text(with("limit_margin_rad: 0.05", "limit_margin_rad: [0.05]"))),
-            "safety.limit_margin_rad: wrong type: expected a number, got a list");
+            "safety.limit_margin_rad: must be a number, got a list");
   std::string scalar_loop = shipped_text();
   const auto from = scalar_loop.find("loop:\n");
   const auto to = scalar_loop.find("rt:\n");
   ASSERT_LT(from, to);
   scalar_loop.replace(from, to - from, "loop: 3\n");
-  EXPECT_EQ(only_error(load_config_text(scalar_loop)), "loop: wrong type: expected a map, got a scalar");
+  EXPECT_EQ(only_error(load_config_text(scalar_loop)), "loop: must be a map, got '3'");
 }
 
 TEST(AppConfig, OutOfRangeIsNamed) {
-  EXPECT_EQ(only_error(load_config_text(with("priority: 80", "priority: 99"))), "rt.priority: out of range [1, 98]: 99");
+  EXPECT_EQ(only_error(load_config_text(with("priority: 80", "priority: 99"))), "rt.priority: must be in [1, 98], got 99");
   EXPECT_EQ(only_error(load_config_text(with("overrun_streak: 3", "overrun_streak: 0"))),
-            "safety.overrun_streak: out of range [1, 1000]: 0");
+            "safety.overrun_streak: must be in [1, 1000], got 0");
   EXPECT_EQ(only_error(load_config_text(with("damping_nms_per_rad: {legs: 10.0", "damping_nms_per_rad: {legs: -1"))),
-            "safety.damping_nms_per_rad.legs: out of range [0, 200]: -1");
+            "safety.damping_nms_per_rad.legs: must be in [0, 200], got -1");
   // D_start = 0 would let the powered robot drop while idle.
   const std::string no_idle_damping =
       with("idle_damping_nms_per_rad: {legs: 20.0", "idle_damping_nms_per_rad: {legs: 0");
   EXPECT_EQ(only_error(load_config_text(no_idle_damping)),
-            "safety.idle_damping_nms_per_rad.legs: out of range [0.1, 200]: 0");
-  EXPECT_EQ(load_config_text(with("  idle_damping_nms_per_rad:", "  idle_damping:")).errors,
-            (std::vector<std::string>{"safety.idle_damping: unknown key", "safety.idle_damping_nms_per_rad: missing"}));
+            "safety.idle_damping_nms_per_rad.legs: must be in [0.1, 200], got 0");
+  const ConfigResult renamed = load_config_text(with("  idle_damping_nms_per_rad:", "  idle_damping:"));
+  ASSERT_EQ(renamed.errors.size(), 2u);
+  EXPECT_EQ(renamed.errors[0].rfind("safety.idle_damping: unknown key (known: overrun_streak,", 0), 0u) << renamed.errors[0];
+  EXPECT_EQ(without_line(renamed.errors[1]), "safety.idle_damping_nms_per_rad: missing");
 }
 
 TEST(AppConfig, NanAndInfinityAreRejected) {
   EXPECT_EQ(only_error(load_config_text(with("limit_margin_rad: 0.05", "limit_margin_rad: .nan"))),
-            "safety.limit_margin_rad: not a finite number: .nan");
+            "safety.limit_margin_rad: must be a finite number, got '.nan'");
   EXPECT_EQ(only_error(load_config_text(with("stand_up_duration_s: 3.0", "stand_up_duration_s: -.inf"))),
-            "gains.stand_up_duration_s: not a finite number: -.inf");
+            "gains.stand_up_duration_s: must be a finite number, got '-.inf'");
 }
 
 TEST(AppConfig, StandPostureIsCheckedAgainstTheModel) {
   const ConfigResult short_list = load_config_text(with("[0.0, 0.7, -1.4, 0.0, 0.7, -1.4,", "[0.0, 0.7,"));
   ASSERT_FALSE(short_list.ok);
-  EXPECT_EQ(short_list.errors.front(), "gains.stand_posture_rad: expected 19 values (one per joint), got 15");
+  EXPECT_EQ(without_line(short_list.errors.front()), "gains.stand_posture_rad: must be a list of 19, got 15 elements");
   EXPECT_EQ(only_error(load_config_text(with("[0.0, 0.7, -1.4,", "[0.0, 0.7, 0.2,"))),
             "gains.stand_posture_rad[2]: outside the joint limits of lf_kfe_joint [-2.44346, -0.349066]: 0.2");
 }
@@ -159,11 +168,14 @@ TEST(AppConfig, StandPostureIsCheckedAgainstTheModel) {
 TEST(AppConfig, SyntaxErrorsGiveTheLine) {
   const ConfigResult r = load_config_text("loop:\n  rate_hz: [1000\n");
   ASSERT_FALSE(r.ok);
-  EXPECT_EQ(r.errors.front().substr(0, 12), "yaml: line 3");
+  EXPECT_EQ(r.errors.front().rfind("YAML syntax: ", 0), 0u) << r.errors.front();
+  EXPECT_NE(r.errors.front().find("(line 3, column"), std::string::npos) << r.errors.front();
 }
 
 TEST(AppConfig, AMissingFileIsAnError) {
-  EXPECT_EQ(only_error(load_config_file("/nonexistent/springbok.yaml")), "/nonexistent/springbok.yaml: cannot open");
+  const ConfigResult r = load_config_file("/nonexistent/springbok.yaml");
+  EXPECT_FALSE(r.ok);
+  EXPECT_EQ(r.errors, std::vector<std::string>{"/nonexistent/springbok.yaml: cannot open"});
 }
 
 // MIT drives with Mini Cheetah gain ranges (kp [0, 500], kd [0, 5]) on the legs, CiA 402 on the arm.

@@ -16,10 +16,10 @@
 
 #include "scenario.hpp"
 #include "springbok/app/control_mode.hpp"
-#include "springbok/config/fields.hpp"
+#include "springbok/config/reader.hpp"
 #include "springbok/estimation/base_estimator.hpp"
 #include "springbok/gait/trot.hpp"
-#include "springbok/wbc/wbc_config.hpp"
+#include "springbok/params/controller_params.hpp"
 #include "wbc_adapter.hpp"
 
 namespace {
@@ -56,7 +56,9 @@ std::string scenario_yaml(bool trot) {
 // The tool's path, tick by tick as springbok-sim's loop runs it.
 std::vector<Recorded> run_tool(simtool::Scenario& s, Eigen::Vector2d& start_xy) {
   simtool::apply_feet_clearance(s);
-  simtool::WbcAdapter adapter(s);
+  springbok::config::Errors errors;
+  simtool::WbcAdapter adapter(s, springbok::config::Field(s.controller_params, "controller.params", errors));
+  EXPECT_TRUE(errors.empty()) << errors.joined();
   sim::BulletRobot hw(s.sim);
   EXPECT_TRUE(hw.configure().ok);
   for (const auto& w : s.wrenches) hw.add_external_wrench(w.wrench);
@@ -92,15 +94,15 @@ void expect_firmware_replays_the_tool(bool trot) {
   // The firmware's control mode, configured with the scenario's parameters.
   app::AppConfig config;
   config.control_mode = app::ControlModeKind::wbc;
-  YAML::Node params = YAML::Clone(s.controller_params);
-  config.estimator = est::read_estimator_params(config::Fields(params["estimator"], "estimator"));
-  params.remove("estimator");
-  if (params["gait"]) {  // control.gait: the control mode engages trotting
+  config::Errors errors;
+  const config::Field p(s.controller_params, "controller.params", errors);
+  config.estimator = params::read_estimator_params(p["estimator"]);
+  if (p["gait"].present()) {  // control.gait: the control mode engages trotting
     config.gait.kind = control::GaitKind::trot;
-    config.gait.trot = gait::read_trot_params(config::Fields(params["gait"], "gait"));
-    params.remove("gait");
+    config.gait.trot = params::read_trot_params(p["gait"]);
   }
-  config.wbc = wbc::read_wbc_params(config::Fields(params, "wbc"));
+  config.wbc = params::read_wbc_params(p, params::WithControllerParts::yes);
+  ASSERT_TRUE(errors.empty()) << errors.joined();
   app::ControlMode firmware(config);
   firmware.controller().set_start_position_xy(start_xy);
   ASSERT_EQ(firmware.controller().params().gait.kind, trot ? control::GaitKind::trot : control::GaitKind::stand);

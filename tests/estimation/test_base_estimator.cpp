@@ -10,7 +10,6 @@
 #include <gtest/gtest.h>
 
 #include "alloc_trap.hpp"
-#include "springbok/config/fields.hpp"
 #include "springbok/estimation/base_estimator.hpp"
 
 namespace {
@@ -260,25 +259,6 @@ TEST(BaseEstimator, WithoutStanceTheImuAlonePredicts) {
   // 100 explicit Euler steps of g: v = g t exactly, z = z0 - g dt^2 n(n+1)/2.
   EXPECT_NEAR(estimator.estimate().v[2], -kGravity_m_s2 * 0.1, 1e-12);
   EXPECT_NEAR(estimator.estimate().q[2], z0 - kGravity_m_s2 * 1e-6 * 100 * 101 / 2, 1e-12);
-}
-
-TEST(BaseEstimator, ConfigErrorsNameTheField) {
-  auto error_of = [](const std::string& yaml) -> std::string {
-    try {
-      est::read_estimator_params(config::Fields(YAML::Load(yaml), "estimator"));
-    } catch (const config::ConfigError& e) {
-      return e.what();
-    }
-    return "";
-  };
-  EXPECT_NE(error_of("{velocity_gain: -1}").find("estimator.velocity_gain"), std::string::npos);
-  EXPECT_NE(error_of("{foot_radius: .nan}").find("estimator.foot_radius"), std::string::npos);
-  EXPECT_NE(error_of("{velocity_gian: 3}").find("estimator.velocity_gian"), std::string::npos);
-  EXPECT_EQ(error_of("{velocity_gain: 20, use_accelerometer: false}"), "");
-  const est::EstimatorParams p =
-      est::read_estimator_params(config::Fields(YAML::Load("{velocity_gain: 20, position_gain: 0}"), "estimator"));
-  EXPECT_EQ(p.velocity_gain_per_s, 20.0);
-  EXPECT_EQ(p.position_gain_per_s, 0.0);
 }
 
 }  // namespace

@@ -9,7 +9,6 @@
 #include <gtest/gtest.h>
 
 #include "alloc_trap.hpp"
-#include "springbok/config/fields.hpp"
 #include "springbok/gait/trot.hpp"
 
 namespace {
@@ -166,24 +165,6 @@ TEST(Trot, UpdateDoesNotAllocate) {
   const Mat3 tilt(Eigen::AngleAxisd(0.05, Vec3::UnitX()));
   for (int k = 0; k < 3000; ++k) (void)trot.update(k * 1e-3, nominal(), Vec3::Zero(), Vec3(0.05, 0.01, 0.0), tilt);
   EXPECT_EQ(trap.disarm(), 0u);
-}
-
-TEST(Trot, ConfigErrorsNameTheField) {
-  auto error_of = [](const std::string& yaml) -> std::string {
-    try {
-      gait::read_trot_params(config::Fields(YAML::Load(yaml), "gait"));
-    } catch (const config::ConfigError& e) {
-      return e.what();
-    }
-    return "";
-  };
-  EXPECT_NE(error_of("{duty_factor: 0.4}").find("gait.duty_factor"), std::string::npos);
-  EXPECT_NE(error_of("{step_frequency: .inf}").find("gait.step_frequency"), std::string::npos);
-  EXPECT_NE(error_of("{step_hieght: 0.1}").find("gait.step_hieght"), std::string::npos);
-  const gait::TrotParams p =
-      gait::read_trot_params(config::Fields(YAML::Load("{step_frequency: 1.8, duty_factor: 0.55}"), "gait"));
-  EXPECT_EQ(p.step_frequency_hz, 1.8);
-  EXPECT_EQ(p.duty_factor, 0.55);
 }
 
 }  // namespace

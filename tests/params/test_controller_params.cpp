@@ -1,14 +1,15 @@
-// The WBC config: good files load, every kind of bad field is named.
+// The controller's parameters (springbok::params): good maps load, every kind of bad field is
+// named with its line, and every problem of a map is reported, not only the first.
 #include <string>
 
 #include <gtest/gtest.h>
 
-#include "springbok/wbc/wbc_config.hpp"
+#include "springbok/params/controller_params.hpp"
 
 namespace {
-using springbok::config::ConfigError;
-using springbok::config::Fields;
-using springbok::wbc::read_wbc_params;
+using springbok::config::Errors;
+using springbok::config::Field;
+namespace params = springbok::params;
 
 const char* kGood = R"(
 template:
@@ -20,15 +21,22 @@ weights: {arm: 10}
 contact: {friction_mu: 0.8}
 )";
 
-springbok::wbc::WbcParams load(const std::string& text) { return read_wbc_params(Fields(YAML::Load(text), "wbc")); }
+springbok::wbc::WbcParams load(const std::string& text) {
+  Errors errors;
+  const auto p = params::read_wbc_params(Field(YAML::Load(text), "wbc", errors));
+  EXPECT_TRUE(errors.empty()) << errors.joined();
+  return p;
+}
 
+// Every error of `text`, one per line.
+template <class Read>
+std::string errors_of(const std::string& text, const char* path, Read&& read) {
+  Errors errors;
+  (void)read(Field(YAML::Load(text), path, errors));
+  return errors.empty() ? "(no error)" : errors.joined();
+}
 std::string error_of(const std::string& text) {
-  try {
-    load(text);
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "(no error)";
+  return errors_of(text, "wbc", [](const Field& f) { return params::read_wbc_params(f); });
 }
 
 TEST(WbcConfig, GoodFileLoads) {
@@ -48,24 +56,75 @@ TEST(WbcConfig, GoodFileLoads) {
 TEST(WbcConfig, BadFieldsAreNamed) {
   const std::string base_ok = "template:\n  base: {mass: 92, damping: 610, stiffness: 1000}\n";
   EXPECT_EQ(error_of(base_ok + "  ee: {mass: -4, damping: 90, stiffness: 500}\n"),
-            "wbc.template.ee.mass: must be in [1e-06, 10000], got -4");
+            "wbc.template.ee.mass: must be in [1e-06, 10000], got -4 (line 3)");
   EXPECT_EQ(error_of(base_ok + "  ee: {mass: 4, damping: 90, stiffness: 0}\n"),
-            "wbc.template.ee.stiffness: must be in [1e-06, 1e+07], got 0");
-  EXPECT_EQ(error_of(base_ok + "  ee: {mass: 4, damping: 90}\n"), "wbc.template.ee.stiffness: missing");
+            "wbc.template.ee.stiffness: must be in [1e-06, 1e+07], got 0 (line 3)");
+  EXPECT_EQ(error_of(base_ok + "  ee: {mass: 4, damping: 90}\n"), "wbc.template.ee.stiffness: missing (line 3)");
   EXPECT_EQ(error_of(base_ok + "  ee: {mass: 4, damping: .nan, stiffness: 5}\n"),
-            "wbc.template.ee.damping: must be a finite number, got '.nan'");
+            "wbc.template.ee.damping: must be a finite number, got '.nan' (line 3)");
   EXPECT_EQ(error_of(base_ok + "  ee: {mass: [4, 4], damping: 1, stiffness: 5}\n"),
-            "wbc.template.ee.mass: must be a number or a list of 3 numbers, got a list");
-  EXPECT_EQ(error_of("weights: {arm: 1}\n"), "wbc.template: missing");
+            "wbc.template.ee.mass: must be a list of 3, got 2 elements (line 3)");
+  EXPECT_EQ(error_of("weights: {arm: 1}\n"), "wbc.template: missing (line 1)");
   EXPECT_NE(error_of(std::string(kGood) + "gains: {kp: 1}\n").find("wbc.gains: unknown key"), std::string::npos);
   EXPECT_EQ(error_of(std::string(kGood) + "limits: {torque_scale: 1.5}\n"),
-            "wbc.limits.torque_scale: must be in [1e-06, 1], got 1.5");
+            "wbc.limits.torque_scale: must be in [1e-06, 1], got 1.5 (line 9)");
   EXPECT_EQ(error_of(std::string(kGood) + "swing: {kp: lots}\n"),
-            "wbc.swing.kp: must be a number, got 'lots'");
+            "wbc.swing.kp: must be a number, got 'lots' (line 9)");
   // What a failed tick commands is the supervisor's: the old fallback section is unknown.
   EXPECT_NE(error_of(std::string(kGood) + "fallback: {damping: 5}\n").find("wbc.fallback: unknown key"), std::string::npos);
   EXPECT_EQ(error_of(base_ok + "  ee: {mass: 4, damping: 9, stiffness: 5}\ncontact: {normal_force_min: 10, normal_force_max: 5}\n"),
-            "wbc.contact.normal_force_max: must be above contact.normal_force_min");
-  EXPECT_EQ(error_of(std::string(kGood) + "contact: {friction_mu: 0.5}\n"), "wbc.contact: duplicate key");
+            "wbc.contact.normal_force_max: must be above contact.normal_force_min (line 4)");
+  EXPECT_EQ(error_of(std::string(kGood) + "contact: {friction_mu: 0.5}\n"), "wbc.contact: duplicate key (line 9)");
 }
+
+TEST(WbcConfig, EveryProblemOfTheMapIsReported) {
+  const std::string text = "template:\n  base: {mass: 0, damping: 610, stiffness: 1000}\n  ee: {mass: 4, damping: 90}\n"
+                           "weights: {arm: lots}\nswing: {kp: 1}\ncolour: red\n";
+  EXPECT_EQ(error_of(text),
+            "wbc.colour: unknown key (known: template, base_orientation, arm, weights, contact, limits, swing) (line 6)\n"
+            "wbc.template.ee.stiffness: missing (line 3)\n"
+            "wbc.template.base.mass: must be in [1e-06, 100000], got 0 (line 2)\n"
+            "wbc.weights.arm: must be a number, got 'lots' (line 4)");
+}
+
+TEST(WbcConfig, AScenariosControllerParamsMayHoldTheEstimatorAndTheGait) {
+  Errors errors;
+  (void)params::read_wbc_params(Field(YAML::Load(std::string(kGood) + "estimator: {}\ngait: {}\n"), "p", errors),
+                                params::WithControllerParts::yes);
+  EXPECT_TRUE(errors.empty()) << errors.joined();
+  EXPECT_NE(error_of(std::string(kGood) + "gait: {}\n").find("wbc.gait: unknown key"), std::string::npos);
+}
+
+TEST(TrotConfig, ErrorsNameTheFieldAndGoodValuesLoad) {
+  const auto error_of = [](const std::string& yaml) {
+    return errors_of(yaml, "gait", [](const Field& f) { return params::read_trot_params(f); });
+  };
+  EXPECT_EQ(error_of("{duty_factor: 0.4}"), "gait.duty_factor: must be in [0.5, 0.95], got 0.4 (line 1)");
+  EXPECT_NE(error_of("{step_frequency: .inf}").find("gait.step_frequency: must be a finite number"), std::string::npos);
+  EXPECT_NE(error_of("{step_hieght: 0.1}").find("gait.step_hieght: unknown key"), std::string::npos);
+  Errors errors;
+  const springbok::gait::TrotParams p =
+      params::read_trot_params(Field(YAML::Load("{step_frequency: 1.8, duty_factor: 0.55}"), "gait", errors));
+  EXPECT_TRUE(errors.empty());
+  EXPECT_EQ(p.step_frequency_hz, 1.8);
+  EXPECT_EQ(p.duty_factor, 0.55);
+  EXPECT_EQ(p.step_height_m, springbok::gait::TrotParams{}.step_height_m);
+}
+
+TEST(EstimatorConfig, ErrorsNameTheFieldAndGoodValuesLoad) {
+  const auto error_of = [](const std::string& yaml) {
+    return errors_of(yaml, "estimator", [](const Field& f) { return params::read_estimator_params(f); });
+  };
+  EXPECT_NE(error_of("{velocity_gain: -1}").find("estimator.velocity_gain: must be in"), std::string::npos);
+  EXPECT_NE(error_of("{foot_radius: .nan}").find("estimator.foot_radius: must be a finite number"), std::string::npos);
+  EXPECT_NE(error_of("{velocity_gian: 3}").find("estimator.velocity_gian: unknown key"), std::string::npos);
+  EXPECT_EQ(error_of("{use_accelerometer: yes}"), "estimator.use_accelerometer: must be true or false, got 'yes' (line 1)");
+  EXPECT_EQ(error_of("{velocity_gain: 20, use_accelerometer: false}"), "(no error)");
+  Errors errors;
+  const springbok::est::EstimatorParams p =
+      params::read_estimator_params(Field(YAML::Load("{velocity_gain: 20, position_gain: 0}"), "estimator", errors));
+  EXPECT_EQ(p.velocity_gain_per_s, 20.0);
+  EXPECT_EQ(p.position_gain_per_s, 0.0);
+}
+
 }  // namespace

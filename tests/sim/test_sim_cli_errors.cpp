@@ -20,7 +20,7 @@ const Broken kBroken[] = {
     {"missing_duration", "controller: {type: stand}\n", "duration_s: missing"},
     {"missing_controller", "duration_s: 1\n", "controller: missing"},
     {"wrong_type", "duration_s: fast\ncontroller: {type: stand}\n", "duration_s: must be a number"},
-    {"nan", "duration_s: .nan\ncontroller: {type: stand}\n", "duration_s: must be finite"},
+    {"nan", "duration_s: .nan\ncontroller: {type: stand}\n", "duration_s: must be a finite number"},
     {"out_of_range", "duration_s: 1\nsim: {ground_friction: -1}\ncontroller: {type: stand}\n",
      "sim.ground_friction: must be in"},
     {"nested_unknown", "duration_s: 1\nsim: {imu: {sede: 3}}\ncontroller: {type: stand}\n", "sim.imu.sede: unknown key"},
@@ -29,7 +29,7 @@ const Broken kBroken[] = {
     {"latency_too_long", "duration_s: 1\nsim: {latency: {joint_measurement_ticks: 9}}\ncontroller: {type: stand}\n",
      "sim.latency.joint_measurement_ticks: must be in"},
     {"bad_vector", "duration_s: 1\ninitial: {base_position_m: [0, 1]}\ncontroller: {type: stand}\n",
-     "initial.base_position_m: must be a list of 3 numbers"},
+     "initial.base_position_m: must be a list of 3, got 2 elements"},
     {"joint_limit", "duration_s: 1\ninitial: {joint_positions_rad: [0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0]}\n"
                     "controller: {type: stand}\n",
      "initial.joint_positions_rad[2]: lf_kfe_joint"},
@@ -46,7 +46,7 @@ const Broken kBroken[] = {
     {"zero_axis", "duration_s: 1\ncontroller: {type: stand}\nexternal_wrenches:\n"
                   "  - {frame: trunk, axis: [0, 0, 0], profile: step, amplitude: 5}\n",
      "external_wrenches[0].axis: must not be zero"},
-    {"not_yaml", "duration_s: [1\n", "yaml"},
+    {"not_yaml", "duration_s: [1\n", "YAML syntax"},
 };
 
 TEST(SimCli, BrokenScenariosNameTheField) {

@@ -28,32 +28,34 @@ using simtool::Controller;
 
 class StandAdapter final : public Controller {
  public:
-  explicit StandAdapter(const simtool::Fields& p) : stand_(gains(p), posture(p)) {}
+  explicit StandAdapter(const config::Field& p) : stand_(gains(p), wbc::nominal_stance()) {}
   void tick(const hal::Measurements&, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept override {
     stand_.tick(truth.q, out);  // base orientation: ground truth (the estimator is a wbc option)
   }
 
  private:
-  static wbc::StandGains gains(const simtool::Fields& p) {
+  static wbc::StandGains gains(const config::Field& p) {
     p.allow_only({"kp_leg_nm_per_rad", "kd_leg_nms_per_rad", "kp_arm_nm_per_rad", "kd_arm_nms_per_rad"});
     wbc::StandGains g;
-    g.kp_leg_nm_per_rad = p.number("kp_leg_nm_per_rad", g.kp_leg_nm_per_rad, 0.0, 1e5);
-    g.kd_leg_nms_per_rad = p.number("kd_leg_nms_per_rad", g.kd_leg_nms_per_rad, 0.0, 1e4);
-    g.kp_arm_nm_per_rad = p.number("kp_arm_nm_per_rad", g.kp_arm_nm_per_rad, 0.0, 1e5);
-    g.kd_arm_nms_per_rad = p.number("kd_arm_nms_per_rad", g.kd_arm_nms_per_rad, 0.0, 1e4);
+    p["kp_leg_nm_per_rad"].number(g.kp_leg_nm_per_rad, 0.0, 1e5);
+    p["kd_leg_nms_per_rad"].number(g.kd_leg_nms_per_rad, 0.0, 1e4);
+    p["kp_arm_nm_per_rad"].number(g.kp_arm_nm_per_rad, 0.0, 1e5);
+    p["kd_arm_nms_per_rad"].number(g.kd_arm_nms_per_rad, 0.0, 1e4);
     return g;
   }
-  static VecNj posture(const simtool::Fields&) { return wbc::nominal_stance(); }
   wbc::StandController stand_;
 };
 
 // The safe mode: tau = -D qd.
 class DampingAdapter final : public Controller {
  public:
-  explicit DampingAdapter(const simtool::Fields& p) {
+  explicit DampingAdapter(const config::Field& p) {
     p.allow_only({"kd_leg_nms_per_rad", "kd_arm_nms_per_rad"});
-    kd_.head<kFirstArmJoint>().setConstant(p.number("kd_leg_nms_per_rad", 20.0, 0.0, 1e4));
-    kd_.tail<kArmJoints>().setConstant(p.number("kd_arm_nms_per_rad", 2.0, 0.0, 1e4));
+    double leg = 20.0, arm = 2.0;
+    p["kd_leg_nms_per_rad"].number(leg, 0.0, 1e4);
+    p["kd_arm_nms_per_rad"].number(arm, 0.0, 1e4);
+    kd_.head<kFirstArmJoint>().setConstant(leg);
+    kd_.tail<kArmJoints>().setConstant(arm);
   }
   void tick(const hal::Measurements&, const sim::GroundTruth&, hal::JointCommands& out) noexcept override {
     out.mode = hal::CommandMode::enabled;
@@ -67,13 +69,17 @@ class DampingAdapter final : public Controller {
   VecNj kd_ = VecNj::Zero();
 };
 
-std::unique_ptr<Controller> make_controller(const simtool::Scenario& s) {
-  const simtool::Fields params(s.controller_params, "controller.params");
-  if (s.controller_type == "stand") return std::make_unique<StandAdapter>(params);
-  if (s.controller_type == "damping") return std::make_unique<DampingAdapter>(params);
-  if (s.controller_type == "wbc") return std::make_unique<simtool::WbcAdapter>(s);
-  throw simtool::ScenarioError("controller.type: unknown controller '" + s.controller_type +
-                               "' (known: stand, damping, wbc)");
+// Throws ScenarioError naming every bad controller.params field.
+std::unique_ptr<Controller> make_controller(const simtool::Scenario& s, const std::string& path) {
+  config::Errors errors;
+  const config::Field params(s.controller_params, "controller.params", errors, s.controller_params_line);
+  std::unique_ptr<Controller> c;
+  if (s.controller_type == "stand") c = std::make_unique<StandAdapter>(params);
+  else if (s.controller_type == "damping") c = std::make_unique<DampingAdapter>(params);
+  else if (s.controller_type == "wbc") c = std::make_unique<simtool::WbcAdapter>(s, params);
+  else errors.add("controller.type", 0, "unknown controller '" + s.controller_type + "' (known: stand, damping, wbc)");
+  simtool::refuse_if_any(errors, path);
+  return c;
 }
 
 constexpr const char* kFootNames[kFeet] = {"lf", "rf", "lh", "rh"};
@@ -129,12 +135,7 @@ void append_row(std::string& out, const sim::GroundTruth& t) {
 
 int run(const std::string& scenario_path, const std::filesystem::path& out_dir) {
   simtool::Scenario s = simtool::load_scenario(scenario_path);
-  std::unique_ptr<Controller> controller;
-  try {
-    controller = make_controller(s);
-  } catch (const simtool::ScenarioError& e) {
-    throw simtool::ScenarioError(scenario_path + ": " + e.what());
-  }
+  std::unique_ptr<Controller> controller = make_controller(s, scenario_path);
 
   simtool::apply_feet_clearance(s);
   sim::BulletRobot hw(s.sim);

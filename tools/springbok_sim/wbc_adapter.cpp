@@ -9,8 +9,7 @@
 #include <Eigen/Dense>
 #include <fmt/format.h>
 
-#include "springbok/config/fields.hpp"
-#include "springbok/wbc/wbc_config.hpp"
+#include "springbok/params/controller_params.hpp"
 
 namespace springbok::simtool {
 namespace {
@@ -65,28 +64,21 @@ double percentile(std::vector<double> v, double fraction) {
 
 }  // namespace
 
-WbcAdapter::WbcAdapter(const Scenario& s)
+WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
     : dt_s_(s.sim.step_s), settle_s_(s.controller_settle_s),
       data_(std::make_unique<dyn::Data>()) {
   control::ControlParams cp;
-  try {
-    // `estimator` and `gait` are the controller's own parts, every other key the WBC's.
-    YAML::Node wbc_params = YAML::Clone(s.controller_params);
-    if (wbc_params.IsMap() && wbc_params["estimator"]) {
-      cp.estimator = est::read_estimator_params(config::Fields(wbc_params["estimator"], "controller.params.estimator"));
-      use_estimator_ = true;
-      wbc_params.remove("estimator");
-    }
-    if (wbc_params.IsMap() && wbc_params["gait"]) {
-      cp.gait.kind = control::GaitKind::trot;
-      cp.gait.trot = gait::read_trot_params(config::Fields(wbc_params["gait"], "controller.params.gait"));
-      trot_ = true;
-      wbc_params.remove("gait");
-    }
-    params_ = wbc::read_wbc_params(config::Fields(wbc_params, "controller.params"));
-  } catch (const config::ConfigError& e) {
-    throw ScenarioError(e.what());
+  // `estimator` and `gait` are the controller's own parts, every other key the WBC's.
+  if (params["estimator"].present()) {
+    cp.estimator = params::read_estimator_params(params["estimator"]);
+    use_estimator_ = true;
   }
+  if (params["gait"].present()) {
+    cp.gait.kind = control::GaitKind::trot;
+    cp.gait.trot = params::read_trot_params(params["gait"]);
+    trot_ = true;
+  }
+  params_ = params::read_wbc_params(params, params::WithControllerParts::yes);
   cp.wbc = params_;
   control_ = std::make_unique<control::WholeBodyControl>(cp);
   supervisor_ = std::make_unique<safety::Supervisor>(safety::SupervisorConfig{});

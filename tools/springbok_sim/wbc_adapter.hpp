@@ -41,8 +41,9 @@ namespace springbok::simtool {
 
 class WbcAdapter final : public Controller {
  public:
-  // Throws ScenarioError naming the bad controller.params field.
-  explicit WbcAdapter(const Scenario& scenario);
+  // `params` is the scenario's controller.params; its problems go to params.errors() (the
+  // caller refuses the scenario when there are any).
+  WbcAdapter(const Scenario& scenario, const config::Field& params);
   ~WbcAdapter() override;
 
   void tick(const hal::Measurements& m, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept override;

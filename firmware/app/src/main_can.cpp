@@ -10,6 +10,7 @@
 #include "springbok/app/runtime.hpp"
 #include "springbok/can/can_hardware.hpp"
 #include "springbok/can/config_yaml.hpp"
+#include "springbok/config/reader.hpp"
 
 namespace {
 
@@ -37,16 +38,15 @@ int main(int argc, char** argv) {
   using namespace springbok;
   return app::firmware_main(
       argc, argv, "springbok",
-      [](app::AppConfig& config, const std::string& config_path) -> std::unique_ptr<hal::Hardware> {
-        can::ConfigResult can_config = can::load_can_config_file(config_path);
-        if (!can_config.ok) {
-          std::fprintf(stderr, "springbok: config error: %s\n", can_config.error.c_str());
-          return nullptr;
-        }
-        const std::vector<std::string> errors = app::check_drive_gains(config, gain_ranges(can_config.config));
-        for (const std::string& e : errors) std::fprintf(stderr, "springbok: config error: %s\n", e.c_str());
-        if (!errors.empty()) return nullptr;
-        config.wrist_tare_samples = can_config.config.sensors.wrist_ft.tare_samples;
-        return std::make_unique<can::CanHardware>(std::move(can_config.config));
+      [](app::AppConfig& config, const config::Field& root) -> std::unique_ptr<hal::Hardware> {
+        // The `can:` section's problems are reported with the app's; the gains are checked
+        // against the drives only when both parts are good.
+        can::CanConfig can_config = can::read_can_config(root["can"]);
+        const std::size_t errors_before = root.errors().size();
+        if (errors_before != 0) return nullptr;
+        for (std::string& e : app::check_drive_gains(config, gain_ranges(can_config))) root.errors().add_line(std::move(e));
+        if (root.errors().size() != errors_before) return nullptr;
+        config.wrist_tare_samples = can_config.sensors.wrist_ft.tare_samples;
+        return std::make_unique<can::CanHardware>(std::move(can_config));
       });
 }

@@ -6,10 +6,11 @@
 
 #include "../sim/stepped_bullet_robot.hpp"
 #include "springbok/app/runtime.hpp"
+#include "springbok/config/reader.hpp"
 
 int main(int argc, char** argv) {
   using namespace springbok;
-  return app::firmware_main(argc, argv, "springbok-on-sim", [](const app::AppConfig& config, const std::string&) {
+  return app::firmware_main(argc, argv, "springbok-on-sim", [](app::AppConfig& config, const config::Field&) -> std::unique_ptr<hal::Hardware> {
     return std::make_unique<app::SteppedBulletRobot>(app::crouched_sim_config(config.rate_hz));
   });
 }

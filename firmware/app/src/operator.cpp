@@ -4,7 +4,8 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "springbok/config/fields.hpp"
+#include "springbok/config/reader.hpp"
+#include "springbok/params/controller_params.hpp"
 #include "springbok/gait/trot.hpp"
 
 namespace springbok::app {
@@ -70,12 +71,10 @@ ParsedLine parse_gait(const std::vector<std::string_view>& words) {
     if (params[key].IsDefined()) return error("gait trot." + key + ": given twice");
     params[key] = std::string(word.substr(eq + 1));
   }
-  try {
-    r.gait.kind = control::GaitKind::trot;
-    r.gait.trot = gait::read_trot_params(config::Fields(params, "gait trot"));
-  } catch (const config::ConfigError& e) {
-    return error(e.what());
-  }
+  config::Errors errors;
+  r.gait.kind = control::GaitKind::trot;
+  r.gait.trot = params::read_trot_params(config::Field(params, "gait trot", errors));
+  if (!errors.empty()) return error(errors.lines().front());
   return controller_request(r, "gait trot");
 }
 

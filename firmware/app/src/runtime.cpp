@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "springbok/app/control_loop.hpp"
+#include "springbok/config/reader.hpp"
 #include "springbok/app/operator_server.hpp"
 #include "springbok/app/control_mode.hpp"
 #include "springbok/app/posture_control.hpp"
@@ -168,6 +169,29 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   std::printf("log records dropped=%llu\n", static_cast<unsigned long long>(log_ring->dropped()));
   std::printf("%s", hardware.diagnostics_report().c_str());
   return 0;
+}
+
+int firmware_main(int argc, char** argv, const char* program, const MakeHardware& make_hardware) {
+  const CommandLine cli = parse_command_line(argc, argv, program);
+  if (cli.exit_now) return cli.exit_code;
+  const config::Document doc = config::parse_file(cli.config_path);
+  if (!doc.ok) {
+    std::fprintf(stderr, "%s: config error: %s\n", program, doc.error.c_str());
+    return 1;
+  }
+  config::Errors errors;
+  const config::Field root(doc.root, "", errors);
+  AppConfig app = read_config(root);
+  std::unique_ptr<hal::Hardware> hardware = make_hardware(app, root);  // reads its section whatever came before
+  for (const std::string& e : errors.lines()) {
+    std::fprintf(stderr, "%s: config error: %s: %s\n", program, cli.config_path.c_str(), e.c_str());
+  }
+  if (!errors.empty() || !hardware) return 1;
+  if (cli.check_config) {
+    std::printf("%s: config OK: %s\n", program, cli.config_path.c_str());
+    return 0;
+  }
+  return run_firmware(*hardware, app, cli.run);
 }
 
 }  // namespace springbok::app

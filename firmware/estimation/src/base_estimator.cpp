@@ -2,25 +2,12 @@
 
 #include <cmath>
 
-#include "springbok/config/fields.hpp"
-
 namespace springbok::est {
 namespace {
 
 bool finite(const auto& m) noexcept { return m.allFinite(); }
 
 }  // namespace
-
-EstimatorParams read_estimator_params(const config::Fields& f) {
-  f.allow_only({"velocity_gain", "position_gain", "foot_radius", "ground_height", "use_accelerometer"});
-  EstimatorParams p;
-  p.velocity_gain_per_s = f.number("velocity_gain", p.velocity_gain_per_s, 1e-3, 1e3);
-  p.position_gain_per_s = f.number("position_gain", p.position_gain_per_s, 0.0, 1e3);
-  p.foot_radius_m = f.number("foot_radius", p.foot_radius_m, 0.0, 0.5);
-  p.ground_height_m = f.number("ground_height", p.ground_height_m, -1e3, 1e3);
-  p.use_accelerometer = f.boolean("use_accelerometer", p.use_accelerometer);
-  return p;
-}
 
 const char* to_string(EstimateStatus s) noexcept {
   switch (s) {

@@ -2,8 +2,6 @@
 
 #include <cmath>
 
-#include "springbok/config/fields.hpp"
-
 namespace springbok::gait {
 namespace {
 
@@ -11,29 +9,6 @@ namespace {
 constexpr std::array<double, kFeet> kOffset{0.0, 0.5, 0.5, 0.0};
 
 }  // namespace
-
-namespace {
-// The one table of the trot's parameters: key, member, range (config and operator alike).
-struct TrotField {
-  const char* key;
-  double TrotParams::*member;
-  double lo, hi;
-};
-constexpr std::array<TrotField, 5> kTrotFields{{
-    {"step_frequency", &TrotParams::step_frequency_hz, 0.1, 5.0},
-    {"duty_factor", &TrotParams::duty_factor, 0.5, 0.95},
-    {"step_height", &TrotParams::step_height_m, 0.0, 0.3},
-    {"velocity_gain", &TrotParams::velocity_gain_s, 0.0, 1.0},
-    {"touchdown_depth", &TrotParams::touchdown_depth_m, 0.0, 0.05},
-}};
-}  // namespace
-
-TrotParams read_trot_params(const config::Fields& f) {
-  f.allow_only({"step_frequency", "duty_factor", "step_height", "velocity_gain", "touchdown_depth"});
-  TrotParams p;
-  for (const TrotField& field : kTrotFields) p.*field.member = f.number(field.key, p.*field.member, field.lo, field.hi);
-  return p;
-}
 
 const char* trot_params_error(const TrotParams& p) noexcept {
   for (const TrotField& field : kTrotFields) {

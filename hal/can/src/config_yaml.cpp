@@ -1,399 +1,309 @@
 #include "springbok/can/config_yaml.hpp"
 
 #include <array>
-
-#include <charconv>
-#include <cmath>
-#include <fstream>
-#include <initializer_list>
+#include <cctype>
 #include <limits>
-#include <sstream>
-#include <stdexcept>
-
-#include <yaml-cpp/yaml.h>
+#include <optional>
 
 #include <Eigen/Geometry>  // model.hpp uses Eigen::Quaterniond without including it
 
 #include "springbok/can/bus_load.hpp"
+#include "springbok/config/reader.hpp"
 #include "springbok/model/model.hpp"
 
 namespace springbok::can {
 
 namespace {
 
-// Thrown only inside the loader, caught at its boundary.
-struct ConfigError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
+using config::Field;
 
-[[noreturn]] void fail(const std::string& path, const std::string& what) { throw ConfigError(path + ": " + what); }
+constexpr long long kMaxU32 = std::numeric_limits<std::uint32_t>::max();
 
-void check_keys(const YAML::Node& map, const std::string& path, std::initializer_list<const char*> allowed) {
-  if (!map.IsMap()) fail(path, "expected a mapping");
-  for (const auto& kv : map) {
-    if (!kv.first.IsScalar()) fail(path, "keys must be plain names");
-    const std::string key = kv.first.Scalar();
-    bool known = false;
-    for (const char* a : allowed) known = known || key == a;
-    if (!known) fail(path + "." + key, "unknown key");
+void parse_protocol(const Field& f, Protocol& out) {
+  int p = 0;
+  if (f.choice(p, {"mit", "cia402"})) out = p == 0 ? Protocol::mit : Protocol::cia402;
+}
+
+// A joint by name (robot::kJoints) or index.
+void parse_joint(const Field& f, int& out) {
+  if (!f.is_scalar()) {
+    f.fail("must be a joint name or index, got " + f.describe());
+    return;
   }
-}
-
-std::string scalar(const YAML::Node& n, const std::string& path) {
-  if (!n.IsScalar()) fail(path, "expected a scalar value");
-  return n.Scalar();
-}
-
-long long parse_integer(const YAML::Node& n, const std::string& path, long long lo, long long hi) {
-  const std::string s = scalar(n, path);
-  std::string_view v = s;
-  bool negative = false;
-  if (!v.empty() && (v.front() == '-' || v.front() == '+')) {
-    negative = v.front() == '-';
-    v.remove_prefix(1);
-  }
-  int base = 10;
-  if (v.size() > 2 && v[0] == '0' && (v[1] == 'x' || v[1] == 'X')) {
-    base = 16;
-    v.remove_prefix(2);
-  }
-  long long value = 0;
-  const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), value, base);
-  if (v.empty() || ec != std::errc{} || end != v.data() + v.size()) fail(path, "expected an integer, got '" + s + "'");
-  if (negative) value = -value;
-  if (value < lo || value > hi) {
-    fail(path, "must be in " + std::to_string(lo) + ".." + std::to_string(hi) + ", got " + s);
-  }
-  return value;
-}
-
-double parse_double(const YAML::Node& n, const std::string& path) {
-  const std::string s = scalar(n, path);
-  double value = 0.0;
-  const char* first = s.data();
-  if (!s.empty() && s.front() == '+') ++first;
-  const auto [end, ec] = std::from_chars(first, s.data() + s.size(), value);
-  if (s.empty() || ec != std::errc{} || end != s.data() + s.size() || !std::isfinite(value)) {
-    fail(path, "expected a finite number, got '" + s + "'");
-  }
-  return value;
-}
-
-bool parse_bool(const YAML::Node& n, const std::string& path) {
-  const std::string s = scalar(n, path);
-  if (s == "true") return true;
-  if (s == "false") return false;
-  fail(path, "expected true or false, got '" + s + "'");
-}
-
-template <class T>
-void read_uint(const YAML::Node& map, const char* key, const std::string& path, T& out, long long hi) {
-  if (const YAML::Node n = map[key]) out = static_cast<T>(parse_integer(n, path + "." + key, 0, hi));
-}
-void read_double(const YAML::Node& map, const char* key, const std::string& path, double& out) {
-  if (const YAML::Node n = map[key]) out = parse_double(n, path + "." + key);
-}
-
-Protocol parse_protocol(const YAML::Node& n, const std::string& path) {
-  const std::string s = scalar(n, path);
-  if (s == "mit") return Protocol::mit;
-  if (s == "cia402") return Protocol::cia402;
-  fail(path, "expected mit or cia402, got '" + s + "'");
-}
-
-int parse_joint(const YAML::Node& n, const std::string& path) {
-  const std::string s = scalar(n, path);
   for (int j = 0; j < kNj; ++j) {
-    if (robot::kJoints[static_cast<std::size_t>(j)].name == s) return j;
+    if (robot::kJoints[static_cast<std::size_t>(j)].name == f.node().Scalar()) {
+      out = j;
+      return;
+    }
   }
-  return static_cast<int>(parse_integer(n, path, 0, kNj - 1));
+  const bool digits = !f.node().Scalar().empty() && std::isdigit(static_cast<unsigned char>(f.node().Scalar()[0]));
+  if (!digits) {
+    f.fail("'" + f.node().Scalar() + "' is not a joint of the model");
+    return;
+  }
+  (void)f.integer(out, 0, kNj - 1);
 }
 
-void parse_range(const YAML::Node& map, const char* key, const std::string& path, double& lo, double& hi) {
-  const YAML::Node n = map[key];
-  if (!n) return;
-  const std::string p = path + "." + key;
-  if (!n.IsSequence() || n.size() != 2) fail(p, "expected [min, max]");
-  lo = parse_double(n[0], p + "[0]");
-  hi = parse_double(n[1], p + "[1]");
-  if (!(lo < hi)) fail(p, "min must be below max");
+// [min, max], finite, min < max.
+void parse_range(const Field& f, double& lo, double& hi) {
+  if (!f.present() || !f.expect_list(2)) return;
+  double a = lo, b = hi;
+  const bool ok = f[std::size_t{0}].number(a, -1e9, 1e9) && f[std::size_t{1}].number(b, -1e9, 1e9);
+  if (!ok) return;
+  if (!(a < b)) {
+    f.fail("min must be below max");
+    return;
+  }
+  lo = a;
+  hi = b;
 }
 
 // The fields given override `r`; `with_torque` false: the torque range stays per joint.
-void parse_mit_ranges(const YAML::Node& n, const std::string& path, bool with_torque, mit::Ranges& r) {
+void parse_mit_ranges(const Field& f, bool with_torque, mit::Ranges& r) {
   if (with_torque) {
-    check_keys(n, path, {"p", "v", "kp", "kd", "t"});
+    f.allow_only({"p", "v", "kp", "kd", "t"});
   } else {
-    check_keys(n, path, {"p", "v", "kp", "kd"});
+    f.allow_only({"p", "v", "kp", "kd"});
   }
-  parse_range(n, "p", path, r.p_min_rad, r.p_max_rad);
-  parse_range(n, "v", path, r.v_min_rad_s, r.v_max_rad_s);
-  parse_range(n, "kp", path, r.kp_min, r.kp_max);
-  parse_range(n, "kd", path, r.kd_min, r.kd_max);
-  if (with_torque) parse_range(n, "t", path, r.t_min_nm, r.t_max_nm);
+  parse_range(f["p"], r.p_min_rad, r.p_max_rad);
+  parse_range(f["v"], r.v_min_rad_s, r.v_max_rad_s);
+  parse_range(f["kp"], r.kp_min, r.kp_max);
+  parse_range(f["kd"], r.kd_min, r.kd_max);
+  if (with_torque) parse_range(f["t"], r.t_min_nm, r.t_max_nm);
 }
 
-void parse_timing(const YAML::Node& n, const std::string& path, Timing& t) {
-  check_keys(n, path,
-             {"tick_us", "missed_replies_lost", "rx_deadline_us", "mit_presence_timeout_ms", "mit_presence_retries",
-              "boot_timeout_ms", "sdo_timeout_ms", "sdo_retries", "state_step_timeout_ms", "heartbeat_period_ms",
-              "heartbeat_lost_periods", "tx_fault_ticks", "damping_kd_nms_per_rad", "damping_time_ms",
-              "damping_stop_speed_rad_s", "start_limit_margin_rad"});
-  constexpr long long kMaxU32 = std::numeric_limits<std::uint32_t>::max();
-  read_uint(n, "tick_us", path, t.tick_us, 1000000);
-  read_uint(n, "missed_replies_lost", path, t.missed_replies_lost, 100000);
-  read_uint(n, "rx_deadline_us", path, t.rx_deadline_us, 10000000);
-  read_uint(n, "mit_presence_timeout_ms", path, t.mit_presence_timeout_ms, 600000);
-  read_uint(n, "mit_presence_retries", path, t.mit_presence_retries, 100);
-  read_uint(n, "boot_timeout_ms", path, t.boot_timeout_ms, 600000);
-  read_uint(n, "sdo_timeout_ms", path, t.sdo_timeout_ms, 600000);
-  read_uint(n, "sdo_retries", path, t.sdo_retries, 100);
-  read_uint(n, "state_step_timeout_ms", path, t.state_step_timeout_ms, 600000);
-  read_uint(n, "heartbeat_period_ms", path, t.heartbeat_period_ms, 65535);
-  read_uint(n, "heartbeat_lost_periods", path, t.heartbeat_lost_periods, 1000);
-  read_uint(n, "tx_fault_ticks", path, t.tx_fault_ticks, kMaxU32);
-  read_double(n, "damping_kd_nms_per_rad", path, t.damping_kd_nms_per_rad);
-  read_uint(n, "damping_time_ms", path, t.damping_time_ms, 600000);
-  read_double(n, "damping_stop_speed_rad_s", path, t.damping_stop_speed_rad_s);
-  read_double(n, "start_limit_margin_rad", path, t.start_limit_margin_rad);
+void parse_timing(const Field& f, Timing& t) {
+  f.allow_only({"tick_us", "missed_replies_lost", "rx_deadline_us", "mit_presence_timeout_ms", "mit_presence_retries",
+                "boot_timeout_ms", "sdo_timeout_ms", "sdo_retries", "state_step_timeout_ms", "heartbeat_period_ms",
+                "heartbeat_lost_periods", "tx_fault_ticks", "damping_kd_nms_per_rad", "damping_time_ms",
+                "damping_stop_speed_rad_s", "start_limit_margin_rad"});
+  f["tick_us"].integer(t.tick_us, 0, 1000000);
+  f["missed_replies_lost"].integer(t.missed_replies_lost, 0, 100000);
+  f["rx_deadline_us"].integer(t.rx_deadline_us, 0, 10000000);
+  f["mit_presence_timeout_ms"].integer(t.mit_presence_timeout_ms, 0, 600000);
+  f["mit_presence_retries"].integer(t.mit_presence_retries, 0, 100);
+  f["boot_timeout_ms"].integer(t.boot_timeout_ms, 0, 600000);
+  f["sdo_timeout_ms"].integer(t.sdo_timeout_ms, 0, 600000);
+  f["sdo_retries"].integer(t.sdo_retries, 0, 100);
+  f["state_step_timeout_ms"].integer(t.state_step_timeout_ms, 0, 600000);
+  f["heartbeat_period_ms"].integer(t.heartbeat_period_ms, 0, 65535);
+  f["heartbeat_lost_periods"].integer(t.heartbeat_lost_periods, 0, 1000);
+  f["tx_fault_ticks"].integer(t.tx_fault_ticks, 0, kMaxU32);
+  f["damping_kd_nms_per_rad"].number(t.damping_kd_nms_per_rad, -1e9, 1e9);  // validate() judges the range
+  f["damping_time_ms"].integer(t.damping_time_ms, 0, 600000);
+  f["damping_stop_speed_rad_s"].number(t.damping_stop_speed_rad_s, -1e9, 1e9);
+  f["start_limit_margin_rad"].number(t.start_limit_margin_rad, -1e9, 1e9);
 }
 
-DriveConfig parse_drive(const YAML::Node& n, const std::string& path, Protocol bus_protocol) {
-  check_keys(n, path,
-             {"joint", "id", "protocol", "reply_id", "vendor_reply", "mit_ranges", "mapping", "counts_per_rad",
-              "velocity_units_per_rad_s", "rated_torque_nm", "gear_ratio", "max_torque_permille"});
-  if (!n["joint"]) fail(path + ".joint", "missing");
-  const int joint = parse_joint(n["joint"], path + ".joint");
-  const Protocol protocol = n["protocol"] ? parse_protocol(n["protocol"], path + ".protocol") : bus_protocol;
+std::optional<DriveConfig> parse_drive(const Field& f, Protocol bus_protocol) {
+  if (!f.is_map()) {
+    f.fail("must be a map (a drive), got " + f.describe());
+    return std::nullopt;
+  }
+  f.allow_only({"joint", "id", "protocol", "reply_id", "vendor_reply", "mit_ranges", "mapping", "counts_per_rad",
+                "velocity_units_per_rad_s", "rated_torque_nm", "gear_ratio", "max_torque_permille"});
+  int joint = -1;
+  if (f["joint"].require()) parse_joint(f["joint"], joint);
+  if (joint < 0) return std::nullopt;
+  Protocol protocol = bus_protocol;
+  parse_protocol(f["protocol"], protocol);
   // Defaults as in the built-in layouts (id = joint + 1, torque range = joint effort limit).
   DriveConfig d = default_drive(joint, protocol);
-  if (n["id"]) {
-    d.drive_id = static_cast<std::uint8_t>(parse_integer(n["id"], path + ".id", 1, cia402::kMaxNode));
-    d.mit_reply_id = static_cast<std::uint16_t>(0x100 + d.drive_id);
+  if (f["id"].integer(d.drive_id, 1, cia402::kMaxNode)) d.mit_reply_id = static_cast<std::uint16_t>(0x100 + d.drive_id);
+  f["reply_id"].integer(d.mit_reply_id, 0, kStandardIdMask);
+  f["vendor_reply"].boolean(d.mit_vendor_reply);
+  if (f["mit_ranges"].present()) parse_mit_ranges(f["mit_ranges"], true, d.mit_ranges);
+  int mapping = 0;
+  if (f["mapping"].choice(mapping, {"compact", "two_tpdo"})) {
+    d.mapping = mapping == 0 ? cia402::Mapping::compact : cia402::Mapping::two_tpdo;
   }
-  read_uint(n, "reply_id", path, d.mit_reply_id, kStandardIdMask);
-  if (n["vendor_reply"]) d.mit_vendor_reply = parse_bool(n["vendor_reply"], path + ".vendor_reply");
-  if (const YAML::Node r = n["mit_ranges"]) parse_mit_ranges(r, path + ".mit_ranges", true, d.mit_ranges);
-  if (const YAML::Node m = n["mapping"]) {
-    const std::string s = scalar(m, path + ".mapping");
-    if (s == "compact") d.mapping = cia402::Mapping::compact;
-    else if (s == "two_tpdo") d.mapping = cia402::Mapping::two_tpdo;
-    else fail(path + ".mapping", "expected compact or two_tpdo, got '" + s + "'");
-  }
-  read_double(n, "counts_per_rad", path, d.counts_per_rad);
-  read_double(n, "velocity_units_per_rad_s", path, d.velocity_units_per_rad_s);
-  read_double(n, "rated_torque_nm", path, d.rated_torque_nm);
-  read_double(n, "gear_ratio", path, d.gear_ratio);
-  if (n["max_torque_permille"]) {
-    d.max_torque_permille =
-        static_cast<std::uint16_t>(parse_integer(n["max_torque_permille"], path + ".max_torque_permille", 1, 32767));
-  }
+  f["counts_per_rad"].number(d.counts_per_rad, -1e12, 1e12);  // validate() judges the ranges
+  f["velocity_units_per_rad_s"].number(d.velocity_units_per_rad_s, -1e12, 1e12);
+  f["rated_torque_nm"].number(d.rated_torque_nm, -1e12, 1e12);
+  f["gear_ratio"].number(d.gear_ratio, -1e12, 1e12);
+  f["max_torque_permille"].integer(d.max_torque_permille, 1, 32767);
   return d;
 }
 
-BusConfig parse_bus(const YAML::Node& n, const std::string& path) {
-  check_keys(n, path, {"name", "interface", "fd", "bitrate", "data_bitrate", "protocol", "drives"});
+BusConfig parse_bus(const Field& f) {
   BusConfig b;
-  if (!n["name"]) fail(path + ".name", "missing");
-  if (!n["interface"]) fail(path + ".interface", "missing");
-  b.name = scalar(n["name"], path + ".name");
-  b.interface = scalar(n["interface"], path + ".interface");
-  if (n["fd"]) b.fd = parse_bool(n["fd"], path + ".fd");
-  read_uint(n, "bitrate", path, b.bitrate, 1000000);
-  read_uint(n, "data_bitrate", path, b.data_bitrate, 20000000);
-  const Protocol protocol = n["protocol"] ? parse_protocol(n["protocol"], path + ".protocol") : Protocol::mit;
+  if (!f.is_map()) {
+    f.fail("must be a map (a bus), got " + f.describe());
+    return b;
+  }
+  f.allow_only({"name", "interface", "fd", "bitrate", "data_bitrate", "protocol", "drives"});
+  if (f["name"].require()) f["name"].text(b.name);
+  if (f["interface"].require()) f["interface"].text(b.interface);
+  f["fd"].boolean(b.fd);
+  f["bitrate"].integer(b.bitrate, 0, 1000000);
+  f["data_bitrate"].integer(b.data_bitrate, 0, 20000000);
+  Protocol protocol = Protocol::mit;
+  parse_protocol(f["protocol"], protocol);
   // A bus that carries only sensors (CAN.md 6.3) has no drives; validate() checks that
   // every bus carries something.
-  const YAML::Node drives = n["drives"];
-  if (!drives) return b;
-  if (!drives.IsSequence()) fail(path + ".drives", "expected a list of drives");
+  const Field drives = f["drives"];
+  if (!drives.expect_list()) return b;
   for (std::size_t i = 0; i < drives.size(); ++i) {
-    b.drives.push_back(parse_drive(drives[i], path + ".drives[" + std::to_string(i) + "]", protocol));
+    if (auto d = parse_drive(drives[i], protocol)) b.drives.push_back(*d);
   }
   return b;
 }
 
-std::uint32_t parse_id(const YAML::Node& n, const std::string& path) {
-  return static_cast<std::uint32_t>(parse_integer(n, path, 0, kStandardIdMask));
-}
-
 template <std::size_t N>
-void parse_ids(const YAML::Node& map, const std::string& path, std::array<std::uint32_t, N>& ids) {
-  const YAML::Node n = map["ids"];
-  if (!n) return;
-  const std::string p = path + ".ids";
-  if (!n.IsSequence() || n.size() != N) fail(p, "expected a list of " + std::to_string(N) + " CAN ids");
-  for (std::size_t i = 0; i < N; ++i) ids[i] = parse_id(n[i], p + "[" + std::to_string(i) + "]");
+void parse_ids(const Field& f, std::array<std::uint32_t, N>& ids) {
+  if (!f.present() || !f.expect_list(N)) return;
+  for (std::size_t i = 0; i < N; ++i) f[i].integer(ids[i], 0, kStandardIdMask);
 }
 
-void parse_positive(const YAML::Node& map, const char* key, const std::string& path, double& out) {
-  if (const YAML::Node n = map[key]) {
-    out = parse_double(n, path + "." + key);
-    if (!(out > 0.0)) fail(path + "." + key, "must be > 0");
+void parse_positive(const Field& f, double& out) {
+  double v = out;
+  if (!f.number(v, -1e12, 1e12)) return;
+  if (!(v > 0.0)) {
+    f.fail("must be > 0, got " + f.node().Scalar());
+    return;
   }
+  out = v;
 }
 
-void parse_triple(const YAML::Node& map, const char* key, const std::string& path, std::array<double, 3>& out) {
-  const YAML::Node n = map[key];
-  if (!n) return;
-  const std::string p = path + "." + key;
-  if (!n.IsSequence() || n.size() != 3) fail(p, "expected [x, y, z]");
-  for (std::size_t i = 0; i < 3; ++i) out[i] = parse_double(n[i], p + "[" + std::to_string(i) + "]");
+void parse_triple(const Field& f, std::array<double, 3>& out) {
+  Eigen::Vector3d v(out[0], out[1], out[2]);
+  if (f.vector<3>(v, -1e3, 1e3)) out = {v.x(), v.y(), v.z()};
 }
 
-std::string parse_sensor_bus(const YAML::Node& n, const std::string& path) {
-  if (!n["bus"]) fail(path + ".bus", "missing (the name of the bus the sensor is on)");
-  return scalar(n["bus"], path + ".bus");
+void parse_sensor_bus(const Field& f, std::string& bus) {
+  if (!f.present()) {
+    f.fail("missing (the name of the bus the sensor is on)");
+    return;
+  }
+  f.text(bus);
 }
 
-ImuConfig parse_imu(const YAML::Node& n, const std::string& path) {
-  check_keys(n, path,
-             {"bus", "ids", "orientation_per_count", "rate_rad_s_per_count", "accel_m_s2_per_count", "stale_ticks",
-              "clip_streak", "rate_hz"});
+ImuConfig parse_imu(const Field& f) {
+  f.allow_only({"bus", "ids", "orientation_per_count", "rate_rad_s_per_count", "accel_m_s2_per_count", "stale_ticks",
+                "clip_streak", "rate_hz"});
   ImuConfig s;
   s.enabled = true;
-  s.bus = parse_sensor_bus(n, path);
-  parse_ids(n, path, s.ids);
-  parse_positive(n, "orientation_per_count", path, s.scales.orientation_per_count);
-  parse_positive(n, "rate_rad_s_per_count", path, s.scales.rate_rad_s_per_count);
-  parse_positive(n, "accel_m_s2_per_count", path, s.scales.accel_m_s2_per_count);
-  if (n["stale_ticks"]) s.stale_ticks = static_cast<std::uint32_t>(parse_integer(n["stale_ticks"], path + ".stale_ticks", 1, 127));
-  read_uint(n, "clip_streak", path, s.clip_streak, 1000000);
-  parse_positive(n, "rate_hz", path, s.rate_hz);
+  parse_sensor_bus(f["bus"], s.bus);
+  parse_ids(f["ids"], s.ids);
+  parse_positive(f["orientation_per_count"], s.scales.orientation_per_count);
+  parse_positive(f["rate_rad_s_per_count"], s.scales.rate_rad_s_per_count);
+  parse_positive(f["accel_m_s2_per_count"], s.scales.accel_m_s2_per_count);
+  f["stale_ticks"].integer(s.stale_ticks, 1, 127);
+  f["clip_streak"].integer(s.clip_streak, 0, 1000000);
+  parse_positive(f["rate_hz"], s.rate_hz);
   return s;
 }
 
-FtConfig parse_ft(const YAML::Node& n, const std::string& path) {
-  check_keys(n, path,
-             {"bus", "ids", "counts_per_n", "counts_per_nm", "stale_ticks", "clip_streak", "tare_samples", "offset",
-              "rate_hz"});
+FtConfig parse_ft(const Field& f) {
+  f.allow_only({"bus", "ids", "counts_per_n", "counts_per_nm", "stale_ticks", "clip_streak", "tare_samples", "offset",
+                "rate_hz"});
   FtConfig s;
   s.enabled = true;
-  s.bus = parse_sensor_bus(n, path);
-  parse_ids(n, path, s.ids);
-  parse_positive(n, "counts_per_n", path, s.counts_per_n);
-  parse_positive(n, "counts_per_nm", path, s.counts_per_nm);
-  if (n["stale_ticks"]) s.stale_ticks = static_cast<std::uint32_t>(parse_integer(n["stale_ticks"], path + ".stale_ticks", 1, 127));
-  read_uint(n, "clip_streak", path, s.clip_streak, 1000000);
-  if (n["tare_samples"]) {
-    s.tare_samples = static_cast<std::uint32_t>(parse_integer(n["tare_samples"], path + ".tare_samples", 1, 1000000));
-  }
-  if (const YAML::Node o = n["offset"]) {
-    const std::string op = path + ".offset";
-    check_keys(o, op, {"xyz_m", "rpy_rad"});
+  parse_sensor_bus(f["bus"], s.bus);
+  parse_ids(f["ids"], s.ids);
+  parse_positive(f["counts_per_n"], s.counts_per_n);
+  parse_positive(f["counts_per_nm"], s.counts_per_nm);
+  f["stale_ticks"].integer(s.stale_ticks, 1, 127);
+  f["clip_streak"].integer(s.clip_streak, 0, 1000000);
+  f["tare_samples"].integer(s.tare_samples, 1, 1000000);
+  if (const Field o = f["offset"]; o.present()) {
+    o.allow_only({"xyz_m", "rpy_rad"});
     s.has_offset = true;
-    parse_triple(o, "xyz_m", op, s.offset.xyz_m);
-    parse_triple(o, "rpy_rad", op, s.offset.rpy_rad);
+    parse_triple(o["xyz_m"], s.offset.xyz_m);
+    parse_triple(o["rpy_rad"], s.offset.rpy_rad);
   }
-  parse_positive(n, "rate_hz", path, s.rate_hz);
+  parse_positive(f["rate_hz"], s.rate_hz);
   return s;
 }
 
-SensorsConfig parse_sensors(const YAML::Node& n, const std::string& path) {
-  check_keys(n, path, {"imu", "wrist_ft"});
+SensorsConfig parse_sensors(const Field& f) {
+  f.allow_only({"imu", "wrist_ft"});
   SensorsConfig s;
-  if (const YAML::Node imu = n["imu"]) s.imu = parse_imu(imu, path + ".imu");
-  if (const YAML::Node ft = n["wrist_ft"]) s.wrist_ft = parse_ft(ft, path + ".wrist_ft");
+  if (f["imu"].present()) s.imu = parse_imu(f["imu"]);
+  if (f["wrist_ft"].present()) s.wrist_ft = parse_ft(f["wrist_ft"]);
   return s;
 }
 
-CanConfig parse_can(const YAML::Node& n) {
-  const std::string path = "can";
-  if (!n) fail(path, "missing section");
-  check_keys(n, path,
-             {"layout", "protocol", "interface_prefix", "max_bus_load", "mit_velocity_observer_rad_s", "mit_ranges",
-              "timing", "buses", "extra_buses", "sensors"});
-  const std::string prefix = n["interface_prefix"] ? scalar(n["interface_prefix"], path + ".interface_prefix") : "can";
-  const Protocol protocol = n["protocol"] ? parse_protocol(n["protocol"], path + ".protocol") : Protocol::mit;
+CanConfig parse_can(const Field& f) {
   CanConfig c;
-  if (const YAML::Node layout = n["layout"]) {
-    const std::string s = scalar(layout, path + ".layout");
-    if (s == "classic7") c = classic7_layout(protocol, prefix);
-    else if (s == "fd5") c = fd5_layout(prefix);
-    else fail(path + ".layout", "expected classic7 or fd5, got '" + s + "'");
+  if (!f.require()) return c;
+  if (!f.allow_only({"layout", "protocol", "interface_prefix", "max_bus_load", "mit_velocity_observer_rad_s",
+                     "mit_ranges", "timing", "buses", "extra_buses", "sensors"})) {
+    return c;
   }
-  if (const YAML::Node buses = n["buses"]) {
-    if (!buses.IsSequence()) fail(path + ".buses", "expected a list of buses");
+  std::string prefix = "can";
+  f["interface_prefix"].text(prefix);
+  Protocol protocol = Protocol::mit;
+  parse_protocol(f["protocol"], protocol);
+  int layout = -1;
+  if (f["layout"].choice(layout, {"classic7", "fd5"})) c = layout == 0 ? classic7_layout(protocol, prefix) : fd5_layout(prefix);
+  if (const Field buses = f["buses"]; buses.present()) {
     c.buses.clear();
-    for (std::size_t i = 0; i < buses.size(); ++i) {
-      c.buses.push_back(parse_bus(buses[i], path + ".buses[" + std::to_string(i) + "]"));
+    if (buses.expect_list()) {
+      for (std::size_t i = 0; i < buses.size(); ++i) c.buses.push_back(parse_bus(buses[i]));
     }
-  } else if (!n["layout"]) {
-    fail(path, "needs `layout` or `buses`");
+  } else if (!f["layout"].present()) {
+    f.fail("needs `layout` or `buses`");
   }
   // Flash settings shared by every MIT drive (e.g. KP_MAX above the Mini Cheetah's 500 for
   // stiff leg gains): the listed fields override those of every MIT drive, its own entry's too.
-  if (const YAML::Node r = n["mit_ranges"]) {
+  if (const Field r = f["mit_ranges"]; r.present()) {
     for (BusConfig& b : c.buses) {
       for (DriveConfig& d : b.drives) {
-        if (d.protocol == Protocol::mit) parse_mit_ranges(r, path + ".mit_ranges", false, d.mit_ranges);
+        if (d.protocol == Protocol::mit) parse_mit_ranges(r, false, d.mit_ranges);
       }
     }
   }
   // Buses added to the layout's (or the listed) ones, e.g. the sensors' own bus (CAN.md 6.3).
-  if (const YAML::Node extra = n["extra_buses"]) {
-    if (!extra.IsSequence()) fail(path + ".extra_buses", "expected a list of buses");
-    for (std::size_t i = 0; i < extra.size(); ++i) {
-      c.buses.push_back(parse_bus(extra[i], path + ".extra_buses[" + std::to_string(i) + "]"));
-    }
+  if (const Field extra = f["extra_buses"]; extra.expect_list()) {
+    for (std::size_t i = 0; i < extra.size(); ++i) c.buses.push_back(parse_bus(extra[i]));
   }
-  read_double(n, "max_bus_load", path, c.max_bus_load);
-  read_double(n, "mit_velocity_observer_rad_s", path, c.mit_velocity_observer_rad_s);
-  if (const YAML::Node t = n["timing"]) parse_timing(t, path + ".timing", c.timing);
-  if (const YAML::Node s = n["sensors"]) c.sensors = parse_sensors(s, path + ".sensors");
+  f["max_bus_load"].number(c.max_bus_load, -1e9, 1e9);  // validate() judges the ranges
+  f["mit_velocity_observer_rad_s"].number(c.mit_velocity_observer_rad_s, -1e9, 1e9);
+  if (f["timing"].present()) parse_timing(f["timing"], c.timing);
+  if (f["sensors"].present()) c.sensors = parse_sensors(f["sensors"]);
   return c;
 }
 
 }  // namespace
 
-ConfigResult load_can_config(const YAML::Node& can) {
+CanConfig read_can_config(const config::Field& can) {
+  const std::size_t errors_before = can.errors().size();
+  CanConfig c = parse_can(can);
+  if (can.errors().size() != errors_before) return c;  // validate() would only repeat them
+  if (std::string e = validate(c); !e.empty()) {
+    can.errors().add_line(std::move(e));
+  } else if (std::string load = check_bus_loads(c); !load.empty()) {  // every bus, its sensors included (CAN.md 3, 6.3)
+    can.errors().add_line("can.buses: " + load);
+  }
+  return c;
+}
+
+namespace {
+ConfigResult from_document(const config::Document& doc) {
   ConfigResult r;
-  try {
-    r.config = parse_can(can);
-  } catch (const ConfigError& e) {
-    r.error = e.what();
-    return r;
-  } catch (const YAML::Exception& e) {
-    r.error = std::string("can: ") + e.what();
+  if (!doc.ok) {
+    r.error = doc.error;
     return r;
   }
-  r.error = validate(r.config);
-  // Every bus's worst-case load, its sensors included (CAN.md 3, 6.3).
-  if (r.error.empty()) {
-    if (const std::string load = check_bus_loads(r.config); !load.empty()) r.error = "can.buses: " + load;
+  config::Errors errors;
+  const config::Field root(doc.root, "", errors);
+  if (root.present() && !root.is_map()) {
+    root.fail("must be a map with a `can:` key, got " + root.describe());
+  } else {
+    r.config = read_can_config(root["can"]);
   }
-  r.ok = r.error.empty();
+  r.error = errors.joined();
+  r.ok = errors.empty();
   return r;
 }
+}  // namespace
 
-ConfigResult load_can_config_text(std::string_view yaml_text) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(std::string(yaml_text));
-  } catch (const YAML::Exception& e) {
-    ConfigResult r;
-    r.error = std::string("YAML: ") + e.what();
-    return r;
-  }
-  if (!root.IsMap()) {
-    ConfigResult r;
-    r.error = "top level: expected a mapping with a `can:` key";
-    return r;
-  }
-  return load_can_config(root["can"]);
-}
+ConfigResult load_can_config_text(std::string_view yaml_text) { return from_document(config::parse_text(yaml_text)); }
 
 ConfigResult load_can_config_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) {
-    ConfigResult r;
-    r.error = path + ": cannot open";
-    return r;
-  }
-  std::stringstream ss;
-  ss << in.rdbuf();
-  ConfigResult r = load_can_config_text(ss.str());
-  if (!r.ok) r.error = path + ": " + r.error;
+  ConfigResult r = from_document(config::parse_file(path));
+  if (!r.ok && r.error.rfind(path, 0) != 0) r.error = path + ": " + r.error;
   return r;
 }
 

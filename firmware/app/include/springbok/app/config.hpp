@@ -1,7 +1,7 @@
 // The robot configuration (YAML): loop rate, real-time settings, safety
 // thresholds, gains, the operator socket and the log. Every field is required;
 // an unknown key, a missing one, a wrong type, a value out of range or a NaN
-// is an error that names the field (e.g. "rt.priority: out of range [1, 98]: 99").
+// is an error that names the field and its line (e.g. "rt.priority: must be in [1, 98], got 99 (line 9)").
 // The `can:` section belongs to the SocketCAN backend, which validates it.
 // Start-up code: allocates, never runs on the tick path.
 #pragma once
@@ -17,6 +17,10 @@
 #include "springbok/rt/realtime.hpp"
 #include "springbok/safety/supervisor.hpp"
 #include "springbok/wbc/whole_body_controller.hpp"
+
+namespace springbok::config {
+class Field;
+}
 
 namespace springbok::app {
 
@@ -60,5 +64,8 @@ struct ConfigResult {
 // Never throws.
 ConfigResult load_config_text(const std::string& yaml_text);
 ConfigResult load_config_file(const std::string& path);
+// The app's sections of a document read with springbok::config (the `can:` section is the
+// CAN backend's: can::read_can_config on the same document; springbok.yaml is read once).
+AppConfig read_config(const config::Field& root);
 
 }  // namespace springbok::app

@@ -5,7 +5,8 @@
 // main() that builds its backend and calls run_firmware().
 #pragma once
 
-#include <cstdio>
+#include <functional>
+#include <memory>
 #include <string>
 
 #include "springbok/app/config.hpp"
@@ -24,12 +25,15 @@ struct RunOptions {
 int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOptions& options);
 
 // The command line shared by the executables: --config, --check-config,
-// --require-rt, --duration, --time-scale. Returns the exit code. `make_hardware(config,
-// config_path)` builds the backend without touching any device (nullptr after
-// printing the error) and may fill the config's backend fields (wrist_tare_samples);
+// --require-rt, --duration, --time-scale. Returns the exit code. The config file is read
+// once: the app's sections (read_config), then `make_hardware(config, root)` reads the
+// backend's own section of the same document (e.g. `can:`, its problems added to root's
+// errors, whatever the app's sections held) and, when there is no problem at all, builds
+// the backend without touching any device; it may fill the config's backend fields
+// (wrist_tare_samples). Every problem of the file is printed, naming the field and line;
 // --check-config therefore also checks the backend's part.
-template <class MakeHardware>
-int firmware_main(int argc, char** argv, const char* program, MakeHardware&& make_hardware);
+using MakeHardware = std::function<std::unique_ptr<hal::Hardware>(AppConfig& config, const config::Field& root)>;
+int firmware_main(int argc, char** argv, const char* program, const MakeHardware& make_hardware);
 
 struct CommandLine {
   std::string config_path;
@@ -39,23 +43,5 @@ struct CommandLine {
   int exit_code = 0;
 };
 CommandLine parse_command_line(int argc, char** argv, const char* program);
-
-template <class MakeHardware>
-int firmware_main(int argc, char** argv, const char* program, MakeHardware&& make_hardware) {
-  const CommandLine cli = parse_command_line(argc, argv, program);
-  if (cli.exit_now) return cli.exit_code;
-  ConfigResult loaded = load_config_file(cli.config_path);
-  if (!loaded.ok) {
-    for (const auto& e : loaded.errors) std::fprintf(stderr, "%s: config error: %s\n", program, e.c_str());
-    return 1;
-  }
-  auto hardware = make_hardware(loaded.config, cli.config_path);
-  if (!hardware) return 1;
-  if (cli.check_config) {
-    std::printf("%s: config OK: %s\n", program, cli.config_path.c_str());
-    return 0;
-  }
-  return run_firmware(*hardware, loaded.config, cli.run);
-}
 
 }  // namespace springbok::app

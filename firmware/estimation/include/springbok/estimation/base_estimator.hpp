@@ -31,10 +31,6 @@
 #include "springbok/model/model.hpp"
 #include "springbok/model/robot_state.hpp"
 
-namespace springbok::config {
-class Fields;
-}
-
 namespace springbok::est {
 
 struct EstimatorParams {
@@ -44,11 +40,6 @@ struct EstimatorParams {
   double ground_height_m = 0.0;       // world z of the ground under the feet at reset
   bool use_accelerometer = true;      // false: velocity = leg odometry alone
 };
-
-// Reads an `estimator:` map (every key optional): velocity_gain, position_gain,
-// foot_radius, ground_height, use_accelerometer. Throws config::ConfigError
-// naming the field. Start-up only.
-EstimatorParams read_estimator_params(const config::Fields& f);
 
 enum class EstimateStatus : std::uint8_t {
   ok,

@@ -35,10 +35,6 @@
 #include "springbok/model/model.hpp"
 #include "springbok/model/robot_state.hpp"
 
-namespace springbok::config {
-class Fields;
-}
-
 namespace springbok::gait {
 
 struct TrotParams {
@@ -49,11 +45,21 @@ struct TrotParams {
   double touchdown_depth_m = 0.005;  // the foothold this far below the nominal (the foot lands, not hovers)
 };
 
-// Reads a `gait:` map: step_frequency (0.1..5 Hz), duty_factor ([0.5, 0.95]), step_height
-// (0..0.3 m), velocity_gain, touchdown_depth; missing keys keep the defaults. Throws
-// config::ConfigError naming the field. Start-up only.
-TrotParams read_trot_params(const config::Fields& f);
-// The key of the first parameter outside read_trot_params' ranges (or not finite),
+// The one table of the trot's parameters: key, member, range (the config's reader,
+// springbok::params, and the operator's requests alike).
+struct TrotField {
+  const char* key;
+  double TrotParams::*member;
+  double lo, hi;
+};
+inline constexpr std::array<TrotField, 5> kTrotFields{{
+    {"step_frequency", &TrotParams::step_frequency_hz, 0.1, 5.0},
+    {"duty_factor", &TrotParams::duty_factor, 0.5, 0.95},
+    {"step_height", &TrotParams::step_height_m, 0.0, 0.3},
+    {"velocity_gain", &TrotParams::velocity_gain_s, 0.0, 1.0},
+    {"touchdown_depth", &TrotParams::touchdown_depth_m, 0.0, 0.05},
+}};
+// The key of the first parameter outside kTrotFields' ranges (or not finite),
 // nullptr when all are within. rt: no alloc
 const char* trot_params_error(const TrotParams& p) noexcept;
 

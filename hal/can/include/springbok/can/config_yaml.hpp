@@ -1,5 +1,5 @@
-// The `can:` section of the robot configuration, read with yaml-cpp and
-// validated; every error names the field (e.g. "can.buses[2].drives[0].id: ...").
+// The `can:` section of the robot configuration, read with springbok::config's reader and
+// validated; every error names the field and its line (e.g. "can.buses[2].drives[0].id: ... (line 9)").
 #pragma once
 
 #include <string>
@@ -7,8 +7,8 @@
 
 #include "springbok/can/config.hpp"
 
-namespace YAML {
-class Node;
+namespace springbok::config {
+class Field;
 }
 
 namespace springbok::can {
@@ -19,8 +19,9 @@ struct ConfigResult {
   std::string error;  // set when !ok
 };
 
-// `can` is the node of the `can:` section. Never throws.
-ConfigResult load_can_config(const YAML::Node& can);
+// The `can:` section of a document read with config::Field (springbok.yaml is read once, by the
+// app's config reader): every problem goes to can.errors(), then validate() and the bus loads.
+CanConfig read_can_config(const config::Field& can);
 // A YAML document (text) whose top level has a `can:` key. Never throws.
 ConfigResult load_can_config_text(std::string_view yaml_text);
 // A file holding such a document. Never throws.

@@ -1,0 +1,48 @@
+// The controller's parameters from YAML, read with springbok::config (start-up only): the
+// tick libraries (wbc, gait, estimation) know nothing of YAML. Used by the robot config
+// (control.wbc, control.estimator, control.gait), scenarios (controller.params) and the
+// operator's gait requests. Every problem goes to the field's config::Errors; absent keys
+// keep the structs' defaults.
+//
+// wbc (read_wbc_params):
+//
+//   template:                     # required: the double mass-spring-damper to render
+//     base: {mass: 92, damping: 610, stiffness: 1000}   # each a number or [x, y, z]
+//     ee:   {mass: 4,  damping: 90,  stiffness: 500}
+//   base_orientation: {kp: 1600, kd: 160, inertia: auto}  # inertia: auto or [Ixx, Iyy, Izz]
+//   arm: {posture_kp: 100, posture_kd: 20, posture: current, pinv_lambda0: 0.05,
+//         manipulability_threshold: 0.02}                # posture: current or 7 angles
+//   weights: {base_force: 1, base_torque: 1, arm: 100, reg_acceleration: 1e-4,
+//             reg_force: 1e-6, reg_slack: 1000}
+//   contact: {friction_mu: 0.6, normal_force_min: 5, normal_force_max: 1500,
+//             foot_radius: 0.02175}     # foot Jacobians at the ground contact point (0: centre)
+//   limits: {joint_horizon_s: 0.05, torque_scale: 1.0}
+//   swing: {kp: 400, kd: 40}
+//
+// (No fallback section: what a failed tick commands is the safety supervisor's.)
+// Everything but `template` is optional (defaults of WbcParams). Masses and
+// stiffnesses must be positive, dampings non-negative; unknown keys, wrong
+// types and non-finite numbers are errors naming the field.
+//
+// estimator (read_estimator_params), every key optional: velocity_gain, position_gain,
+// foot_radius, ground_height, use_accelerometer.
+//
+// gait (read_trot_params), every key optional: the keys and ranges of gait::kTrotFields
+// (step_frequency 0.1..5 Hz, duty_factor 0.5..0.95, step_height, velocity_gain, touchdown_depth).
+#pragma once
+
+#include "springbok/config/reader.hpp"
+#include "springbok/estimation/base_estimator.hpp"
+#include "springbok/gait/trot.hpp"
+#include "springbok/wbc/whole_body_controller.hpp"
+
+namespace springbok::params {
+
+// `yes`: the map may also hold `estimator` and `gait` (a scenario's controller.params, whose
+// other keys are the WBC's); they are read by read_estimator_params / read_trot_params.
+enum class WithControllerParts : bool { no, yes };
+wbc::WbcParams read_wbc_params(const config::Field& f, WithControllerParts parts = WithControllerParts::no);
+est::EstimatorParams read_estimator_params(const config::Field& f);
+gait::TrotParams read_trot_params(const config::Field& f);
+
+}  // namespace springbok::params

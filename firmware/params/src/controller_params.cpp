@@ -1,0 +1,113 @@
+#include "springbok/params/controller_params.hpp"
+
+#include <cmath>
+
+namespace springbok::params {
+namespace {
+
+using config::Field;
+
+constexpr double kTiny = 1e-6;
+
+// A number or [x, y, z].
+bool triple(const Field& f, Vec3& out, double lo, double hi) { return f.vector<3>(out, lo, hi, true); }
+
+void read_template(const Field& f, wbc::TemplateParams& t) {
+  f.allow_only({"base", "ee"});
+  const Field base = f["base"], ee = f["ee"];
+  for (const Field* part : {&base, &ee}) {
+    if (!part->require()) continue;
+    part->allow_only({"mass", "damping", "stiffness"});
+    for (const char* key : {"mass", "damping", "stiffness"}) (*part)[key].require();
+  }
+  triple(base["mass"], t.mass_base_kg, kTiny, 1e5);
+  triple(base["damping"], t.damping_base_ns_per_m, 0.0, 1e6);
+  triple(base["stiffness"], t.stiffness_base_n_per_m, kTiny, 1e7);
+  triple(ee["mass"], t.mass_ee_kg, kTiny, 1e4);
+  triple(ee["damping"], t.damping_ee_ns_per_m, 0.0, 1e6);
+  triple(ee["stiffness"], t.stiffness_ee_n_per_m, kTiny, 1e7);
+}
+
+// `word` (e.g. auto, current) or what `read` takes; true when `read` took a value.
+template <class Read>
+bool word_or(const Field& f, const char* word, Read&& read) {
+  if (f.is_scalar() && f.node().Scalar() == word) return false;
+  return read();
+}
+
+}  // namespace
+
+wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
+  if (parts == WithControllerParts::yes) {
+    f.allow_only({"template", "base_orientation", "arm", "weights", "contact", "limits", "swing", "estimator", "gait"});
+  } else {
+    f.allow_only({"template", "base_orientation", "arm", "weights", "contact", "limits", "swing"});
+  }
+  wbc::WbcParams p;
+  if (f["template"].require()) read_template(f["template"], p.template_params);
+
+  const Field rot = f["base_orientation"];
+  rot.allow_only({"kp", "kd", "inertia"});
+  triple(rot["kp"], p.kr_nm_per_rad, 0.0, 1e5);
+  triple(rot["kd"], p.dr_nms_per_rad, 0.0, 1e4);
+  word_or(rot["inertia"], "auto", [&] { return triple(rot["inertia"], p.base_rot_inertia_kgm2, kTiny, 1e4); });
+
+  const Field arm = f["arm"];
+  arm.allow_only({"posture_kp", "posture_kd", "posture", "pinv_lambda0", "manipulability_threshold"});
+  arm["posture_kp"].number(p.posture_kp_per_s2, 0.0, 1e5);
+  arm["posture_kd"].number(p.posture_kd_per_s, 0.0, 1e4);
+  if (word_or(arm["posture"], "current",
+              [&] { return arm["posture"].vector<wbc::kArmDofs>(p.arm_posture_rad, -2 * M_PI, 2 * M_PI); })) {
+    p.pin_arm_posture = true;
+  }
+  arm["pinv_lambda0"].number(p.pinv_lambda0, 0.0, 10.0);
+  arm["manipulability_threshold"].number(p.manipulability_threshold, 0.0, 10.0);
+
+  const Field w = f["weights"];
+  w.allow_only({"base_force", "base_torque", "arm", "reg_acceleration", "reg_force", "reg_slack"});
+  w["base_force"].number(p.weight_base_force, kTiny, 1e6);
+  w["base_torque"].number(p.weight_base_torque, kTiny, 1e6);
+  w["arm"].number(p.weight_arm, kTiny, 1e8);
+  w["reg_acceleration"].number(p.reg_acceleration, 1e-12, 1e3);
+  w["reg_force"].number(p.reg_force, 1e-12, 1e3);
+  w["reg_slack"].number(p.reg_slack, 1e-6, 1e9);
+
+  const Field c = f["contact"];
+  c.allow_only({"friction_mu", "normal_force_min", "normal_force_max", "foot_radius"});
+  c["foot_radius"].number(p.foot_contact_radius_m, 0.0, 0.5);
+  c["friction_mu"].number(p.friction_mu, kTiny, 5.0);
+  c["normal_force_min"].number(p.normal_force_min_n, 0.0, 1e4);
+  c["normal_force_max"].number(p.normal_force_max_n, 0.0, 1e5);
+  if (p.normal_force_max_n <= p.normal_force_min_n) c["normal_force_max"].fail("must be above contact.normal_force_min");
+
+  const Field lim = f["limits"];
+  lim.allow_only({"joint_horizon_s", "torque_scale"});
+  lim["joint_horizon_s"].number(p.joint_limit_horizon_s, 1e-3, 10.0);
+  lim["torque_scale"].number(p.torque_limit_scale, kTiny, 1.0);
+
+  const Field sw = f["swing"];
+  sw.allow_only({"kp", "kd"});
+  triple(sw["kp"], p.swing_kp_per_s2, 0.0, 1e5);
+  triple(sw["kd"], p.swing_kd_per_s, 0.0, 1e4);
+  return p;
+}
+
+est::EstimatorParams read_estimator_params(const Field& f) {
+  f.allow_only({"velocity_gain", "position_gain", "foot_radius", "ground_height", "use_accelerometer"});
+  est::EstimatorParams p;
+  f["velocity_gain"].number(p.velocity_gain_per_s, 1e-3, 1e3);
+  f["position_gain"].number(p.position_gain_per_s, 0.0, 1e3);
+  f["foot_radius"].number(p.foot_radius_m, 0.0, 0.5);
+  f["ground_height"].number(p.ground_height_m, -1e3, 1e3);
+  f["use_accelerometer"].boolean(p.use_accelerometer);
+  return p;
+}
+
+gait::TrotParams read_trot_params(const Field& f) {
+  f.allow_only({"step_frequency", "duty_factor", "step_height", "velocity_gain", "touchdown_depth"});
+  gait::TrotParams p;
+  for (const gait::TrotField& field : gait::kTrotFields) f[field.key].number(p.*field.member, field.lo, field.hi);
+  return p;
+}
+
+}  // namespace springbok::params
