@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # tests/package/check_packages.sh BUILD_DIR SOURCE_DIR [ARCH [EMULATOR]] (ctest label
-# `package`: the `package` preset for amd64, the `aarch64` preset for arm64): makes the Debian packages with cpack, then checks them as an operator
+# `package`: the `package` preset for amd64, `package-arm64` for arm64): makes the Debian packages with cpack, then checks them as an operator
 # would meet them, without touching this machine's system: the file lists and control
 # data, and, unpacked into a scratch root (dpkg-deb -x), the systemd unit parses
 # (systemd-analyze verify --root) and the installed binary checks the installed config
