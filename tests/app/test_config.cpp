@@ -150,6 +150,14 @@ TEST(AppConfig, OutOfRangeIsNamed) {
   EXPECT_EQ(without_line(renamed.errors[1]), "safety.idle_damping_nms_per_rad: missing");
 }
 
+TEST(AppConfig, TheOperatorSocketPathFitsAUnixSocket) {
+  const std::string long_path = "/run/springbok/" + std::string(100, 'x') + ".sock";  // 120 bytes
+  EXPECT_EQ(only_error(load_config_text(with("socket: /run/springbok/operator.sock", "socket: " + long_path))),
+            "operator.socket: must be at most 107 bytes (a Unix socket path), got 120");
+  const std::string fits = "/run/" + std::string(102, 'y');  // 107 bytes
+  EXPECT_TRUE(load_config_text(with("socket: /run/springbok/operator.sock", "socket: " + fits)).ok);
+}
+
 TEST(AppConfig, NanAndInfinityAreRejected) {
   EXPECT_EQ(only_error(load_config_text(with("limit_margin_rad: 0.05", "limit_margin_rad: .nan"))),
             "safety.limit_margin_rad: must be a finite number, got '.nan'");

@@ -120,6 +120,16 @@ TEST(CanConfig, StructuralErrors) {
   EXPECT_NE(load_can_config_text("can: {layout: classic7, max_bus_load: 1.5}").error.find("can.max_bus_load"),
             std::string::npos);
   EXPECT_NE(load_can_config_file("/nonexistent/can.yaml").error.find("cannot open"), std::string::npos);
+  // Interface names as the kernel takes them (they also go to ip(8)): 1..15 printable
+  // characters without '/', ':' or white space.
+  for (const char* bad : {"'can;rm -rf '", "'can 1_'", "'../can'", "'vcan:'", "can_much_too_long"}) {
+    const std::string text = std::string("can: {layout: classic7, interface_prefix: ") + bad + "}";
+    EXPECT_NE(load_can_config_text(text).error.find("can.buses[0].interface: "), std::string::npos) << bad;
+  }
+  EXPECT_TRUE(load_can_config_text("can: {layout: classic7, interface_prefix: vcan_a-}").ok);
+  // A field applied to every drive (mit_ranges) and wrong is said once.
+  const std::string ranges = load_can_config_text("can: {layout: classic7, mit_ranges: {kp: [500, 0]}}").error;
+  EXPECT_EQ(ranges, "can.mit_ranges.kp: min must be below max (line 1)");
   for (const char* bad : {"-1", "500", ".nan"}) {
     const std::string text = std::string("can: {layout: classic7, mit_velocity_observer_rad_s: ") + bad + "}";
     EXPECT_NE(load_can_config_text(text).error.find("can.mit_velocity_observer_rad_s"), std::string::npos) << bad;

@@ -1,5 +1,7 @@
 #include "springbok/app/config.hpp"
 
+#include <sys/un.h>
+
 #include <initializer_list>
 #include <string_view>
 
@@ -117,7 +119,13 @@ AppConfig read_config(const Field& root) {
       c.gait.trot = params::read_trot_params(n["gait"]);
     }
   }
-  if (const Field n = root["operator"]; section(n, {"socket"})) need(n, "socket").text(c.operator_socket);
+  if (const Field n = root["operator"]; section(n, {"socket"}) && need(n, "socket").text(c.operator_socket)) {
+    constexpr std::size_t kMaxSocketPath = sizeof(sockaddr_un::sun_path) - 1;  // what bind(2) takes
+    if (c.operator_socket.size() > kMaxSocketPath) {
+      n["socket"].fail("must be at most " + std::to_string(kMaxSocketPath) + " bytes (a Unix socket path), got " +
+                       std::to_string(c.operator_socket.size()));
+    }
+  }
   if (const Field n = root["log"]; section(n, {"path"})) need(n, "path").text(c.log_path);
   return c;
 }

@@ -13,7 +13,13 @@ namespace springbok::config {
 void Errors::add(const std::string& path, int line, const std::string& what) {
   std::string s = (path.empty() ? std::string("(top level)") : path) + ": " + what;
   if (line > 0) s += " (line " + std::to_string(line) + ")";
-  lines_.push_back(std::move(s));
+  add_line(std::move(s));
+}
+
+void Errors::add_line(std::string line) {
+  // A field read more than once (e.g. can.mit_ranges, applied to every MIT drive) fails the
+  // same way each time: said once.
+  if (std::find(lines_.begin(), lines_.end(), line) == lines_.end()) lines_.push_back(std::move(line));
 }
 
 std::string Errors::joined() const {

@@ -143,6 +143,16 @@ std::string check_sensor(const CanConfig& c, const std::string& where, const std
   return {};
 }
 
+// The kernel's dev_valid_name(): not "." or "..", no '/', ':' or white space; printable
+// ASCII besides (the name also goes to ip(8) and the log).
+bool valid_interface_name(const std::string& name) {
+  if (name == "." || name == "..") return false;
+  for (const char ch : name) {
+    if (ch <= ' ' || ch > '~' || ch == '/' || ch == ':') return false;
+  }
+  return true;
+}
+
 std::string validate_sensors(const CanConfig& c) {
   std::vector<std::pair<std::string, std::uint32_t>> used;
   if (const ImuConfig& s = c.sensors.imu; s.enabled) {
@@ -207,6 +217,9 @@ std::string validate(const CanConfig& c) {
     if (b.name.empty()) return where + ".name: empty";
     if (!names.insert(b.name).second) return where + ".name: '" + b.name + "' used twice";
     if (b.interface.empty() || b.interface.size() >= 16) return where + ".interface: must be 1..15 characters";
+    if (!valid_interface_name(b.interface)) {
+      return where + ".interface: '" + b.interface + "' is not a Linux interface name (printable, no '/', ':' or space)";
+    }
     if (!interfaces.insert(b.interface).second) return where + ".interface: '" + b.interface + "' used twice";
     if (b.bitrate == 0) return where + ".bitrate: must be > 0";
     if (b.fd && b.data_bitrate < b.bitrate) return where + ".data_bitrate: an FD bus needs data_bitrate >= bitrate";

@@ -39,7 +39,8 @@ class Errors {
  public:
   // "<path>: <what> (line N)"; `line` 0 = unknown (an input that is not a parsed file).
   void add(const std::string& path, int line, const std::string& what);
-  void add_line(std::string line) { lines_.push_back(std::move(line)); }
+  // A line already collected is not added again (one field read twice fails once).
+  void add_line(std::string line);
   bool empty() const noexcept { return lines_.empty(); }
   std::size_t size() const noexcept { return lines_.size(); }
   const std::vector<std::string>& lines() const noexcept { return lines_; }
