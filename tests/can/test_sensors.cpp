@@ -278,18 +278,27 @@ struct SwayRun {
   std::vector<Eigen::Quaterniond> truth, track, spec;
   std::vector<std::array<std::int16_t, 3>> counts;
 };
-void sway(const Eigen::Quaterniond& mount, double rate_gain, SwayRun& run) {
-  constexpr double kDt_s = 0.001, kPi = 3.14159265358979323846;
+// `sway` 0: a trunk standing still, pitched 5 mrad, rolled 3 mrad, no yaw rate; `with_accel` false: the
+// track sees no accelerometer (the gyro and the wire alone). The accelerometer reads gravity.
+struct SwayOptions {
+  double rate_gain = 1.0;
+  double sway = 1.0;
+  bool with_accel = true;
+  int samples = 4000;
+};
+void sway(const Eigen::Quaterniond& mount, const SwayOptions& o, SwayRun& run) {
+  constexpr double kDt_s = 0.001, kPi = 3.14159265358979323846, kG_m_s2 = 9.80665;
   const ImuScales scales;
   const auto trunk = [&](double t) {
-    const double pitch = 0.004 * std::sin(2 * kPi * 0.7 * t) + 0.0008 * std::sin(2 * kPi * 9.0 * t);
-    const double roll = 0.003 * std::sin(2 * kPi * 1.3 * t + 0.4);
-    return Eigen::Quaterniond(Eigen::AngleAxisd(0.2 * t + 0.3, Eigen::Vector3d::UnitZ()) *
+    const double pitch = 0.005 * (1.0 - o.sway) +
+                         o.sway * (0.004 * std::sin(2 * kPi * 0.7 * t) + 0.0008 * std::sin(2 * kPi * 9.0 * t));
+    const double roll = 0.003 * (1.0 - o.sway) + o.sway * 0.003 * std::sin(2 * kPi * 1.3 * t + 0.4);
+    return Eigen::Quaterniond(Eigen::AngleAxisd(o.sway * 0.2 * t + 0.3, Eigen::Vector3d::UnitZ()) *
                               Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
                               Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()));
   };
   OrientationTrack track;
-  for (int k = 0; k < 4000; ++k) {
+  for (int k = 0; k < o.samples; ++k) {
     const double t = k * kDt_s;
     const Eigen::Quaterniond q = trunk(t) * mount;
     // The rate in the sensor frame, from the motion over the sample's interval.
@@ -297,8 +306,14 @@ void sway(const Eigen::Quaterniond& mount, double rate_gain, SwayRun& run) {
     if (delta.w() < 0.0) delta.coeffs() = -delta.coeffs();  // the short way round
     const Eigen::AngleAxisd step(delta);
     std::array<std::int16_t, 3> rate_counts{}, q_counts{};
-    ASSERT_FALSE(encode_scaled(rate_gain * step.angle() / kDt_s * step.axis(), scales.rate_rad_s_per_count,
-                              rate_counts));
+    ASSERT_FALSE(encode_scaled(o.rate_gain * step.angle() / kDt_s * step.axis(), scales.rate_rad_s_per_count,
+                               rate_counts));
+    // An IMU that only rotates feels gravity alone (sensor frame).
+    std::array<std::int16_t, 3> accel_counts{};
+    ASSERT_FALSE(encode_scaled(q.inverse() * Eigen::Vector3d(0.0, 0.0, kG_m_s2), scales.accel_m_s2_per_count,
+                               accel_counts));
+    const Eigen::Vector3d accel = o.with_accel ? decode_scaled(accel_counts, scales.accel_m_s2_per_count)
+                                               : Eigen::Vector3d::Constant(std::nan(""));
     ASSERT_FALSE(encode_quaternion(q, scales.orientation_per_count, q_counts));
     Eigen::Quaterniond spec;
     ASSERT_TRUE(decode_quaternion(q_counts, scales.orientation_per_count, spec));
@@ -306,7 +321,8 @@ void sway(const Eigen::Quaterniond& mount, double rate_gain, SwayRun& run) {
     run.spec.push_back(spec);
     run.counts.push_back(q_counts);
     run.track.push_back(track.update(q_counts, scales.orientation_per_count,
-                                     decode_scaled(rate_counts, scales.rate_rad_s_per_count), k == 0 ? 0.0 : kDt_s));
+                                     decode_scaled(rate_counts, scales.rate_rad_s_per_count), accel,
+                                     k == 0 ? 0.0 : kDt_s));
   }
 }
 double rms_angle(const std::vector<Eigen::Quaterniond>& a, const std::vector<Eigen::Quaterniond>& b) {
@@ -338,7 +354,7 @@ void expect_consistent_with_the_wire(const SwayRun& run) {
 
 TEST(OrientationTrack, UpsideDownImuIsReadToTheWiresResolutionWhereTheSpecsQwIsMradOff) {
   SwayRun run;
-  sway(kUpsideDown, 1.0, run);
+  sway(kUpsideDown, SwayOptions{}, run);
   ASSERT_EQ(run.track.size(), 4000u);
   // After the first second (the set has narrowed from the first sample's interval).
   const std::vector<Eigen::Quaterniond> truth(run.truth.begin() + 1000, run.truth.end()),
@@ -360,7 +376,7 @@ TEST(OrientationTrack, UpsideDownImuIsReadToTheWiresResolutionWhereTheSpecsQwIsM
 
 TEST(OrientationTrack, UprightImuReadsAsTheSpecsDecoding) {
   SwayRun run;
-  sway(Eigen::Quaterniond::Identity(), 1.0, run);
+  sway(Eigen::Quaterniond::Identity(), SwayOptions{}, run);
   ASSERT_EQ(run.track.size(), 4000u);
   EXPECT_LT(max_angle(run.track, run.truth), 1e-4);
   EXPECT_LT(max_angle(run.track, run.spec), 6e-5);  // q_w ~ 1: within a count of CAN.md 6.1's decoding
@@ -370,10 +386,40 @@ TEST(OrientationTrack, AWrongRateNeverLeavesWhatTheWireAllows) {
   // The gyro reads 3x the motion: the prediction leaves the consistent set, the set restarts
   // from the sample; the estimate stays one that the counts allow.
   SwayRun run;
-  sway(kUpsideDown, 3.0, run);
+  SwayOptions o;
+  o.rate_gain = 3.0;
+  sway(kUpsideDown, o, run);
   ASSERT_EQ(run.track.size(), 4000u);
   expect_consistent_with_the_wire(run);
   EXPECT_LT(max_angle(run.track, run.truth), max_angle(run.spec, run.truth));
+}
+
+TEST(OrientationTrack, GravityFindsQwOfATrunkStandingStillWhereTheGyroCannot) {
+  // Still and upside down: no motion narrows the set of q_w the wire allows (one sample's, ~0.007
+  // wide) and the gyro reads zero, so without the accelerometer the track keeps the fresh
+  // start's error (CAN.md 6.1's decoding); with it the error decays with kAccelTimeConstant_s
+  // down to what the accelerometer's count (2e-4 g) and the wire resolve.
+  SwayOptions still;
+  still.sway = 0.0;
+  still.samples = 30000;  // 3 time constants
+  SwayRun gyro_only, with_gravity;
+  still.with_accel = false;
+  sway(kUpsideDown, still, gyro_only);
+  still.with_accel = true;
+  sway(kUpsideDown, still, with_gravity);
+  ASSERT_EQ(with_gravity.track.size(), 30000u);
+  const auto last_second = [](const std::vector<Eigen::Quaterniond>& v) {
+    return std::vector<Eigen::Quaterniond>(v.end() - 1000, v.end());
+  };
+  const double spec = rms_angle(last_second(with_gravity.spec), last_second(with_gravity.truth));
+  const double drifted = rms_angle(last_second(gyro_only.track), last_second(gyro_only.truth));
+  const double held = rms_angle(last_second(with_gravity.track), last_second(with_gravity.truth));
+  std::printf("still upside-down IMU after 30 s: CAN.md 6.1's q_w %.2e rad, gyro and wire alone %.2e, with gravity %.2e\n",
+              spec, drifted, held);
+  EXPECT_GT(drifted, 0.5 * spec);
+  // A first-order decay over 3 time constants, plus the accelerometer's resolution.
+  EXPECT_LT(held, std::exp(-30.0 / OrientationTrack::kAccelTimeConstant_s) * spec + 2e-4);
+  expect_consistent_with_the_wire(with_gravity);
 }
 
 TEST_F(Imu, TheFirstSampleAndOneAfterAGapAreDecodedAsTheSpecSays) {

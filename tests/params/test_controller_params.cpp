@@ -77,11 +77,28 @@ TEST(WbcConfig, BadFieldsAreNamed) {
   EXPECT_EQ(error_of(std::string(kGood) + "contact: {friction_mu: 0.5}\n"), "wbc.contact: duplicate key (line 9)");
 }
 
+TEST(WbcConfig, JointFrictionIsOneNumberOrOnePerJoint) {
+  EXPECT_EQ(load(kGood).joint_viscous_friction_nms_per_rad, springbok::VecNj::Zero()) << "default: none";
+  EXPECT_EQ(load(std::string(kGood) + "joint_friction: {viscous: 0.5}\n").joint_viscous_friction_nms_per_rad,
+            springbok::VecNj::Constant(0.5));
+  const springbok::VecNj per_joint = springbok::VecNj::LinSpaced(0.0, 1.8);
+  std::string list = "joint_friction: {viscous: [";
+  for (int j = 0; j < springbok::kNj; ++j) list += (j > 0 ? ", " : "") + std::to_string(per_joint[j]);
+  EXPECT_LT((load(std::string(kGood) + list + "]}\n").joint_viscous_friction_nms_per_rad - per_joint).norm(), 1e-12);
+  EXPECT_EQ(error_of(std::string(kGood) + "joint_friction: {viscous: [0.5, 0.5]}\n"),
+            "wbc.joint_friction.viscous: must be a list of 19, got 2 elements (line 9)");
+  EXPECT_EQ(error_of(std::string(kGood) + "joint_friction: {viscous: -0.1}\n"),
+            "wbc.joint_friction.viscous: must be in [0, 100], got -0.1 (line 9)");
+  EXPECT_NE(error_of(std::string(kGood) + "joint_friction: {coulomb: 1}\n").find("wbc.joint_friction.coulomb: unknown key"),
+            std::string::npos);
+}
+
 TEST(WbcConfig, EveryProblemOfTheMapIsReported) {
   const std::string text = "template:\n  base: {mass: 0, damping: 610, stiffness: 1000}\n  ee: {mass: 4, damping: 90}\n"
                            "weights: {arm: lots}\nswing: {kp: 1}\ncolour: red\n";
   EXPECT_EQ(error_of(text),
-            "wbc.colour: unknown key (known: template, base_orientation, arm, weights, contact, limits, swing) (line 6)\n"
+            "wbc.colour: unknown key (known: template, base_orientation, arm, weights, contact, limits, swing, "
+            "joint_friction) (line 6)\n"
             "wbc.template.ee.stiffness: missing (line 3)\n"
             "wbc.template.base.mass: must be in [1e-06, 100000], got 0 (line 2)\n"
             "wbc.weights.arm: must be a number, got 'lots' (line 4)");

@@ -110,6 +110,42 @@ TEST_F(Fixture, PushOnTheHandObeysNewtonForTheWholeRobot) {
   for (int j = 0; j < kNj; ++j) EXPECT_LE(std::abs(out.tau_nm[j]), robot::kJoints[j].limits.effort_nm);
 }
 
+TEST_F(Fixture, JointFrictionIsCompensatedInTheTorquesAndTheirLimits) {
+  // Moving joints with a push on the hand: with friction b the same motion and forces, each
+  // torque b qd higher (the equations of motion of a robot with that friction: M udot + h + B qd
+  // = S^T tau + J^T F).
+  in.state.v.tail<kNj>() = VecNj::LinSpaced(-0.4, 0.5);
+  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(30.0, 0.0, 10.0);
+  WbcParams with_friction = params;
+  with_friction.joint_viscous_friction_nms_per_rad = VecNj::LinSpaced(0.2, 2.0);
+  WholeBodyController rubbing(with_friction);
+  rubbing.set_reference(in.state.q, *data);
+  const wbc::WbcOutput plain = tick();
+  const wbc::WbcOutput& out = tick(rubbing);
+  ASSERT_EQ(plain.qp_status, qp::Status::optimal);
+  ASSERT_EQ(out.qp_status, qp::Status::optimal);
+  EXPECT_LT((out.udot - plain.udot).cwiseAbs().maxCoeff(), 1e-7);
+  const VecNj friction_nm = with_friction.joint_viscous_friction_nms_per_rad.cwiseProduct(in.state.v.tail<kNj>());
+  EXPECT_LT((out.tau_nm - plain.tau_nm - friction_nm).cwiseAbs().maxCoeff(), 1e-6);
+  // A torque limit binds with the friction counted: an elbow whose friction alone is 5 N m past
+  // its limit: the torque stays within the limit, the motion gives way (the elbow decelerates).
+  constexpr int kElbow = kFirstArmJoint + 3;
+  const double limit_nm = robot::kJoints[kElbow].limits.effort_nm;
+  in.state.v[6 + kElbow] = 1.0;
+  with_friction.joint_viscous_friction_nms_per_rad[kElbow] = limit_nm + 5.0;
+  WholeBodyController stuck(with_friction);
+  stuck.set_reference(in.state.q, *data);
+  const wbc::WbcOutput& limited = tick(stuck);
+  ASSERT_EQ(limited.qp_status, qp::Status::optimal);
+  EXPECT_LE(std::abs(limited.tau_nm[kElbow]), limit_nm + 1e-6);
+  EXPECT_LT(limited.udot[6 + kElbow], -1.0);
+  Vec6 wrench;
+  wrench << data->frames[kWristFtFrame].rotation * in.wrist_force_n, Vec3::Zero();
+  VecNv residual = dynamics_residual(limited, wrench);
+  residual.tail<kNj>() += with_friction.joint_viscous_friction_nms_per_rad.cwiseProduct(in.state.v.tail<kNj>());
+  EXPECT_LT(residual.cwiseAbs().maxCoeff(), 1e-6) << "the motion obeys the dynamics with friction";
+}
+
 TEST_F(Fixture, SwingFootCarriesNoForceAndTracksItsTarget) {
   in.state.stance = {true, false, false, true};  // trot pair LF + RH on the ground
   for (int f : {1, 2}) {

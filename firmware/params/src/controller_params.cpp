@@ -39,9 +39,10 @@ bool word_or(const Field& f, const char* word, Read&& read) {
 
 wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
   if (parts == WithControllerParts::yes) {
-    f.allow_only({"template", "base_orientation", "arm", "weights", "contact", "limits", "swing", "estimator", "gait"});
+    f.allow_only({"template", "base_orientation", "arm", "weights", "contact", "limits", "swing", "joint_friction",
+                  "estimator", "gait"});
   } else {
-    f.allow_only({"template", "base_orientation", "arm", "weights", "contact", "limits", "swing"});
+    f.allow_only({"template", "base_orientation", "arm", "weights", "contact", "limits", "swing", "joint_friction"});
   }
   wbc::WbcParams p;
   if (f["template"].require()) read_template(f["template"], p.template_params);
@@ -89,6 +90,11 @@ wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
   sw.allow_only({"kp", "kd"});
   triple(sw["kp"], p.swing_kp_per_s2, 0.0, 1e5);
   triple(sw["kd"], p.swing_kd_per_s, 0.0, 1e4);
+
+  // One number for every joint or one per joint (springbok::robot::kJoints' order).
+  const Field fr = f["joint_friction"];
+  fr.allow_only({"viscous"});
+  fr["viscous"].vector<kNj>(p.joint_viscous_friction_nms_per_rad, 0.0, 100.0, true);
   return p;
 }
 

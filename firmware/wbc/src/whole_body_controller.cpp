@@ -210,8 +210,8 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
     }
     ++row;
   }
-  // Torque limits through the actuated rows of eq. 1:
-  //   tau = M_j udot + h_j - J_st,j^T F_g - J_e,j^T W_e  in [-tau_max, tau_max].
+  // Torque limits through the actuated rows of eq. 1 (b_j qd_j: the compensated friction):
+  //   tau = M_j udot + h_j + b_j qd_j - J_st,j^T F_g - J_e,j^T W_e  in [-tau_max, tau_max].
   const VecNj external_j = d.J_ee.rightCols<kNj>().transpose() * wrench_ee_world_;
   for (int j = 0; j < kNj; ++j) {
     const double tau_max = params_.torque_limit_scale * robot::kJoints[j].limits.effort_nm;
@@ -219,8 +219,9 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
     for (int f = 0; f < kFeet; ++f) {
       if (in.state.stance[f]) ain.block<1, 3>(row, foot_var(f)) = -d.J_feet[f].col(6 + j).transpose();
     }
-    lb[row] = -tau_max - d.nle[6 + j] + external_j[j];
-    ub[row] = tau_max - d.nle[6 + j] + external_j[j];
+    const double known_nm = d.nle[6 + j] + joint_friction_nm_[j] - external_j[j];
+    lb[row] = -tau_max - known_nm;
+    ub[row] = tau_max - known_nm;
     ++row;
   }
   const double mu = params_.friction_mu / std::sqrt(2.0);  // pyramid inscribed in the cone
@@ -279,11 +280,12 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
   p.resize(kQpVars, meq, row);
 }
 
-// Eq. 19: tau = M_act udot + h_act - J_st,act^T F_g - J_e,act^T W_e.
+// Eq. 19: tau = M_act udot + h_act - J_st,act^T F_g - J_e,act^T W_e, plus the joints' friction b qd.
 void WholeBodyController::torques_from_solution(const WbcInput& in, const dyn::Data& d) noexcept {
   const Eigen::Map<const Vec<kQpVars>> x(result_->x.data());
   out_.udot = x.head<kNv>();
   VecNv tau_full = d.M * out_.udot + d.nle - d.J_ee.transpose() * wrench_ee_world_;
+  tau_full.tail<kNj>() += joint_friction_nm_;
   for (int f = 0; f < kFeet; ++f) {
     if (in.state.stance[f]) {
       out_.foot_force_n[f] = x.segment<3>(foot_var(f));
@@ -319,6 +321,7 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in, dyn::Data& d) noe
   wrench_ee_world_.head<3>() = ee_rot * in.wrist_force_n;
   wrench_ee_world_.tail<3>() = ee_rot * in.wrist_torque_nm;
   out_.external_force_world_n = wrench_ee_world_.head<3>();
+  joint_friction_nm_ = params_.joint_viscous_friction_nms_per_rad.cwiseProduct(in.state.v.tail<kNj>());
 
   Vec6 base_acc_desired;
   base_task(in, d, base_acc_desired);

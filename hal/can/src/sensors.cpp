@@ -101,8 +101,34 @@ bool decode_quaternion(const std::array<std::int16_t, 3>& xyz, double per_count,
   return true;
 }
 
+namespace {
+
+// The q_w for which the quaternion (q_w, v) sees the specific force `a` (sensor frame) as
+// gravity: u(w) = R^T e_z = (w^2 - |v|^2) e_z + 2 v_z v - 2 w (v x e_z) fitted to a / |a| by two
+// Gauss-Newton steps from `w`. False where `a` is not gravity alone (|a| not within 10 % of g)
+// or q_w hardly moves u (|du/dw| = 2 |(v_x, v_y, w)| < 0.5: an upright sensor, whose q_w the
+// wire gives exactly anyway).
+bool q_w_from_gravity(const Eigen::Vector3d& v, const Eigen::Vector3d& a, double& w) noexcept {
+  constexpr double kG_m_s2 = 9.80665;
+  const double n = a.norm();
+  if (!(std::isfinite(n) && std::abs(n - kG_m_s2) < 0.1 * kG_m_s2)) return false;
+  const Eigen::Vector3d m = a / n;
+  const Eigen::Vector3d v_cross_z(v.y(), -v.x(), 0.0);
+  for (int it = 0; it < 2; ++it) {
+    const Eigen::Vector3d u = (w * w - v.squaredNorm()) * Eigen::Vector3d::UnitZ() + 2.0 * v.z() * v - 2.0 * w * v_cross_z;
+    const Eigen::Vector3d du = 2.0 * w * Eigen::Vector3d::UnitZ() - 2.0 * v_cross_z;
+    const double info = du.squaredNorm();
+    if (!(info > 0.25)) return false;
+    w -= du.dot(u - m) / info;
+  }
+  return std::isfinite(w);
+}
+
+}  // namespace
+
 Eigen::Quaterniond OrientationTrack::update(const std::array<std::int16_t, 3>& xyz, double per_count,
-                                            const Eigen::Vector3d& rate_rad_s, double dt_s) noexcept {
+                                            const Eigen::Vector3d& rate_rad_s, const Eigen::Vector3d& accel_m_s2,
+                                            double dt_s) noexcept {
   Eigen::Vector3d v = decode_scaled(xyz, per_count);
   // |q_xyz| within the counts +- half a count each.
   const double h = 0.5 * per_count;
@@ -137,7 +163,12 @@ Eigen::Quaterniond OrientationTrack::update(const std::array<std::int16_t, 3>& x
       lo_ = m_lo;
       hi_ = m_hi;
     }
-    w = std::clamp(q_.w() + dw, lo_, hi_);
+    // Gravity pulls the gyro's prediction, slowly: a trunk accelerating forwards looks pitched.
+    double predicted = q_.w() + dw;
+    if (double from_gravity = predicted; q_w_from_gravity(v, accel_m_s2, from_gravity)) {
+      predicted += std::min(1.0, dt_s / kAccelTimeConstant_s) * (from_gravity - predicted);
+    }
+    w = std::clamp(predicted, lo_, hi_);
   }
   started_ = true;
   rate_rad_s_ = rate_rad_s;
@@ -224,7 +255,8 @@ SensorEvent ImuAssembler::push(const Frame& f, std::uint64_t tick) noexcept {
     track_counter_ = s.counter;
     track_tick_ = tick;
     orientation_ = track_.update(s.fields[imu_frame::orientation], cfg_.scales.orientation_per_count,
-                                 decode_scaled(s.fields[imu_frame::rate], cfg_.scales.rate_rad_s_per_count), dt_s);
+                                 decode_scaled(s.fields[imu_frame::rate], cfg_.scales.rate_rad_s_per_count),
+                                 decode_scaled(s.fields[imu_frame::accel], cfg_.scales.accel_m_s2_per_count), dt_s);
   }
   return e;
 }

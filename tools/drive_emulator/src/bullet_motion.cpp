@@ -39,9 +39,7 @@ BulletMotion::BulletMotion(std::FILE* trace, int trace_every, const BulletOption
   const double settle_s = options.settle_s;
   constexpr double kDt_s = 0.001;
   for (int j = 0; j < kNj; ++j) {
-    const auto& in = robot::kJoints[static_cast<std::size_t>(j)].inertia;
-    const double axis_inertia_kgm2 =
-        in.inertia_com_kgm2[2] + in.mass_kg * (in.com_m[0] * in.com_m[0] + in.com_m[1] * in.com_m[1]);
+    const double axis_inertia_kgm2 = joint_own_axis_inertia_kgm2(j);
     kd_cap_[static_cast<std::size_t>(j)] = axis_inertia_kgm2 / kDt_s;
     kp_cap_[static_cast<std::size_t>(j)] = axis_inertia_kgm2 / (4.0 * kDt_s * kDt_s);
   }

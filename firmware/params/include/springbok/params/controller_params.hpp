@@ -18,6 +18,7 @@
 //             foot_radius: 0.02175}     # foot Jacobians at the ground contact point (0: centre)
 //   limits: {joint_horizon_s: 0.05, torque_scale: 1.0}
 //   swing: {kp: 400, kd: 40}
+//   joint_friction: {viscous: 0}    # N m s/rad, compensated: one number or 19 (kJoints' order)
 //
 // (No fallback section: what a failed tick commands is the safety supervisor's.)
 // Everything but `template` is optional (defaults of WbcParams). Masses and

@@ -103,6 +103,12 @@ struct WbcParams {
   // Swing foot Cartesian PD (relative to the base, base axes).
   Vec3 swing_kp_per_s2{400.0, 400.0, 400.0};
   Vec3 swing_kd_per_s{40.0, 40.0, 40.0};
+
+  // The joints' viscous friction b [N m s/rad] (gearbox, seals; identified on the robot),
+  // compensated: the torques (eq. 19) and their limits carry b qd besides M udot + h. 0: none
+  // (the simulated robot has none). Unmodelled, it renders as extra damping at the hand: the
+  // HIL case's 0.5 N m s/rad per joint left the hand 8 % off its template.
+  VecNj joint_viscous_friction_nms_per_rad = VecNj::Zero();
 };
 
 // Desired swing-foot motion, foot position relative to the trunk origin, trunk axes.
@@ -187,6 +193,7 @@ class WholeBodyController {
   Stance last_stance_ = kAllFeet;
   bool have_warm_start_ = false;
   Vec6 wrench_ee_world_ = Vec6::Zero();
+  VecNj joint_friction_nm_ = VecNj::Zero();  // b qd this tick
   WbcOutput out_;
   std::uint64_t qp_failures_ = 0;
 };

@@ -127,18 +127,30 @@ bool encode_quaternion(const Eigen::Quaterniond& q, double per_count, std::array
 // interval when they disagree). The estimate is the gyro's prediction clamped into that set,
 // so it moves smoothly and never leaves what the wire allows; a fresh start takes CAN.md 6.1's
 // q_w = sqrt(max(0, 1 - |q_xyz|^2)).
+// The gyro misses what turns slower than its count (1 mrad/s) and a still trunk never narrows
+// the set: the track then sits where it was, mrad from the truth (the HIL push: the base 1.2
+// mm, 4 %, past its static displacement). The accelerometer sees gravity's direction, which
+// pins q_w where the wire does not (|d(R^T e_z)/dq_w| ~ 2 for the upside-down IMU): the
+// prediction is pulled towards the q_w that fits it, slowly (kAccelTimeConstant_s), and only
+// while |a| is within 10 % of g (not an impact, not a stride's push-off).
 class OrientationTrack {
  public:
   // Rate uncertainty (rad/s) the set widens by: rounding of the rate plus a gyro's bias.
   static constexpr double kRateUncertainty_rad_s = 0.01;
+  // How slowly gravity's direction corrects the gyro's q_w [s]. A trunk that accelerates
+  // forwards looks pitched to an accelerometer (the HIL push: 0.33 m/s^2 at the step); at
+  // 10 s that costs < 0.4 mrad, at 5 s the push's base NRMSE rose 1.7 -> 2.9 % (the twin).
+  static constexpr double kAccelTimeConstant_s = 10.0;
 
   void reset() noexcept { started_ = false; }
   // One accepted sample: its q_xyz counts, its angular rate (sensor frame) and the time since
   // the previous accepted sample (<= 0 or not finite: start afresh from this sample).
+  // `accel_m_s2`: the sample's specific force, sensor frame (not finite: gyro and wire only).
   // Returns the orientation, q_w >= 0. The counts must have passed decode_quaternion.
   // rt: no alloc, no block
   Eigen::Quaterniond update(const std::array<std::int16_t, 3>& xyz, double per_count,
-                            const Eigen::Vector3d& rate_rad_s, double dt_s) noexcept;
+                            const Eigen::Vector3d& rate_rad_s, const Eigen::Vector3d& accel_m_s2,
+                            double dt_s) noexcept;
 
  private:
   bool started_ = false;
