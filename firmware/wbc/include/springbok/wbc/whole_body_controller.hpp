@@ -104,10 +104,12 @@ struct WbcParams {
   Vec3 swing_kp_per_s2{400.0, 400.0, 400.0};
   Vec3 swing_kd_per_s{40.0, 40.0, 40.0};
 
-  // The joints' viscous friction b [N m s/rad] (gearbox, seals; identified on the robot),
-  // compensated: the torques (eq. 19) and their limits carry b qd besides M udot + h. 0: none
-  // (the simulated robot has none). Unmodelled, it renders as extra damping at the hand: the
-  // HIL case's 0.5 N m s/rad per joint left the hand 8 % off its template.
+  // The joints' viscous friction c [N m s/rad] to compensate: the torques (eq. 19) and their
+  // limits carry c qd besides M udot + h. 0: none (the simulated robot has none). Set it below
+  // the friction identified on the robot: with c < b a joint stays passive whatever the delay
+  // from measurement to torque (I s + b - c e^(-s d) has no root with Re s >= 0). Unmodelled,
+  // friction renders as extra damping at the hand: the HIL case's emulated 0.5 N m s/rad per
+  // joint left the hand 8 % off its template.
   VecNj joint_viscous_friction_nms_per_rad = VecNj::Zero();
 };
 
