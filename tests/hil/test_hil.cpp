@@ -694,10 +694,14 @@ double enter_control(Firmware& fw, const std::string& truth, double wall_per_sim
   return truth_time(truth);
 }
 
+// The host's damping: 'd', or 'r' where every joint is at rest (-D qd is then within a torque
+// quantum of zero: the emulator's CommandClass::rest).
+bool damps(char command) { return command == 'd' || command == 'r'; }
+
 // The first step from `from_step` on whose drive command is damping, 0 if none.
 unsigned long long first_damping_step(const std::vector<TruthSample>& samples, unsigned long long from_step) {
   for (const TruthSample& t : samples) {
-    if (t.step >= from_step && t.command == 'd') return t.step;
+    if (t.step >= from_step && damps(t.command)) return t.step;
   }
   return 0;
 }
@@ -888,7 +892,7 @@ void expect_sensor_loss_damps(const std::string& fault_yaml, unsigned long long 
   for (const TruthSample& t : samples) {
     control_steps += t.command == 't' ? 1 : 0;
     if (t.command == 't') after_control = 0;
-    if (t.command == 'd' && after_control == 0 && control_steps > 0) after_control = t.step;
+    if (damps(t.command) && after_control == 0 && control_steps > 0) after_control = t.step;
   }
   std::printf("HIL wbc: %s from step %llu: damping at step %llu (stale_ticks %u); %llu torque-controlled steps before\n",
               fault_name.c_str(), fault_at, after_control, stale_ticks, control_steps);
@@ -945,7 +949,7 @@ TEST(Hil, DeployedWholeBodyControllerStartsDampedAndRejectsCorruptQuaternions) {
     if (first_actuating == 'o') first_actuating = t.command;
     zero_torque_steps += t.command == 'z' ? 1 : 0;
     torque_steps += t.command == 't' ? 1 : 0;
-    if (damped_at == 0 && torque_steps > 0 && t.command == 'd') damped_at = t.step;
+    if (damped_at == 0 && torque_steps > 0 && damps(t.command)) damped_at = t.step;
   }
   std::printf("HIL wbc: first actuating command '%c', zero-torque steps %d; %llu torque-controlled steps; corrupt "
               "quaternions: burst of %llu at step %llu, streak from step %llu: damping at step %llu (stale_ticks %u)\n",

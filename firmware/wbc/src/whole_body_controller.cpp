@@ -210,8 +210,8 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
     }
     ++row;
   }
-  // Torque limits through the actuated rows of eq. 1 (b_j qd_j: the compensated friction):
-  //   tau = M_j udot + h_j + b_j qd_j - J_st,j^T F_g - J_e,j^T W_e  in [-tau_max, tau_max].
+  // Torque limits through the actuated rows of eq. 1 (c_j qd_j: the compensated friction):
+  //   tau = M_j udot + h_j + c_j qd_j - J_st,j^T F_g - J_e,j^T W_e  in [-tau_max, tau_max].
   const VecNj external_j = d.J_ee.rightCols<kNj>().transpose() * wrench_ee_world_;
   for (int j = 0; j < kNj; ++j) {
     const double tau_max = params_.torque_limit_scale * robot::kJoints[j].limits.effort_nm;
@@ -280,7 +280,7 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
   p.resize(kQpVars, meq, row);
 }
 
-// Eq. 19: tau = M_act udot + h_act - J_st,act^T F_g - J_e,act^T W_e, plus the joints' friction b qd.
+// Eq. 19: tau = M_act udot + h_act - J_st,act^T F_g - J_e,act^T W_e, plus the compensated friction c qd.
 void WholeBodyController::torques_from_solution(const WbcInput& in, const dyn::Data& d) noexcept {
   const Eigen::Map<const Vec<kQpVars>> x(result_->x.data());
   out_.udot = x.head<kNv>();

@@ -195,7 +195,7 @@ class WholeBodyController {
   Stance last_stance_ = kAllFeet;
   bool have_warm_start_ = false;
   Vec6 wrench_ee_world_ = Vec6::Zero();
-  VecNj joint_friction_nm_ = VecNj::Zero();  // b qd this tick
+  VecNj joint_friction_nm_ = VecNj::Zero();  // c qd this tick
   WbcOutput out_;
   std::uint64_t qp_failures_ = 0;
 };
