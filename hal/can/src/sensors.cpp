@@ -172,8 +172,10 @@ Eigen::Quaterniond OrientationTrack::update(const std::array<std::int16_t, 3>& x
   }
   started_ = true;
   rate_rad_s_ = rate_rad_s;
+  // q_xyz as sent, not normalised (as decode_quaternion): where q_w ~ 0 and the rounded |q_xyz|
+  // exceeds 1, normalising would move them by more than half a count (the fuzzer found it).
+  // Its users normalise (the estimator's trunk_rotation).
   q_ = Eigen::Quaterniond(w, v.x(), v.y(), v.z());
-  q_.normalize();
   return q_.w() < 0.0 ? Eigen::Quaterniond(-q_.w(), -q_.x(), -q_.y(), -q_.z()) : q_;
 }
 

@@ -146,7 +146,8 @@ class OrientationTrack {
   // One accepted sample: its q_xyz counts, its angular rate (sensor frame) and the time since
   // the previous accepted sample (<= 0 or not finite: start afresh from this sample).
   // `accel_m_s2`: the sample's specific force, sensor frame (not finite: gyro and wire only).
-  // Returns the orientation, q_w >= 0. The counts must have passed decode_quaternion.
+  // Returns the orientation, q_w >= 0, q_xyz as sent (not normalised, as decode_quaternion).
+  // The counts must have passed decode_quaternion.
   // rt: no alloc, no block
   Eigen::Quaterniond update(const std::array<std::int16_t, 3>& xyz, double per_count,
                             const Eigen::Vector3d& rate_rad_s, const Eigen::Vector3d& accel_m_s2,
