@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "springbok/model/model.hpp"  // kGravity_m_s2
+
 namespace springbok::can {
 
 namespace {
@@ -109,9 +111,8 @@ namespace {
 // or q_w hardly moves u (|du/dw| = 2 |(v_x, v_y, w)| < 0.5: an upright sensor, whose q_w the
 // wire gives exactly anyway).
 bool q_w_from_gravity(const Eigen::Vector3d& v, const Eigen::Vector3d& a, double& w) noexcept {
-  constexpr double kG_m_s2 = 9.80665;
   const double n = a.norm();
-  if (!(std::isfinite(n) && std::abs(n - kG_m_s2) < 0.1 * kG_m_s2)) return false;
+  if (!(std::isfinite(n) && std::abs(n - kGravity_m_s2) < 0.1 * kGravity_m_s2)) return false;
   const Eigen::Vector3d m = a / n;
   const Eigen::Vector3d v_cross_z(v.y(), -v.x(), 0.0);
   for (int it = 0; it < 2; ++it) {
