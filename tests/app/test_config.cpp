@@ -206,6 +206,7 @@ TEST(DriveGains, GainsTheDrivesCannotRenderAreNamedWithTheRange) {
   c.stand_gains.kd_nms_per_rad.head<kFirstArmJoint>().setConstant(5.0);
   c.control_gains = c.stand_gains;
   c.safety.idle_damping_nms_per_rad.head<kFirstArmJoint>().setConstant(5.0);
+  c.safety.damping_nms_per_rad.head<kFirstArmJoint>().setConstant(5.0);
   EXPECT_TRUE(check_drive_gains(c, mini_cheetah_legs()).empty());
   // The arm's gains are rendered on the host (CiA 402): any value fits.
   c.stand_gains.kp_nm_per_rad.tail<kArmJoints>().setConstant(900.0);
@@ -237,6 +238,13 @@ TEST(DriveGains, GainsTheDrivesCannotRenderAreNamedWithTheRange) {
   const std::vector<std::string> shutdown = check_drive_gains(c, one_narrow);
   ASSERT_EQ(shutdown.size(), 2u);
   EXPECT_EQ(shutdown[1].substr(0, 70), "can.timing.damping_kd_nms_per_rad: 7 is outside the kd range [0, 5.5] ");
+  // The fault damping is the drives' kd too (CAN.md 4.4).
+  c.safety.idle_damping_nms_per_rad.head<kFirstArmJoint>().setConstant(5.0);
+  c.safety.damping_nms_per_rad.head<kFirstArmJoint>().setConstant(10.0);
+  const std::vector<std::string> fault_damping = check_drive_gains(c, one_narrow);
+  ASSERT_EQ(fault_damping.size(), 2u);
+  EXPECT_EQ(fault_damping[0].substr(0, 102),
+            "safety.damping_nms_per_rad.legs: 10 is outside the kd range [0, 5.5] of lh_hfe_joint's MIT drive (id 8");
 }
 
 }  // namespace

@@ -694,9 +694,8 @@ double enter_control(Firmware& fw, const std::string& truth, double wall_per_sim
   return truth_time(truth);
 }
 
-// The host's damping: 'd', or 'r' where every joint is at rest (-D qd is then within a torque
-// quantum of zero: the emulator's CommandClass::rest).
-bool damps(char command) { return command == 'd' || command == 'r'; }
+// The host's damping (CAN.md 4.4: kd = D in the drives, no target).
+bool damps(char command) { return command == 'd'; }
 
 // The first step from `from_step` on whose drive command is damping, 0 if none.
 unsigned long long first_damping_step(const std::vector<TruthSample>& samples, unsigned long long from_step) {

@@ -60,10 +60,21 @@ struct SupervisorTest : ::testing::Test {
     for (int j = 0; j < kNj; ++j) {
       const double qd = meas.qd_rad_s[j];
       const double lim = sup.limits().effort_nm[j];
-      const double want = std::isfinite(qd) ? std::clamp(-config.damping_nms_per_rad[j] * qd, -lim, lim) : 0.0;
-      EXPECT_EQ(cmd.tau_ff_nm[j], want) << j;
+      // CAN.md 4.4: the drive damps (kd = D, no target); the torque it applies at the measured
+      // speed is -D qd within the limits.
       EXPECT_EQ(cmd.kp_nm_per_rad[j], 0.0);
-      EXPECT_EQ(cmd.kd_nms_per_rad[j], 0.0);
+      EXPECT_EQ(cmd.kd_nms_per_rad[j], config.damping_nms_per_rad[j]) << j;
+      EXPECT_EQ(cmd.q_des_rad[j], 0.0);
+      EXPECT_EQ(cmd.qd_des_rad_s[j], 0.0);
+      if (!std::isfinite(qd)) {
+        EXPECT_EQ(cmd.tau_ff_nm[j], 0.0) << j;
+        continue;
+      }
+      const double want = std::clamp(-config.damping_nms_per_rad[j] * qd, -lim, lim);
+      EXPECT_NEAR(hal::drive_torque_nm(cmd, j, meas.q_rad[j], qd), want, 1e-12 * (1.0 + std::abs(want))) << j;
+      if (std::abs(want) < lim) {
+        EXPECT_EQ(cmd.tau_ff_nm[j], 0.0) << j;
+      }
     }
   }
   hal::JointCommands proposal = [] {
@@ -292,8 +303,8 @@ TEST_F(SupervisorTest, NonFiniteMeasurementTrips) {
   tick();
   EXPECT_EQ(sup.faults(), fault::kNonFinite);
   expect_damping();
-  EXPECT_EQ(cmd.tau_ff_nm[7], 0.0);
-  EXPECT_EQ(cmd.tau_ff_nm[6], -10.0);
+  EXPECT_EQ(cmd.tau_ff_nm[7], 0.0);  // the drive damps with its own velocity
+  EXPECT_EQ(hal::drive_torque_nm(cmd, 6, meas.q_rad[6], meas.qd_rad_s[6]), -10.0);
 }
 
 TEST_F(SupervisorTest, NonFiniteImuOnlyCountsWhenValid) {
@@ -379,9 +390,10 @@ TEST_F(SupervisorTest, DampingIsBoundedByTheTorqueLimits) {
   ASSERT_EQ(ask(OperatorCommand::stop), Verdict::accepted);
   tick();
   expect_damping();
-  EXPECT_EQ(cmd.tau_ff_nm[0], 150.0);              // leg effort limit
-  EXPECT_EQ(cmd.tau_ff_nm[kFirstArmJoint], 39.0);  // arm joints 1-4
-  EXPECT_EQ(cmd.tau_ff_nm[kNj - 1], 9.0);          // arm joints 5-7
+  const auto torque_nm = [&](int j) { return hal::drive_torque_nm(cmd, j, meas.q_rad[j], meas.qd_rad_s[j]); };
+  EXPECT_EQ(torque_nm(0), 150.0);              // leg effort limit
+  EXPECT_EQ(torque_nm(kFirstArmJoint), 39.0);  // arm joints 1-4
+  EXPECT_EQ(torque_nm(kNj - 1), 9.0);          // arm joints 5-7
 }
 
 TEST_F(SupervisorTest, CommandsAreClampedToTheLimitsAtTheMeasuredState) {

@@ -38,6 +38,9 @@ std::vector<std::string> check_drive_gains(const AppConfig& c, const DriveGainRa
     for (const Field& f : legs_arm(prefix, Gain::kp, gains->kp_nm_per_rad)) fields.push_back(f);
     for (const Field& f : legs_arm(prefix, Gain::kd, gains->kd_nms_per_rad)) fields.push_back(f);
   }
+  const VecNj& damping = c.safety.damping_nms_per_rad;
+  fields.push_back(Field{"safety.damping_nms_per_rad.legs", Gain::kd, Joints::legs, damping[0]});
+  fields.push_back(Field{"safety.damping_nms_per_rad.arm", Gain::kd, Joints::arm, damping[kFirstArmJoint]});
   const VecNj& idle = c.safety.idle_damping_nms_per_rad;
   fields.push_back(Field{"safety.idle_damping_nms_per_rad.legs", Gain::kd, Joints::legs, idle[0]});
   fields.push_back(Field{"safety.idle_damping_nms_per_rad.arm", Gain::kd, Joints::arm, idle[kFirstArmJoint]});

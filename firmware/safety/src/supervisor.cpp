@@ -176,16 +176,21 @@ Verdict Supervisor::request(OperatorCommand command) noexcept {  // rt: no alloc
   return Verdict::not_idle;
 }
 
+// CAN.md 4.4 step 1: the drives damp (kp = 0, kd = D, v_des = 0, t = 0; CiA 402 computes -D v
+// on the host from the measured velocity). Where -D qd at the measured speed exceeds the torque
+// limit, the feed-forward part takes the excess back, as clamp_to_limits does.
 void Supervisor::damping_command(const hal::Measurements& meas, hal::JointCommands& cmd) const noexcept {
   cmd.mode = hal::CommandMode::enabled;
   cmd.q_des_rad.setZero();
   cmd.qd_des_rad_s.setZero();
   cmd.kp_nm_per_rad.setZero();
-  cmd.kd_nms_per_rad.setZero();
+  cmd.kd_nms_per_rad = config_.damping_nms_per_rad;
+  cmd.tau_ff_nm.setZero();
   for (int j = 0; j < kNj; ++j) {
     const double qd = meas.qd_rad_s[j];
-    const double tau = std::isfinite(qd) ? -config_.damping_nms_per_rad[j] * qd : 0.0;
-    cmd.tau_ff_nm[j] = std::clamp(tau, -limits_.effort_nm[j], limits_.effort_nm[j]);
+    if (!std::isfinite(qd)) continue;
+    const double damping_nm = -config_.damping_nms_per_rad[j] * qd;
+    cmd.tau_ff_nm[j] = std::clamp(damping_nm, -limits_.effort_nm[j], limits_.effort_nm[j]) - damping_nm;
   }
 }
 

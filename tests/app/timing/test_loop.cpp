@@ -39,7 +39,8 @@ struct LoopTest : ::testing::Test {
   }
   bool wrote_damping() const {
     const hal::JointCommands& c = hardware.last;
-    return c.mode == hal::CommandMode::enabled && c.kp_nm_per_rad.isZero() && c.kd_nms_per_rad.isZero();
+    return c.mode == hal::CommandMode::enabled && c.kp_nm_per_rad.isZero() && c.qd_des_rad_s.isZero() &&
+           c.kd_nms_per_rad == rig->config.safety.damping_nms_per_rad;
   }
 };
 

@@ -179,18 +179,15 @@ void BulletMotion::step() {
 // The class of this step's drive laws (MIT's "zero" torque is half an LSB off: ~0.005 N m).
 // Damping is the host's damping command (CAN.md 4.2 step 5, 4.4): no stiffness and no position
 // or velocity target on any joint (|p_des|, |v_des| within a quantum of zero), damping in the
-// drive (kd) or as a torque the host computes (-D qd). A controller's torque command carries
-// the measured positions as p_des (never all zero: the knees stand at +-1.4 rad).
+// drive (kd). A controller's torque command carries the measured positions as p_des (never all
+// zero: the knees stand at +-1.4 rad).
 CommandClass BulletMotion::command_class() const noexcept {
   // Within a quantum of zero: MIT's p (16 bits over 25 rad) and v (12 bits over 130 rad/s).
-  // At rest: damping of up to 10 N m s/rad (safety.damping_nms_per_rad's legs) asks for less
-  // than the torque quantum.
-  constexpr double kZeroTorque_nm = 0.05, kZeroPosition_rad = 1e-3, kZeroVelocity_rad_s = 0.05, kRest_rad_s = 0.005;
-  bool any_enabled = false, any_kp = false, any_kd = false, any_torque = false, no_target = true, at_rest = true;
+  constexpr double kZeroTorque_nm = 0.05, kZeroPosition_rad = 1e-3, kZeroVelocity_rad_s = 0.05;
+  bool any_enabled = false, any_kp = false, any_kd = false, any_torque = false, no_target = true;
   for (std::size_t j = 0; j < law_.size(); ++j) {
     if (!enabled_[j]) continue;
     any_enabled = true;
-    at_rest = at_rest && std::abs(state_[j].qd_rad_s) < kRest_rad_s;
     any_kp = any_kp || law_[j].kp > 0.0;
     any_kd = any_kd || law_[j].kd > 0.0;
     any_torque = any_torque || std::abs(law_[j].t_ff_nm) > kZeroTorque_nm;
@@ -199,8 +196,8 @@ CommandClass BulletMotion::command_class() const noexcept {
   }
   if (!any_enabled) return CommandClass::off;
   if (any_kp) return CommandClass::position;
-  if (!any_kd && !any_torque) return no_target && at_rest ? CommandClass::rest : CommandClass::zero;
-  return no_target ? CommandClass::damping : CommandClass::torque;
+  if (!any_kd && !any_torque) return CommandClass::zero;
+  return no_target && any_kd ? CommandClass::damping : CommandClass::torque;
 }
 
 }  // namespace springbok::emu

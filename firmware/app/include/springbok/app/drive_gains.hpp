@@ -27,7 +27,7 @@ struct DriveGainRanges {
 
 // Every gain the firmware commands through the drives' kp and kd: gains.stand
 // (stand-up, stand), gains.control (the joint PD hold, also the WBC's fallback)
-// safety.idle_damping_nms_per_rad (kd in idle) and the backend's own kd values.
+// safety.damping_nms_per_rad (kd in damping), safety.idle_damping_nms_per_rad (kd in idle) and the backend's own kd values.
 // One line per field that a
 // drive cannot render, naming the field, its value, the first such joint, its
 // drive and the drive's range; empty when all fit.

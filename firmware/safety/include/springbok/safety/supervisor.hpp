@@ -72,6 +72,7 @@ struct SupervisorConfig {
   std::uint32_t qp_failure_streak_limit = 3;
   double limit_margin_rad = 0.05;
   double reset_max_speed_rad_s = 0.05;
+  // D: the drives' damping in the damping mode (MIT: kd, in the drive's kd range).
   VecNj damping_nms_per_rad = VecNj::Constant(10.0);
   // D_start: the drives' damping in idle (MIT: kd of the command frame, so it
   // must lie in the drive's kd range; CiA 402: rendered on the host).
@@ -119,8 +120,9 @@ class Supervisor {
   double limit_joint_position_rad() const noexcept { return limit_joint_position_rad_; }
   const JointLimits& limits() const noexcept { return limits_; }
 
-  // tau = -D qd, clamped to the torque limits; 0 on joints whose velocity
-  // is not finite. rt: no alloc
+  // The drives damp, CAN.md 4.4: kp = 0, kd = D, qd_des = 0; tau_ff takes back
+  // what -D qd at the measured speed has beyond the torque limit (0 where the
+  // velocity is not finite). rt: no alloc
   void damping_command(const hal::Measurements& meas, hal::JointCommands& cmd) const noexcept;
   // Idle: kp = 0, kd = D_start, qd_des = 0, tau_ff = 0 (the drive damps). rt: no alloc
   void idle_command(hal::JointCommands& cmd) const noexcept;

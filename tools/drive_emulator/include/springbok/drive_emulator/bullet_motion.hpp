@@ -49,13 +49,9 @@ struct HandForce {
 
 // What the drives were told to do in a step, as the truth trace names it (one letter):
 // every drive disabled (o), zero torque (z: no stiffness, no damping, no torque), damping
-// (d: the host's damping command, no position or velocity target; CAN.md 4.2 step 5, 4.4),
-// position PD (p: some stiffness), torque (t: a controller's torques).
-// What the drives were told in a step (the truth trace's `command`). `rest`: no stiffness, no
-// target, no drive-side damping and every torque within a quantum of zero while every joint is
-// at rest (< 5 mrad/s): the host's damping -D qd and a zero-torque command are then the same
-// frames on the wire, so neither is claimed.
-enum class CommandClass : char { off = 'o', zero = 'z', damping = 'd', rest = 'r', position = 'p', torque = 't' };
+// (d: the host's damping command, kd > 0 and no position or velocity target; CAN.md 4.2 step 5,
+// 4.4), position PD (p: some stiffness), torque (t: a controller's torques).
+enum class CommandClass : char { off = 'o', zero = 'z', damping = 'd', position = 'p', torque = 't' };
 
 struct BulletOptions {
   double settle_s = 0.0;
