@@ -133,10 +133,6 @@ class RobotWorld final : public btMultiBodyDynamicsWorld {
   void predictUnconstraintMotion(btScalar /*time_step_s*/) override {}
 };
 
-const model::Inertia& body_inertia(int body) {
-  return body == 0 ? robot::kBaseInertia : robot::kJoints[body - 1].inertia;
-}
-
 std::string check_config(const SimConfig& c) {
   if (!(std::isfinite(c.step_s) && c.step_s > 0.0)) return "step_s must be finite and > 0";
   if (c.substeps < 1) return "substeps must be >= 1";
@@ -272,7 +268,7 @@ std::string BulletRobot::Impl::build() {
   // ---- the tree ----
   std::array<PrincipalInertia, kNb> principal{};
   for (int b = 0; b < kNb; ++b) {
-    principal[b] = principal_inertia(body_inertia(b));
+    principal[b] = principal_inertia(springbok::body_inertia(b, config.rotors));  // as the controller's model
     body_from_com[b] = Eigen::Isometry3d::Identity();
     body_from_com[b].linear() = principal[b].rotation;
     body_from_com[b].translation() = principal[b].com_m;

@@ -27,7 +27,7 @@ struct Fixture {
     std::mt19937_64 rng{42};
     for (auto& s : states) s = springbok::test::random_state(rng);
   }
-  const dyn::Model model;
+  const dyn::Model model{Rotors::none};  // the URDF alone, as the reference states (and Pinocchio)
   std::unique_ptr<dyn::Data> data = std::make_unique<dyn::Data>();
   std::array<springbok::test::RandomState, kStates> states;
 };

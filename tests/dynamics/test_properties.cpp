@@ -218,4 +218,30 @@ TEST_F(Properties, PassiveMotionConservesEnergy) {
   }
 }
 
+// The rotors (kRotorInertia_kgm2) add the kinetic energy of a massless inertia I_a spinning
+// with its joint's body about the joint's axis z_j: 1/2 I_a (z_j . w_body)^2, so
+//   M - M_without_rotors = sum_j I_a,j c_j c_j^T,  c_j . v = z_j . w_body(j),
+// with w_body = R w_B + sum over the chain's joints k of a_k qd_k.
+TEST_F(Properties, RotorsAddTheirInertiaAboutTheJointAxes) {
+  const dyn::Model bare{Rotors::none};
+  auto other = std::make_unique<dyn::Data>();
+  for (int n = 0; n < kStates; ++n) {
+    const auto s = random_state(rng);
+    const MatNv with = dyn::crba(model, *data, s.q);
+    const MatNv without = dyn::crba(bare, *other, s.q);
+    const Mat3 rot = springbok::test::base_quaternion(s.q).toRotationMatrix();
+    MatNv expected = MatNv::Zero();
+    for (int j = 0; j < kNj; ++j) {
+      const Vec3& z = data->joint_axis[j];
+      Eigen::Matrix<double, 1, kNv> c = Eigen::Matrix<double, 1, kNv>::Zero();
+      c.segment<3>(3) = z.transpose() * rot;
+      for (int k = j; k >= 0; k = robot::kJoints[k].parent_body - 1) c[6 + k] = z.dot(data->joint_axis[k]);
+      expected += kRotorInertia_kgm2[j] * c.transpose() * c;
+    }
+    EXPECT_LE((with - without - expected).cwiseAbs().maxCoeff(), 1e-12) << "state " << n;
+    // The last joint (no rotor beyond it) grows by exactly its rotor's inertia.
+    EXPECT_NEAR(with(kNv - 1, kNv - 1) - without(kNv - 1, kNv - 1), kRotorInertia_kgm2[kNj - 1], 1e-12);
+  }
+}
+
 }  // namespace

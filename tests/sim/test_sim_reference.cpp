@@ -24,6 +24,7 @@ sim::SimConfig free_flight(const VecNq& q, const VecNv& v) {
   sim::SimConfig c;
   c.ground = false;
   c.saturate_torques = false;
+  c.rotors = Rotors::none;  // the reference states' robot: the URDF alone
   c.initial_q = q;
   c.initial_v = v;
   return c;

@@ -146,6 +146,33 @@ TEST_F(Fixture, JointFrictionIsCompensatedInTheTorquesAndTheirLimits) {
   EXPECT_LT(residual.cwiseAbs().maxCoeff(), 1e-6) << "the motion obeys the dynamics with friction";
 }
 
+// The joints' speeds stay within the URDF's velocity limits: no acceleration takes a joint
+// past v_max faster than within the horizon, and a joint already past it is slowed.
+TEST_F(Fixture, JointAccelerationsKeepTheSpeedsWithinTheirLimits) {
+  constexpr int kWrist2 = kFirstArmJoint + 5;  // Gen3 joint 6, 1.2218 rad/s
+  const double v_max = robot::kJoints[kWrist2].limits.velocity_rad_s;
+  ASSERT_NEAR(v_max, 1.2218, 1e-12) << "the URDF's figure, through urdf2model";
+  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(0.0, 60.0, -40.0);
+  const double t_s = params.joint_velocity_horizon_s;
+  for (const double speed : {0.99 * v_max, 1.3 * v_max, -1.3 * v_max}) {
+    in.state.v.tail<kNj>().setZero();
+    in.state.v[6 + kWrist2] = speed;
+    const wbc::WbcOutput& out = tick();
+    ASSERT_EQ(out.qp_status, qp::Status::optimal) << speed;
+    for (int j = 0; j < kNj; ++j) {
+      const double limit = robot::kJoints[j].limits.velocity_rad_s, qd = in.state.v[6 + j];
+      EXPECT_LE(out.udot[6 + j], (limit - qd) / t_s + 1e-6) << "joint " << j << " at " << speed;
+      EXPECT_GE(out.udot[6 + j], (-limit - qd) / t_s - 1e-6) << "joint " << j << " at " << speed;
+    }
+    if (std::abs(speed) > v_max) {
+      EXPECT_LT(out.udot[6 + kWrist2] * speed, 0.0) << "a joint past its limit is slowed: " << speed;
+    }
+    Vec6 wrench;
+    wrench << data->frames[kWristFtFrame].rotation * in.wrist_force_n, Vec3::Zero();
+    EXPECT_LT(dynamics_residual(out, wrench).cwiseAbs().maxCoeff(), 1e-6);
+  }
+}
+
 TEST_F(Fixture, SwingFootCarriesNoForceAndTracksItsTarget) {
   in.state.stance = {true, false, false, true};  // trot pair LF + RH on the ground
   for (int f : {1, 2}) {

@@ -149,7 +149,7 @@ DynamicsInput dynamics_input(const StateFile& file) {
 }
 
 std::vector<Block> compute_blocks(const DynamicsInput& in) {
-  const dyn::Model model;
+  const dyn::Model model(Rotors::none);  // the reference states' robot: the URDF alone
   const auto data = std::make_unique<dyn::Data>();
   std::vector<Block> out;
   out.push_back(make_block("q", in.q.transpose()));

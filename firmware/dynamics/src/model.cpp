@@ -21,18 +21,17 @@ Mat3 to_tensor(const std::array<double, 6>& i) noexcept {  // ixx iyy izz ixy ix
 
 }  // namespace
 
-Model::Model() noexcept {
+Model::Model(Rotors rotors) noexcept {
   const auto set_body = [this](int b, const model::Inertia& in) {
     mass_kg[b] = in.mass_kg;
     com_body_m[b] = Eigen::Map<const Vec3>(in.com_m.data());
     inertia_com_body[b] = to_tensor(in.inertia_com_kgm2);
     total_mass_kg += in.mass_kg;
   };
-  set_body(0, robot::kBaseInertia);
+  set_body(0, body_inertia(0, rotors));
   for (int i = 0; i < kNj; ++i) {
-    const auto& j = robot::kJoints[i];
-    joint_placement[i] = to_placement(j.origin);
-    set_body(i + 1, j.inertia);
+    joint_placement[i] = to_placement(robot::kJoints[i].origin);
+    set_body(i + 1, body_inertia(i + 1, rotors));
   }
   for (int k = 0; k < kNumFrames; ++k) {
     frame_body[k] = robot::kFrames[k].body;

@@ -82,8 +82,10 @@ wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
   if (p.normal_force_max_n <= p.normal_force_min_n) c["normal_force_max"].fail("must be above contact.normal_force_min");
 
   const Field lim = f["limits"];
-  lim.allow_only({"joint_horizon_s", "torque_scale"});
+  lim.allow_only({"joint_horizon_s", "velocity_horizon_s", "velocity_scale", "torque_scale"});
   lim["joint_horizon_s"].number(p.joint_limit_horizon_s, 1e-3, 10.0);
+  lim["velocity_horizon_s"].number(p.joint_velocity_horizon_s, 1e-3, 10.0);
+  lim["velocity_scale"].number(p.joint_velocity_limit_scale, kTiny, 1.0);
   lim["torque_scale"].number(p.torque_limit_scale, kTiny, 1.0);
 
   const Field sw = f["swing"];

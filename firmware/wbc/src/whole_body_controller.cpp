@@ -186,28 +186,33 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
   int row = 6;
   for (int f = 0; f < kFeet; ++f) {
     if (!in.state.stance[f]) continue;
-    aeq.block<6, 3>(0, foot_var(f)) = -d.J_feet[f].leftCols<6>().transpose();
-    // Stance feet do not accelerate: J_f udot + Jdot_f v = 0.
-    aeq.block<3, kNv>(row, 0) = d.J_feet[f];
-    beq.segment<3>(row) = -d.dJv_feet[f];
+    const RollingContact& c = contact_[f];
+    aeq.block<6, 3>(0, foot_var(f)) = -c.jacobian.leftCols<6>().transpose();
+    // Stance feet roll without slipping: J_c udot + bias = 0.
+    aeq.block<3, kNv>(row, 0) = c.jacobian;
+    beq.segment<3>(row) = -c.bias_m_s2;
     row += 3;
   }
   const int meq = row;
 
   // ---- inequalities -------------------------------------------------------------------
   row = 0;
-  const double dt = params_.joint_limit_horizon_s;
-  for (int j = 0; j < kNj; ++j) {  // joint accelerations that stop at the limit within dt (eq. 17)
+  const double dt = params_.joint_limit_horizon_s, dt_v = params_.joint_velocity_horizon_s;
+  for (int j = 0; j < kNj; ++j) {
+    // Joint accelerations that stop at a position limit within dt (eq. 17) and that take
+    // the speed towards its limit no faster than within dt_v:
+    //   (-v_max - qd) / dt_v <= qdd <= (v_max - qd) / dt_v.
+    // Where the two disagree (a joint already past its position limit and faster than
+    // v_max) the position's bounds alone hold.
     const auto& lim = robot::kJoints[j].limits;
+    const double q = in.state.q[7 + j], qd = in.state.v[6 + j];
     ain(row, 6 + j) = 1.0;
-    if (lim.bounded) {
-      const double q = in.state.q[7 + j], qd = in.state.v[6 + j];
-      lb[row] = 2.0 * (lim.lower_rad - q - dt * qd) / (dt * dt);
-      ub[row] = 2.0 * (lim.upper_rad - q - dt * qd) / (dt * dt);
-    } else {
-      lb[row] = -kInf;
-      ub[row] = kInf;
-    }
+    const double lo_q = lim.bounded ? 2.0 * (lim.lower_rad - q - dt * qd) / (dt * dt) : -kInf;
+    const double hi_q = lim.bounded ? 2.0 * (lim.upper_rad - q - dt * qd) / (dt * dt) : kInf;
+    const double v_max = params_.joint_velocity_limit_scale * lim.velocity_rad_s;
+    const double lo = std::max(lo_q, (-v_max - qd) / dt_v), hi = std::min(hi_q, (v_max - qd) / dt_v);
+    lb[row] = lo <= hi ? lo : lo_q;
+    ub[row] = lo <= hi ? hi : hi_q;
     ++row;
   }
   // Torque limits through the actuated rows of eq. 1 (c_j qd_j: the compensated friction):
@@ -217,7 +222,7 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
     const double tau_max = params_.torque_limit_scale * robot::kJoints[j].limits.effort_nm;
     ain.block<1, kNv>(row, 0) = d.M.row(6 + j);
     for (int f = 0; f < kFeet; ++f) {
-      if (in.state.stance[f]) ain.block<1, 3>(row, foot_var(f)) = -d.J_feet[f].col(6 + j).transpose();
+      if (in.state.stance[f]) ain.block<1, 3>(row, foot_var(f)) = -contact_[f].jacobian.col(6 + j).transpose();
     }
     const double known_nm = d.nle[6 + j] + joint_friction_nm_[j] - external_j[j];
     lb[row] = -tau_max - known_nm;
@@ -225,8 +230,6 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
     ++row;
   }
   const double mu = params_.friction_mu / std::sqrt(2.0);  // pyramid inscribed in the cone
-  const Vec3 base_vel_world = rot * in.state.v.head<3>();
-  const Vec3 omega_world = rot * in.state.v.segment<3>(3);
   for (int f = 0; f < kFeet; ++f) {
     const int c = foot_var(f);
     if (in.state.stance[f]) {
@@ -249,20 +252,15 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
       continue;
     }
     // Swing: the foot relative to the trunk, rho = R^T (p_f - p_b), follows a PD with slack:
-    //   -s <= J_rel qdd_leg + Jdot_rel qd_leg - rho''^d <= s.
+    //   -s <= J_rho qdd_leg + bias - rho''^d <= s.
     const int leg_col = 6 + leg_first_joint(f);
-    const Eigen::Matrix<double, 3, kLegJoints> j_rel = rot.transpose() * d.J_feet[f].block<3, kLegJoints>(0, leg_col);
-    const Vec3 r = d.frames[kFootFrames[f]].translation - in.state.q.head<3>();
-    const Vec3 r_dot = d.J_feet[f] * in.state.v - base_vel_world;
-    const Vec3 r_ddot0 = d.dJv_feet[f] - rot * in.state.v.segment<3>(3).cross(in.state.v.head<3>());
-    const Vec3 bias = rot.transpose() * (-omega_world.cross(r_dot - omega_world.cross(r)) + r_ddot0 -
-                                         omega_world.cross(r_dot));
-    const Vec3 rho = rot.transpose() * r;
-    const Vec3 rho_dot = j_rel * in.state.v.segment<kLegJoints>(leg_col);
+    const SwingKinematics& k = swing_[f];
     const SwingTarget& target = in.swing[f];
     const Vec3 rho_ddot_des = target.acceleration_m_s2 +
-                              params_.swing_kp_per_s2.cwiseProduct(target.position_m - rho) +
-                              params_.swing_kd_per_s.cwiseProduct(target.velocity_m_s - rho_dot);
+                              params_.swing_kp_per_s2.cwiseProduct(target.position_m - k.position_m) +
+                              params_.swing_kd_per_s.cwiseProduct(target.velocity_m_s - k.velocity_m_s);
+    const Mat3Leg& j_rel = k.jacobian;
+    const Vec3& bias = k.bias_m_s2;
     for (int k = 0; k < 3; ++k) {
       const double rhs = rho_ddot_des[k] - bias[k];
       ain.block<1, kLegJoints>(row, leg_col) = j_rel.row(k);
@@ -289,7 +287,7 @@ void WholeBodyController::torques_from_solution(const WbcInput& in, const dyn::D
   for (int f = 0; f < kFeet; ++f) {
     if (in.state.stance[f]) {
       out_.foot_force_n[f] = x.segment<3>(foot_var(f));
-      tau_full.noalias() -= d.J_feet[f].transpose() * out_.foot_force_n[f];
+      tau_full.noalias() -= contact_[f].jacobian.transpose() * out_.foot_force_n[f];
     } else {
       out_.foot_force_n[f].setZero();
     }
@@ -300,23 +298,14 @@ void WholeBodyController::torques_from_solution(const WbcInput& in, const dyn::D
   }
 }
 
-// The contact point c = p_f - r z (world z) of the lower leg: J_c = J_f + r [z]x J_w,
-// with J_w the lower leg's angular Jacobian (base columns R, the leg's joint axes).
-void WholeBodyController::feet_jacobians_at_contact_points(const WbcInput& in, dyn::Data& d) noexcept {
-  const double r = params_.foot_contact_radius_m;
-  const Mat3& rot = in.state.rotation_wb;
+const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& d) noexcept {
   for (int f = 0; f < kFeet; ++f) {
-    auto shift = [&](int col, const Vec3& omega_col) {
-      d.J_feet[f](0, col) -= r * omega_col.y();  // [z]x w = (-w_y, w_x, 0)
-      d.J_feet[f](1, col) += r * omega_col.x();
-    };
-    for (int k = 0; k < 3; ++k) shift(3 + k, rot.col(k));
-    for (int k = 0; k < kLegJoints; ++k) shift(6 + leg_first_joint(f) + k, d.joint_axis[leg_first_joint(f) + k]);
+    if (in.state.stance[f]) {
+      rolling_contact(d, in.state, f, params_.foot_contact_radius_m, contact_[f]);
+    } else {
+      swing_kinematics(d, in.state, f, swing_[f]);
+    }
   }
-}
-
-const WbcOutput& WholeBodyController::tick(const WbcInput& in, dyn::Data& d) noexcept {
-  if (params_.foot_contact_radius_m > 0.0) feet_jacobians_at_contact_points(in, d);
   const Mat3& ee_rot = d.frames[kWristFtFrame].rotation;
   wrench_ee_world_.head<3>() = ee_rot * in.wrist_force_n;
   wrench_ee_world_.tail<3>() = ee_rot * in.wrist_torque_nm;

@@ -48,6 +48,7 @@ struct SimConfig {
   double ground_restitution = 0.0;
   bool fixed_base = false;                 // trunk welded to the world (tests)
   bool saturate_torques = true;            // clamp drive torques to the model's effort limits
+  Rotors rotors = Rotors::included;        // the actuators' rotors (springbok::kRotorInertia_kgm2)
   ImuNoise imu;
   Latency latency;
   VecNq initial_q = default_q();           // [p_WB, quaternion xyzw, joints]

@@ -72,7 +72,10 @@ struct Placement {
 // Constant robot description in the form the algorithms use; built once from
 // the generated springbok::robot specs.
 struct Model {
-  Model() noexcept;
+  // The robot with the actuators' rotors (springbok::kRotorInertia_kgm2, what the controller
+  // and the simulated robot use) or without (Rotors::none: the URDF alone, as the reference
+  // states of ../shared/robot and Pinocchio have it).
+  explicit Model(Rotors rotors = Rotors::included) noexcept;
 
   std::array<Placement, kNj> joint_placement;  // joint frame in parent body frame at q = 0
   std::array<double, kNb> mass_kg{};

@@ -50,12 +50,50 @@ constexpr double total_mass_kg() {
   return m;
 }
 
+// ---- rotor (reflected actuator) inertia ----------------------------------------------------
+// Not in the URDF (../shared/robot/PARAMS.md): HyQ's legs are hydraulic (the cylinders'
+// moving mass is in the links; no rotor: 0). The Gen3's joints are motors behind harmonic
+// drives. Kinova publishes no rotor figure; these are an ESTIMATE, not a measurement: a
+// frameless motor of the size such an actuator holds has a rotor inertia of about 4e-6 kg m^2
+// (large actuators, joints 1-4, 39 N m) and 1.5e-6 kg m^2 (small, joints 5-7, 9 N m); times
+// an assumed 100:1 reduction squared: 0.04 and 0.015 kg m^2. Identify it on the robot (a
+// joint's low-frequency acceleration response to a torque chirp) before trusting it. It
+// dominates the wrist's own inertia (~1e-3 kg m^2): without it the dynamically consistent
+// pseudo-inverse of the arm task moved the hand with the light wrist joints, at twice their
+// speed limit.
+// The rotor is modelled as inertia about the joint's axis added to the joint's own body (all
+// axes here are z of the body frame), so the dynamics and the simulated robot (Bullet has no
+// armature) carry the same physics; M's (j, j) entry is exact, the couplings with the
+// joints before it are the rotor's times its reduction (small at 100:1).
+inline constexpr std::array<double, kNj> kRotorInertia_kgm2{
+    0.0,   0.0,   0.0,   0.0,   0.0,   0.0,   0.0,   0.0,   0.0,   0.0,   0.0,   0.0,  // legs
+    0.04,  0.04,  0.04,  0.04,  0.015, 0.015, 0.015};                                    // Gen3 1-7
+
+constexpr bool every_axis_is_z() {
+  for (const auto& j : robot::kJoints) {
+    if (j.axis[0] != 0.0 || j.axis[1] != 0.0 || j.axis[2] != 1.0) return false;
+  }
+  return true;
+}
+static_assert(every_axis_is_z(), "the rotors (and joint_own_axis_inertia_kgm2) take each joint's axis as z");
+
+enum class Rotors { included, none };
+
+// Body b's inertia (0: the trunk), with its joint's rotor unless `rotors` is none. rt: no alloc
+constexpr model::Inertia body_inertia(int body, Rotors rotors = Rotors::included) {
+  if (body == 0) return robot::kBaseInertia;
+  const std::size_t j = static_cast<std::size_t>(body - 1);
+  model::Inertia in = robot::kJoints[j].inertia;
+  if (rotors == Rotors::included) in.inertia_com_kgm2[2] += kRotorInertia_kgm2[j];
+  return in;
+}
+
 // The inertia of joint j's own body about the joint's axis (z of its frame) [kg m^2]: a
 // lower bound of what the joint drives (the bodies beyond it add to it). A damping law
 // evaluated once per step dt is stable only below about this / dt: 0.24 N m s/rad for the
 // wrist's last joint at 1 ms (the drive emulator caps what it renders there).
 constexpr double joint_own_axis_inertia_kgm2(int j) {
-  const auto& in = robot::kJoints[static_cast<std::size_t>(j)].inertia;
+  const model::Inertia in = body_inertia(j + 1);
   return in.inertia_com_kgm2[2] + in.mass_kg * (in.com_m[0] * in.com_m[0] + in.com_m[1] * in.com_m[1]);
 }
 

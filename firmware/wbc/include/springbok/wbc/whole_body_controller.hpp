@@ -4,7 +4,8 @@
 // One tick, on the caller's dynamics (springbok::control computes them once per
 // tick for the gait and this controller):
 //  1. dynamics at (q, v): M, h, foot and EE Jacobians and Jdot*v (dyn::compute_tick,
-//     by the caller); the feet's Jacobians are moved to their contact points here;
+//     by the caller); from them the stance feet's rolling contact points and the swing
+//     feet's positions relative to the trunk (contact_kinematics.hpp);
 //  2. the desired base wrench W_b^d (eq. 4-5) from the template gains and a
 //     rotational PD; the base task  diag(M_b, I_b) qdd_b = W_b^d;
 //  3. the arm task (eq. 8): the template's EE acceleration through the damped,
@@ -16,7 +17,7 @@
 //       equalities   floating-base dynamics (6), stance feet do not accelerate (3 each)
 //       inequalities swing task with slack (6 per swing foot), friction pyramid and
 //                    normal-force bounds (5 per stance foot), joint-acceleration
-//                    bounds (eq. 17, 19), torque limits (19);
+//                    bounds (eq. 17, 19, and the joints' velocity limits), torque limits (19);
 //  5. torques by eq. 19. If the QP fails the tick says so (`failed`), counts it
 //     and leaves the torques of the last solved tick: the safety supervisor alone
 //     decides what a failed tick commands.
@@ -37,6 +38,7 @@
 #include "springbok/model/model.hpp"
 #include "springbok/model/robot_state.hpp"
 #include "springbok/qp/qp.hpp"
+#include "springbok/wbc/contact_kinematics.hpp"
 #include "springbok/wbc/impedance_template.hpp"
 
 namespace springbok::wbc {
@@ -98,6 +100,11 @@ struct WbcParams {
   // arrives at touch-down at 8-10 rad/s: 0.2 s together with "stance feet do not
   // accelerate" had no solution for a few ticks at every step of a trot.
   double joint_limit_horizon_s = 0.05;
+  // Joint speeds within the URDF's velocity limits (times the scale): the acceleration
+  // rows take a speed to its limit no faster than within this horizon (the Gen3's
+  // 1.40 / 1.22 rad/s; a real arm faults beyond them).
+  double joint_velocity_horizon_s = 0.02;
+  double joint_velocity_limit_scale = 1.0;
   double torque_limit_scale = 1.0;   // fraction of the URDF effort the QP may use
 
   // Swing foot Cartesian PD (relative to the base, base axes).
@@ -169,10 +176,9 @@ class WholeBodyController {
   const WbcParams& params() const noexcept { return params_; }
   Vec3 base_rotational_inertia_kgm2() const noexcept { return base_inertia_diag_; }
 
-  // `data` must hold dyn::compute_tick at (in.state.q, in.state.v); its feet's
-  // Jacobians are moved to the contact points. rt: no alloc, no block. Never
-  // throws; on a QP failure `out.failed` is set.
-  const WbcOutput& tick(const WbcInput& in, dyn::Data& data) noexcept;
+  // `data` must hold dyn::compute_tick at (in.state.q, in.state.v). rt: no alloc,
+  // no block. Never throws; on a QP failure `out.failed` is set.
+  const WbcOutput& tick(const WbcInput& in, const dyn::Data& data) noexcept;
 
   std::uint64_t qp_failures() const noexcept { return qp_failures_; }
   const WbcOutput& output() const noexcept { return out_; }
@@ -182,7 +188,6 @@ class WholeBodyController {
   void arm_task(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired) noexcept;
   void build_qp(const WbcInput& in, const dyn::Data& d) noexcept;
   void torques_from_solution(const WbcInput& in, const dyn::Data& d) noexcept;
-  void feet_jacobians_at_contact_points(const WbcInput& in, dyn::Data& d) noexcept;
 
   WbcParams params_;
   WbcReference reference_;
@@ -194,6 +199,8 @@ class WholeBodyController {
   std::unique_ptr<qp::ActiveSet<kQpIn>> warm_start_;
   Stance last_stance_ = kAllFeet;
   bool have_warm_start_ = false;
+  std::array<RollingContact, kFeet> contact_{};  // this tick's stance feet
+  std::array<SwingKinematics, kFeet> swing_{};   // this tick's swing feet
   Vec6 wrench_ee_world_ = Vec6::Zero();
   VecNj joint_friction_nm_ = VecNj::Zero();  // c qd this tick
   WbcOutput out_;
