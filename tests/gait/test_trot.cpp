@@ -81,17 +81,21 @@ TEST(Trot, SwingGoesFromLiftOffToTheFootholdSmoothly) {
   // The foothold: nominal + T_stance / 2 * v_xy, touchdown_depth below.
   const Vec3 foothold = nominal()[0] + Vec3(0.5 * trot.stance_duration_s() * 0.1, 0.5 * trot.stance_duration_s() * -0.05,
                                              -0.004);
-  const gait::SwingReference last = trot.update(t_lift + t_swing * (1 - 1e-9), feet, Vec3::Zero()).swing[0];
-  EXPECT_LT((last.position_m - foothold).norm(), 1e-6) << "the foothold is fixed at lift-off";
+  const gait::SwingReference last = trot.update(t_lift + t_swing * (1 - 1e-9), feet, v_base).swing[0];
+  EXPECT_LT((last.position_m - foothold).norm(), 1e-6);
   EXPECT_LT(last.velocity_m_s.norm(), 1e-6);
+  // The foothold is re-planned on every tick of the swing from that tick's velocity (the
+  // lift-off point stays): the trunk stopped, the foot lands under the hip.
+  const gait::SwingReference stopped = trot.update(t_lift + t_swing * (1 - 1e-9), feet, Vec3::Zero()).swing[0];
+  EXPECT_LT((stopped.position_m - (nominal()[0] - Vec3(0.0, 0.0, 0.004))).norm(), 1e-6);
   // Mid-swing: the step height above the straight line; velocity and acceleration by differences.
   const double tm = t_lift + 0.5 * t_swing;
-  const gait::SwingReference mid = trot.update(tm, feet, Vec3::Zero()).swing[0];
+  const gait::SwingReference mid = trot.update(tm, feet, v_base).swing[0];
   EXPECT_NEAR(mid.position_m.z() - 0.5 * (feet[0].z() + foothold.z()), 0.1, 1e-9);
   const double h = 1e-5;
-  const Vec3 p_lo = trot.update(tm - h, feet, Vec3::Zero()).swing[0].position_m;
+  const Vec3 p_lo = trot.update(tm - h, feet, v_base).swing[0].position_m;
   const Vec3 v_lo = trot.plan().swing[0].velocity_m_s;
-  const Vec3 p_hi = trot.update(tm + h, feet, Vec3::Zero()).swing[0].position_m;
+  const Vec3 p_hi = trot.update(tm + h, feet, v_base).swing[0].position_m;
   const Vec3 v_hi = trot.plan().swing[0].velocity_m_s;
   EXPECT_LT((mid.velocity_m_s - (p_hi - p_lo) / (2 * h)).norm(), 1e-6);
   EXPECT_LT((mid.acceleration_m_s2 - (v_hi - v_lo) / (2 * h)).norm(), 1e-4);
@@ -120,12 +124,14 @@ TEST(Trot, FootholdsShiftAndTiltLiveInTheHorizontalFrame) {
   ASSERT_FALSE(trot.plan().stance[1]);
   EXPECT_LT((first.position_m - tilt.transpose() * nominal()[1]).norm(), 1e-9) << "lift-off: where the foot is (H)";
   const Vec3 foothold_h = nominal()[1] + shift - Vec3(0.0, 0.0, 0.005);
-  // Later ticks pass another shift and no tilt: the foothold stays the one fixed at lift-off.
   const gait::SwingReference last =
-      trot.update(t_lift + t_swing * (1 - 1e-9), nominal(), Vec3::Zero(), Vec3(0.3, 0.3, 0.3), Mat3::Identity()).swing[1];
+      trot.update(t_lift + t_swing * (1 - 1e-9), nominal(), Vec3::Zero(), shift, Mat3::Identity()).swing[1];
   EXPECT_LT((last.position_m - foothold_h).norm(), 1e-6);
-  const gait::SwingReference mid =
-      trot.update(t_lift + 0.5 * t_swing, nominal(), Vec3::Zero(), Vec3::Zero(), tilt).swing[1];
+  // The foothold follows this tick's shift (re-planned on every tick of the swing).
+  const gait::SwingReference moved =
+      trot.update(t_lift + t_swing * (1 - 1e-9), nominal(), Vec3::Zero(), Vec3(0.3, 0.3, 0.3), Mat3::Identity()).swing[1];
+  EXPECT_LT((moved.position_m - (nominal()[1] + Vec3(0.3, 0.3, 0.3 - 0.005))).norm(), 1e-6);
+  const gait::SwingReference mid = trot.update(t_lift + 0.5 * t_swing, nominal(), Vec3::Zero(), shift, tilt).swing[1];
   const Vec3 mid_h = tilt * mid.position_m;
   EXPECT_NEAR(mid_h.z() - 0.5 * (nominal()[1].z() + foothold_h.z()), p.step_height_m, 1e-9);
   EXPECT_NEAR(mid_h.x(), nominal()[1].x() + 0.5 * shift.x(), 1e-9);

@@ -69,10 +69,12 @@ const ContactPlan& TrotGait::update(double t_s, const std::array<Vec3, kFeet>& f
     if (!swinging_[f]) {  // lift-off: from here to the foothold
       swinging_[f] = true;
       liftoff_h_[f] = feet_h[f];
-      Vec3 correction = pattern_shift_h;
-      correction.head<2>() += (0.5 * stance_duration_s() + params_.velocity_gain_s) * base_velocity_h.head<2>();
-      touchdown_h_[f] = nominal_h_[f] + correction - Vec3(0.0, 0.0, params_.touchdown_depth_m);
     }
+    // The foothold, re-planned every tick of the swing from this tick's velocity and shift
+    // (fixed at lift-off it answered a lateral sway a third of a second late).
+    Vec3 correction = pattern_shift_h;
+    correction.head<2>() += (0.5 * stance_duration_s() + params_.velocity_gain_s) * base_velocity_h.head<2>();
+    touchdown_h_[f] = nominal_h_[f] + correction - Vec3(0.0, 0.0, params_.touchdown_depth_m);
     const double s = (phase - params_.duty_factor) / (1.0 - params_.duty_factor);
     const Profile blend = quintic_blend(s), bump = swing_bump(s);
     const Vec3 span = touchdown_h_[f] - liftoff_h_[f];
