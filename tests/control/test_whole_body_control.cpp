@@ -189,6 +189,52 @@ TEST_F(Control, StandTrotStand) {
   EXPECT_EQ(c->state().stance, kAllFeet);  // stays standing
 }
 
+// Walking: the template's rest pose moves with the commanded velocity, ramped; a stand
+// request ramps it back to rest where it got to. Velocities outside the trot's ranges are
+// refused.
+TEST_F(Control, TheRestPoseWalksWithTheCommandedVelocity) {
+  make();
+  c->observe(next(), kDt_s, true);
+  ASSERT_EQ(c->tick(next(), kDt_s, cmd), TickStatus::ok);
+  const wbc::WbcReference engaged = c->wbc().reference();
+  EXPECT_FALSE(c->request_velocity(Vec3(0.6, 0.0, 0.0)));
+  EXPECT_FALSE(c->request_velocity(Vec3(0.0, 0.0, std::numeric_limits<double>::quiet_NaN())));
+  control::GaitCommand trot;
+  trot.kind = GaitKind::trot;
+  trot.trot.velocity_x_m_s = 0.2;
+  trot.trot.yaw_rate_rad_s = 0.3;
+  ASSERT_TRUE(c->request_gait(trot));
+  // The measurements stand still (the robot does not follow here): only the rest pose moves.
+  constexpr int kTicks = 1000;
+  for (int i = 0; i < kTicks; ++i) (void)c->tick(next(), kDt_s, cmd);
+  // Ramped at 0.5 m/s^2 and 1 rad/s^2: 0.2 m/s after 0.4 s, 0.3 rad/s after 0.3 s.
+  EXPECT_NEAR(c->walking_velocity().x(), 0.2, 1e-12);
+  EXPECT_NEAR(c->walking_velocity().z(), 0.3, 1e-12);
+  const wbc::WbcReference& now = c->wbc().reference();
+  // Yaw: 0.3 rad/s for 0.7 s plus the ramp's 0.3 s at half that: 0.255 rad (+- a tick).
+  const double yaw = std::atan2(now.base_rotation(1, 0), now.base_rotation(0, 0));
+  EXPECT_NEAR(yaw, 0.3 * 0.7 + 0.5 * 0.3 * 0.3, 0.3 * 2 * kDt_s);
+  EXPECT_NEAR((now.base_angular_velocity_rad_s - Vec3(0.0, 0.0, 0.3)).norm(), 0.0, 1e-12);
+  // The base moves along its turning heading at 0.2 m/s; the hand's rest point turns with it.
+  EXPECT_NEAR(now.base_velocity_m_s.norm(), 0.2, 1e-12);
+  EXPECT_NEAR(std::atan2(now.base_velocity_m_s.y(), now.base_velocity_m_s.x()), yaw, 1e-9);
+  const Vec3 arm0 = engaged.ee_position_m - engaged.base_position_m, arm = now.ee_position_m - now.base_position_m;
+  EXPECT_NEAR(arm.norm(), arm0.norm(), 1e-12);
+  EXPECT_NEAR(arm.z(), arm0.z(), 1e-12);
+  EXPECT_LT((now.ee_velocity_m_s - (now.base_velocity_m_s + Vec3(0.0, 0.0, 0.3).cross(arm))).norm(), 1e-12);
+  EXPECT_NEAR(now.base_position_m.z(), engaged.base_position_m.z(), 1e-12);
+  // Stand: ramped to rest, and the rest pose stays where it got to.
+  ASSERT_TRUE(c->request_gait(control::GaitCommand{}));
+  for (int i = 0; i < 1500; ++i) (void)c->tick(next(), kDt_s, cmd);
+  EXPECT_EQ(c->walking_velocity(), Vec3::Zero());
+  const wbc::WbcReference stopped = c->wbc().reference();
+  EXPECT_EQ(stopped.base_velocity_m_s, Vec3::Zero());
+  EXPECT_EQ(stopped.base_acceleration_m_s2, Vec3::Zero());
+  EXPECT_GT((stopped.base_position_m - engaged.base_position_m).norm(), 0.1);
+  (void)c->tick(next(), kDt_s, cmd);
+  EXPECT_EQ(c->wbc().reference().base_position_m, stopped.base_position_m);
+}
+
 TEST_F(Control, TicksDoNotAllocate) {
   make();
   c->observe(next(), kDt_s, true);
@@ -200,6 +246,8 @@ TEST_F(Control, TicksDoNotAllocate) {
     test::AllocationTrap trap;
     (void)c->request_gait(trot);
     for (int i = 0; i < 300; ++i) c->tick(next(), kDt_s, cmd);
+    (void)c->request_velocity(Vec3(0.3, 0.1, -0.2));
+    for (int i = 0; i < 100; ++i) c->tick(next(), kDt_s, cmd);
     c->request_tare();
     for (int i = 0; i < 10; ++i) c->observe(next(), kDt_s, true);
     c->disengage();

@@ -108,6 +108,50 @@ TEST(SimTrot, DutyFactor055TrotsThroughThePushFor30s) {
   EXPECT_LT(json_number(steady, "ee_x"), 0.02) << json;
 }
 
+// Walking on command: the shipped walk_forward (0.5 m/s, GP2, a 30 N sideways push at the
+// hand at 8 s), 20 s: the trunk's mean velocity over the last 3 s within 10 % of the command.
+TEST(SimWalk, FollowsTheCommandedVelocity) {
+  const fs::path dir = scratch("walk_forward");
+  const CliResult r = run(kScenarios + "walk_forward.yaml", dir / "out");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string json = slurp(dir / "out" / "summary.json");
+  EXPECT_FALSE(json_true(json, "fell")) << json;
+  EXPECT_EQ(json_number(json, "qp_failures"), 0.0) << json;
+  const std::string mean = json.substr(json.find("\"mean_velocity\""));
+  EXPECT_NEAR(json_number(mean, "x"), 0.5, 0.05) << json;  // measured 0.500
+  EXPECT_NEAR(json_number(mean, "y"), 0.0, 0.03) << json;
+  EXPECT_NEAR(json_number(mean, "yaw"), 0.0, 0.03) << json;
+  // Walked 20 s less the settle and the ramp: about 9.5 m.
+  const auto at = json.find("\"final_base_position_m\"");
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_NEAR(std::stod(json.substr(json.find('[', at) + 1)), 0.5 * (20.0 - 0.5 - 0.5), 0.3) << json;
+}
+
+// A velocity schedule changes the command without restarting the trot; a bad entry is named.
+TEST(SimWalk, AVelocityScheduleChangesTheCommand) {
+  const fs::path dir = scratch("walk_schedule");
+  std::ofstream(dir / "s.yaml") << scenario(
+      "{step_frequency: 1.4, duty_factor: 0.65, velocity: [0.2, 0, 0],\n"
+      "           velocity_schedule: [{at_s: 1.5, velocity: [0, 0.1, 0]}, {at_s: 2.0, velocity: [0, 0, 0.3]}]}");
+  const CliResult r = run((dir / "s.yaml").string(), dir / "out");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string json = slurp(dir / "out" / "summary.json");
+  EXPECT_FALSE(json_true(json, "fell")) << json;
+  const std::string command = json.substr(json.find("\"commanded_velocity\""));
+  EXPECT_EQ(json_number(command, "x"), 0.0) << json;
+  EXPECT_EQ(json_number(command, "y"), 0.0) << json;
+  EXPECT_NEAR(json_number(command, "yaw"), 0.3, 1e-12) << json;  // reached within 0.3 s of 2.0 s
+  // The trot ran on: no restart (2 s of trot at 1.4 Hz: 2.8 cycles, 2 changes per foot each).
+  EXPECT_GE(json_number(json.substr(json.find("\"gait\":")), "stance_changes"), 4 * 2 * 2.0) << json;
+
+  std::ofstream(dir / "bad.yaml") << scenario("{velocity_schedule: [{at_s: 1.0, velocity: [0, 0.5, 0]}]}");
+  const CliResult bad = run((dir / "bad.yaml").string(), dir / "bad");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("controller.params.gait.velocity_schedule[0].velocity[1]: must be in [-0.2, 0.2]"),
+            std::string::npos)
+      << bad.err;
+}
+
 TEST(SimTrot, BadGaitParameterIsNamed) {
   const fs::path dir = scratch("trot_bad");
   std::ofstream(dir / "s.yaml") << scenario("{duty_factor: 0.3}");

@@ -128,6 +128,31 @@ TEST(TrotConfig, ErrorsNameTheFieldAndGoodValuesLoad) {
   EXPECT_EQ(p.step_height_m, springbok::gait::TrotParams{}.step_height_m);
 }
 
+// Walking: velocity: [v_x, v_y, yaw_rate] or the three keys, within what the trot is built for.
+TEST(TrotConfig, TheCommandedVelocityIsOneListOrThreeKeys) {
+  const auto error_of = [](const std::string& yaml) {
+    return errors_of(yaml, "gait", [](const Field& f) { return params::read_trot_params(f); });
+  };
+  Errors errors;
+  const springbok::gait::TrotParams p =
+      params::read_trot_params(Field(YAML::Load("{velocity: [0.4, -0.1, 0.25]}"), "gait", errors));
+  EXPECT_TRUE(errors.empty()) << errors.joined();
+  EXPECT_EQ(p.velocity_x_m_s, 0.4);
+  EXPECT_EQ(p.velocity_y_m_s, -0.1);
+  EXPECT_EQ(p.yaw_rate_rad_s, 0.25);
+  EXPECT_EQ(error_of("{velocity: [0.8, 0, 0]}"), "gait.velocity[0]: must be in [-0.5, 0.5], got 0.8 (line 1)");
+  EXPECT_EQ(error_of("{velocity: [0, 0.3, 0]}"), "gait.velocity[1]: must be in [-0.2, 0.2], got 0.3 (line 1)");
+  EXPECT_NE(error_of("{velocity: [0.1, 0]}").find("gait.velocity: must be a list of 3"), std::string::npos);
+  EXPECT_NE(error_of("{velocity: [0.1, 0, 0], yaw_rate: 0.1}").find("gait.velocity: give either"), std::string::npos);
+  EXPECT_EQ(error_of("{yaw_rate: -0.6}"), "gait.yaw_rate: must be in [-0.5, 0.5], got -0.6 (line 1)");
+  // A schedule is the simulation tool's (a scenario's): elsewhere it is an unknown key.
+  EXPECT_NE(error_of("{velocity_schedule: []}").find("gait.velocity_schedule: unknown key"), std::string::npos);
+  Errors with_schedule;
+  (void)params::read_trot_params(Field(YAML::Load("{velocity_schedule: []}"), "gait", with_schedule),
+                                 params::WithVelocitySchedule::yes);
+  EXPECT_TRUE(with_schedule.empty()) << with_schedule.joined();
+}
+
 TEST(EstimatorConfig, ErrorsNameTheFieldAndGoodValuesLoad) {
   const auto error_of = [](const std::string& yaml) {
     return errors_of(yaml, "estimator", [](const Field& f) { return params::read_estimator_params(f); });

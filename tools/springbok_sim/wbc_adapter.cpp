@@ -75,8 +75,32 @@ WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
   }
   if (params["gait"].present()) {
     cp.gait.kind = control::GaitKind::trot;
-    cp.gait.trot = params::read_trot_params(params["gait"]);
+    cp.gait.trot = params::read_trot_params(params["gait"], params::WithVelocitySchedule::yes);
     trot_ = true;
+    // velocity_schedule: [{at_s, velocity: [v_x, v_y, yaw_rate]}, ...], times increasing.
+    const config::Field list = params["gait"]["velocity_schedule"];
+    if (list.present() && list.expect_list()) {
+      for (std::size_t i = 0; i < list.size(); ++i) {
+        const config::Field e = list[i];
+        if (!e.allow_only({"at_s", "velocity"})) continue;
+        VelocityChange change{0.0, Vec3::Zero()};
+        e["at_s"].number(change.at_s, 0.0, 1e6);
+        gait::TrotParams v = cp.gait.trot;
+        if (e["velocity"].expect_list(3)) {
+          for (std::size_t k = 0; k < 3; ++k) {
+            const gait::TrotField& field = gait::kTrotFields[gait::kTrotFields.size() - 3 + k];
+            e["velocity"][k].number(v.*field.member, field.lo, field.hi);
+          }
+        } else if (!e["velocity"].present()) {
+          e["velocity"].fail("missing");
+        }
+        change.velocity = Vec3(v.velocity_x_m_s, v.velocity_y_m_s, v.yaw_rate_rad_s);
+        if (!velocity_schedule_.empty() && change.at_s <= velocity_schedule_.back().at_s) {
+          e["at_s"].fail("must be after the previous change's");
+        }
+        velocity_schedule_.push_back(change);
+      }
+    }
   }
   params_ = params::read_wbc_params(params, params::WithControllerParts::yes);
   cp.wbc = params_;
@@ -95,6 +119,7 @@ WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
   }
   const auto ticks = static_cast<std::size_t>(std::llround(s.duration_s / dt_s_)) + 1;
   samples_.reserve(ticks);
+  trunk_velocity_h_.reserve(ticks);
   tick_us_all_.reserve(ticks);
 }
 
@@ -126,6 +151,10 @@ void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth,
     base.twist = truth.v.head<6>();
     truth_before_step_p_ = truth.q.head<3>();
     truth_before_step_v_ = truth.v.head<3>();
+    while (next_velocity_change_ < velocity_schedule_.size() &&
+           truth.time_s + 0.5 * dt_s_ >= velocity_schedule_[next_velocity_change_].at_s) {
+      (void)control_->request_velocity(velocity_schedule_[next_velocity_change_++].velocity);  // checked when read
+    }
     const auto t0 = std::chrono::steady_clock::now();
     status_ = control_->tick(m, dt_s_, out, use_estimator_ ? nullptr : &base);
     tick_us_ = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
@@ -173,6 +202,12 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   }
   s.force_world_n = o.external_force_world_n;
   samples_.push_back(s);
+  {
+    const Mat3 rot = Quat(truth.q[6], truth.q[3], truth.q[4], truth.q[5]).normalized().toRotationMatrix();
+    const Mat3 yaw = Eigen::AngleAxisd(std::atan2(rot(1, 0), rot(0, 0)), Vec3::UnitZ()).toRotationMatrix();
+    const Vec3 v_h = yaw.transpose() * (rot * truth.v.head<3>());
+    trunk_velocity_h_.push_back(Vec3(v_h.x(), v_h.y(), (rot * truth.v.segment<3>(3)).z()));
+  }
   const RobotState& used = control_->state();
   if (use_estimator_) {  // the estimate the WBC used this tick vs the truth of that tick (before the step)
     estimator_velocity_sq_sum_ += (used.v.head<3>() - truth_before_step_v_).squaredNorm();
@@ -293,9 +328,17 @@ std::string WbcAdapter::summary_fields() const {
   j += fmt::format("  \"joint_limit_hit\": {},\n", joint_limit_hit_ ? "\"" + joint_limit_joint_ + "\"" : "null");
   if (trot_) {
     const gait::TrotParams& g = control_->params().gait.trot;
+    // The trunk's mean velocity over the last 3 s, in its horizontal frame, and the command then.
+    const std::size_t last = std::min(trunk_velocity_h_.size(), static_cast<std::size_t>(std::llround(3.0 / dt_s_)));
+    Vec3 mean = Vec3::Zero();
+    for (std::size_t i = trunk_velocity_h_.size() - last; i < trunk_velocity_h_.size(); ++i) mean += trunk_velocity_h_[i];
+    if (last > 0) mean /= static_cast<double>(last);
+    const Vec3& command = control_->walking_velocity();
     j += fmt::format("  \"gait\": {{\"step_frequency_hz\": {:.6g}, \"duty_factor\": {:.6g}, \"step_height_m\": {:.6g}, "
-                     "\"stance_changes\": {}}},\n",
-                     g.step_frequency_hz, g.duty_factor, g.step_height_m, control_->stance_changes());
+                     "\"stance_changes\": {}, \"mean_velocity\": {{\"x\": {:.6g}, \"y\": {:.6g}, \"yaw\": {:.6g}}}, "
+                     "\"commanded_velocity\": {{\"x\": {:.6g}, \"y\": {:.6g}, \"yaw\": {:.6g}}}}},\n",
+                     g.step_frequency_hz, g.duty_factor, g.step_height_m, control_->stance_changes(), mean.x(), mean.y(),
+                     mean.z(), command.x(), command.y(), command.z());
   } else {
     j += "  \"gait\": null,\n";
   }

@@ -74,6 +74,15 @@ class WbcAdapter final : public Controller {
   Vec3 chirp_axis_ = Vec3::UnitX();
   bool use_estimator_ = false;                      // false: the base from the ground truth
   bool trot_ = false;
+  // controller.params.gait.velocity_schedule: at at_s, request_velocity(velocity).
+  struct VelocityChange {
+    double at_s;
+    Vec3 velocity;
+  };
+  std::vector<VelocityChange> velocity_schedule_;
+  std::size_t next_velocity_change_ = 0;
+  // The trunk's velocity in its horizontal frame [x, y, yaw rate], control ticks (gait.mean_velocity).
+  std::vector<Vec3> trunk_velocity_h_;
   std::unique_ptr<control::WholeBodyControl> control_;
   std::unique_ptr<safety::Supervisor> supervisor_;
   std::unique_ptr<wbc::StandController> stand_;

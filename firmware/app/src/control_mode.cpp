@@ -33,6 +33,13 @@ const char* ControlMode::request(const ControllerRequest& r, safety::Mode mode) 
     case ControllerRequest::Kind::tare:
       control_->request_tare();  // collected while the robot stands (observe)
       return nullptr;
+    case ControllerRequest::Kind::walk:
+      if (mode != safety::Mode::control || control_->gait_state() != control::GaitState::trot) {
+        return "walking needs the trot (mode control, gait trot)";
+      }
+      return control_->request_velocity(Vec3(r.velocity[0], r.velocity[1], r.velocity[2]))
+                 ? nullptr
+                 : "walking velocity out of range";
   }
   return "unknown request";
 }

@@ -46,7 +46,24 @@ ParsedLine controller_request(ControllerRequest r, std::string name) {
   return p;
 }
 
-constexpr const char* kVerbs = "(start, stop, mode, reset, status, gait, tare, controller)";
+constexpr const char* kVerbs = "(start, stop, mode, reset, status, gait, walk, tare, controller)";
+
+// `walk <v_x> <v_y> <yaw_rate>`: the running trot's velocity (m/s, m/s, rad/s), checked by
+// the config's reader against the trot's velocity ranges.
+ParsedLine parse_walk(const std::vector<std::string_view>& words) {
+  if (words.size() != 4) return error("walk needs three numbers: v_x v_y yaw_rate (m/s, m/s, rad/s)");
+  YAML::Node params(YAML::NodeType::Map);
+  params["velocity_x"] = std::string(words[1]);
+  params["velocity_y"] = std::string(words[2]);
+  params["yaw_rate"] = std::string(words[3]);
+  config::Errors errors;
+  const gait::TrotParams p = params::read_trot_params(config::Field(params, "walk", errors));
+  if (!errors.empty()) return error(errors.lines().front());
+  ControllerRequest r;
+  r.kind = ControllerRequest::Kind::walk;
+  r.velocity = {p.velocity_x_m_s, p.velocity_y_m_s, p.yaw_rate_rad_s};
+  return controller_request(r, "walk");
+}
 
 // `gait stand` or `gait trot key=value ...`: the trot's keys read by the config's
 // reader (the same ranges, the same messages).
@@ -110,6 +127,7 @@ ParsedLine parse_operator_line(std::string_view line) {
     return error("unknown mode '" + std::string(words[1]) + "' (stand or control)");
   }
   if (verb == "gait") return parse_gait(words);
+  if (verb == "walk") return parse_walk(words);
   if (verb == "tare" || verb == "controller") {
     if (args != 0) return error(std::string(verb) + " takes no argument");
     if (verb == "tare") return controller_request(ControllerRequest{}, "tare");
@@ -155,6 +173,7 @@ std::string describe_log_record(const rt::LogRecord& r) {
     case rt::LogEvent::controller_request:
     case rt::LogEvent::controller_request_refused:
       if (r.a == static_cast<std::int64_t>(ControllerRequest::Kind::tare)) return "tare";
+      if (r.a == static_cast<std::int64_t>(ControllerRequest::Kind::walk)) return "walk";
       return r.b == static_cast<std::int64_t>(control::GaitKind::trot) ? "gait trot" : "gait stand";
     default: return {};
   }

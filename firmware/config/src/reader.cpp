@@ -110,7 +110,7 @@ std::vector<std::string> Field::keys() const {
   return out;
 }
 
-bool Field::allow_only(std::initializer_list<std::string_view> keys) const {
+bool Field::allow_only(std::span<const std::string_view> keys) const {
   if (!node_.IsDefined() || node_.IsNull()) return true;
   if (!node_.IsMap()) {
     fail("must be a map, got " + describe());

@@ -1,5 +1,6 @@
 #include "springbok/control/whole_body_control.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Geometry>
@@ -78,6 +79,43 @@ void WholeBodyControl::take_wrist(const hal::Measurements& m, bool collect) noex
   input_.wrist_torque_nm = valid ? Vec3(m.wrist.torque_nm - tare_.torque_nm) : Vec3::Zero();
 }
 
+bool WholeBodyControl::request_velocity(const Vec3& velocity) noexcept {
+  gait::TrotParams p = requested_gait_.trot;
+  p.velocity_x_m_s = velocity.x();
+  p.velocity_y_m_s = velocity.y();
+  p.yaw_rate_rad_s = velocity.z();
+  if (gait::trot_params_error(p) != nullptr) return false;
+  requested_gait_.trot = p;
+  velocity_command_ = velocity;
+  return true;
+}
+
+namespace {
+double toward(double now, double target, double step) noexcept {
+  return now + std::clamp(target - now, -step, step);
+}
+}  // namespace
+
+// The rest pose's planar motion this tick: the walking velocity ramped towards the
+// command (zero unless trotting), integrated in the heading of the rest pose. rt: no alloc
+void WholeBodyControl::move_rest_pose(double dt_s) noexcept {
+  const Vec3 target = gait_state_ == GaitState::trot ? velocity_command_ : Vec3::Zero();
+  velocity_now_.x() = toward(velocity_now_.x(), target.x(), kWalkAcceleration_m_s2 * dt_s);
+  velocity_now_.y() = toward(velocity_now_.y(), target.y(), kWalkAcceleration_m_s2 * dt_s);
+  velocity_now_.z() = toward(velocity_now_.z(), target.z(), kWalkYawAcceleration_rad_s2 * dt_s);
+  motion_.yaw_acceleration_rad_s2 = (velocity_now_.z() - motion_.yaw_rate_rad_s) / dt_s;
+  motion_.yaw_rate_rad_s = velocity_now_.z();
+  motion_.yaw_rad += velocity_now_.z() * dt_s;
+  const Mat3& engaged = wbc_->engaged_reference().base_rotation;
+  const double heading = std::atan2(engaged(1, 0), engaged(0, 0)) + motion_.yaw_rad;
+  const Vec3 velocity_world =
+      Eigen::AngleAxisd(heading, Vec3::UnitZ()) * Vec3(velocity_now_.x(), velocity_now_.y(), 0.0);
+  motion_.acceleration_m_s2 = (velocity_world - motion_.velocity_m_s) / dt_s;
+  motion_.velocity_m_s = velocity_world;
+  motion_.offset_m += velocity_world * dt_s;
+  wbc_->move_reference(motion_);
+}
+
 void WholeBodyControl::request_tare() noexcept {
   tare_.running = params_.tare_samples > 0;
   tare_.samples = 0;
@@ -127,6 +165,9 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
   if (engaging) {
     gait_state_ = GaitState::stand;
     gait_request_pending_ = requested_gait_.kind == GaitKind::trot;
+    motion_ = wbc::PlanarMotion{};
+    velocity_now_.setZero();
+    velocity_command_.setZero();
   }
   bool start_trot = false;
   if (gait_request_pending_) {
@@ -137,12 +178,15 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
       gait_request_pending_ = false;
     } else if (gait_state_ == GaitState::stand) {
       trot_ = gait::TrotGait(requested_gait_.trot);
+      velocity_command_ = Vec3(requested_gait_.trot.velocity_x_m_s, requested_gait_.trot.velocity_y_m_s,
+                               requested_gait_.trot.yaw_rate_rad_s);
       gait_state_ = GaitState::trot;
       gait_time_s_ = 0.0;
       start_trot = true;
       gait_request_pending_ = false;
     }
   }
+  move_rest_pose(dt_s);
   Stance stance = kAllFeet;
   if (gait_state_ != GaitState::stand) {
     if (!start_trot) gait_time_s_ += dt_s;
@@ -156,8 +200,9 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
       feet_h[f] = yaw.transpose() * (data_->frames[kFootFrames[f]].translation - state_.q.head<3>());
     }
     if (start_trot) trot_.start(feet_h);
-    const gait::ContactPlan& plan =
-        trot_.update(gait_time_s_, feet_h, tilt * state_.v.head<3>(), footholds_shift_h(yaw), tilt);
+    const double yaw_rate_rad_s = (rot * state_.v.segment<3>(3)).z();
+    const gait::ContactPlan& plan = trot_.update(gait_time_s_, feet_h, tilt * state_.v.head<3>(), footholds_shift_h(yaw),
+                                                 tilt, Vec3(velocity_now_.x(), velocity_now_.y(), 0.0), yaw_rate_rad_s);
     bool all_down = true;
     for (int f = 0; f < kFeet; ++f) {
       // Stopping: a foot on the ground stays there, a swinging one lands by the plan.

@@ -53,7 +53,8 @@ void TrotGait::start(const std::array<Vec3, kFeet>& nominal_feet_h) noexcept {
 
 // rt: no alloc
 const ContactPlan& TrotGait::update(double t_s, const std::array<Vec3, kFeet>& feet_h, const Vec3& base_velocity_h,
-                                    const Vec3& pattern_shift_h, const Mat3& tilt) noexcept {
+                                    const Vec3& pattern_shift_h, const Mat3& tilt, const Vec3& commanded_velocity_h,
+                                    double yaw_rate_rad_s) noexcept {
   const double cycles = std::max(0.0, t_s) * params_.step_frequency_hz;
   const double swing_s = swing_duration_s();
   for (int f = 0; f < kFeet; ++f) {
@@ -73,7 +74,9 @@ const ContactPlan& TrotGait::update(double t_s, const std::array<Vec3, kFeet>& f
     // The foothold, re-planned every tick of the swing from this tick's velocity and shift
     // (fixed at lift-off it answered a lateral sway a third of a second late).
     Vec3 correction = pattern_shift_h;
-    correction.head<2>() += (0.5 * stance_duration_s() + params_.velocity_gain_s) * base_velocity_h.head<2>();
+    const Vec3 hip_velocity_h = base_velocity_h + yaw_rate_rad_s * Vec3::UnitZ().cross(nominal_h_[f]);
+    correction.head<2>() += 0.5 * stance_duration_s() * hip_velocity_h.head<2>() +
+                            params_.velocity_gain_s * (base_velocity_h - commanded_velocity_h).head<2>();
     touchdown_h_[f] = nominal_h_[f] + correction - Vec3(0.0, 0.0, params_.touchdown_depth_m);
     const double s = (phase - params_.duty_factor) / (1.0 - params_.duty_factor);
     const Profile blend = quintic_blend(s), bump = swing_bump(s);

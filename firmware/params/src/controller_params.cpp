@@ -1,6 +1,9 @@
 #include "springbok/params/controller_params.hpp"
 
+#include <array>
 #include <cmath>
+#include <span>
+#include <string_view>
 
 namespace springbok::params {
 namespace {
@@ -111,10 +114,24 @@ est::EstimatorParams read_estimator_params(const Field& f) {
   return p;
 }
 
-gait::TrotParams read_trot_params(const Field& f) {
-  f.allow_only({"step_frequency", "duty_factor", "step_height", "velocity_gain", "touchdown_depth"});
+gait::TrotParams read_trot_params(const Field& f, WithVelocitySchedule schedule) {
+  // The scenario's velocity_schedule (first: cut off where it is not allowed), [v_x, v_y, yaw rate] at once.
+  std::array<std::string_view, gait::kTrotFields.size() + 2> keys{"velocity_schedule", "velocity"};
+  for (std::size_t i = 0; i < gait::kTrotFields.size(); ++i) keys[i + 2] = gait::kTrotFields[i].key;
+  f.allow_only(std::span<const std::string_view>(keys).subspan(schedule == WithVelocitySchedule::yes ? 0 : 1));
   gait::TrotParams p;
   for (const gait::TrotField& field : gait::kTrotFields) f[field.key].number(p.*field.member, field.lo, field.hi);
+  const Field v = f["velocity"];
+  if (v.present()) {
+    if (f["velocity_x"].present() || f["velocity_y"].present() || f["yaw_rate"].present()) {
+      v.fail("give either velocity or velocity_x / velocity_y / yaw_rate");
+    } else if (v.expect_list(3)) {
+      for (std::size_t i = 0; i < 3; ++i) {
+        const gait::TrotField& field = gait::kTrotFields[gait::kTrotFields.size() - 3 + i];
+        v[i].number(p.*field.member, field.lo, field.hi);
+      }
+    }
+  }
   return p;
 }
 

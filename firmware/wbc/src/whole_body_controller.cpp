@@ -63,9 +63,11 @@ WholeBodyController::~WholeBodyController() = default;
 
 void WholeBodyController::set_reference(const VecNq& q, dyn::Data& data) noexcept {
   dyn::forward_kinematics(model_, data, q);
+  reference_ = WbcReference{};
   reference_.base_position_m = q.head<3>();
   reference_.base_rotation = Quat(q[6], q[3], q[4], q[5]).normalized().toRotationMatrix();
   reference_.ee_position_m = data.frames[kEeFrame].translation;
+  engaged_ = reference_;
   if (!params_.pin_arm_posture) params_.arm_posture_rad = q.segment<kArmDofs>(7 + kFirstArmJoint);
   // I_b: the composite rotational inertia about the robot's COM, in trunk axes.
   const Mat3 inertia_world = dyn::composite_inertia(model_, data, q);
@@ -77,6 +79,21 @@ void WholeBodyController::set_reference(const VecNq& q, dyn::Data& data) noexcep
   have_warm_start_ = false;
 }
 
+void WholeBodyController::move_reference(const PlanarMotion& m) noexcept {
+  const Mat3 turn = Eigen::AngleAxisd(m.yaw_rad, Vec3::UnitZ()).toRotationMatrix();
+  const Vec3 yaw_rate = m.yaw_rate_rad_s * Vec3::UnitZ();
+  const Vec3 arm = turn * (engaged_.ee_position_m - engaged_.base_position_m);  // base rest point to hand's
+  reference_.base_position_m = engaged_.base_position_m + m.offset_m;
+  reference_.base_rotation = turn * engaged_.base_rotation;
+  reference_.ee_position_m = reference_.base_position_m + arm;
+  reference_.base_velocity_m_s = m.velocity_m_s;
+  reference_.base_acceleration_m_s2 = m.acceleration_m_s2;
+  reference_.base_angular_velocity_rad_s = yaw_rate;
+  reference_.ee_velocity_m_s = m.velocity_m_s + yaw_rate.cross(arm);
+  reference_.ee_acceleration_m_s2 = m.acceleration_m_s2 + m.yaw_acceleration_rad_s2 * Vec3::UnitZ().cross(arm) +
+                                    yaw_rate.cross(yaw_rate.cross(arm));
+}
+
 // Eq. 4-5 and the base task acceleration; returns the desired base acceleration
 // in the coordinates of udot (d/dt v_B, d/dt w_B, trunk frame).
 void WholeBodyController::base_task(const WbcInput& in, const dyn::Data& d, Vec6& base_acc_desired) noexcept {
@@ -85,16 +102,21 @@ void WholeBodyController::base_task(const WbcInput& in, const dyn::Data& d, Vec6
   const Vec3 base_vel_world = rot * in.state.v.head<3>();
   const Vec3 omega_world = rot * in.state.v.segment<3>(3);
 
+  // Displacements from the rest pose and their rates relative to it (it moves when walking).
   const Vec3 x_b = in.state.q.head<3>() - reference_.base_position_m;
   const Vec3 x_e = d.frames[kEeFrame].translation - reference_.ee_position_m;
-  const Vec3 xd_b = base_vel_world;
-  const Vec3 xd_e = d.J_ee.topRows<3>() * in.state.v;
+  const Vec3 xd_b = base_vel_world - reference_.base_velocity_m_s;
+  const Vec3 xd_e = d.J_ee.topRows<3>() * in.state.v - reference_.ee_velocity_m_s;
   const Vec3 x_be = x_e - x_b, xd_be = xd_e - xd_b;
 
+  // The template's force on the base, plus what carries the base along the rest pose's
+  // acceleration (M_b a_ref: zero in place).
   const Vec3 force = -tp.stiffness_base_n_per_m.cwiseProduct(x_b) - tp.damping_base_ns_per_m.cwiseProduct(xd_b) +
-                     tp.stiffness_ee_n_per_m.cwiseProduct(x_be) + tp.damping_ee_ns_per_m.cwiseProduct(xd_be);
+                     tp.stiffness_ee_n_per_m.cwiseProduct(x_be) + tp.damping_ee_ns_per_m.cwiseProduct(xd_be) +
+                     tp.mass_base_kg.cwiseProduct(reference_.base_acceleration_m_s2);
   const Vec3 e_r = log_so3(reference_.base_rotation * rot.transpose());
-  const Vec3 torque = params_.kr_nm_per_rad.cwiseProduct(e_r) - params_.dr_nms_per_rad.cwiseProduct(omega_world);
+  const Vec3 torque = params_.kr_nm_per_rad.cwiseProduct(e_r) -
+                      params_.dr_nms_per_rad.cwiseProduct(omega_world - reference_.base_angular_velocity_rad_s);
   out_.base_wrench_desired.head<3>() = force;  // (not <<: GCC 12 -march=native false array-bounds)
   out_.base_wrench_desired.tail<3>() = torque;
   out_.base_displacement_m = x_b;
@@ -103,7 +125,8 @@ void WholeBodyController::base_task(const WbcInput& in, const dyn::Data& d, Vec6
   // The EE's template acceleration (second line of eq. 3), world axes.
   out_.ee_acceleration_desired = (-tp.stiffness_ee_n_per_m.cwiseProduct(x_be) -
                                   tp.damping_ee_ns_per_m.cwiseProduct(xd_be) + out_.external_force_world_n)
-                                     .cwiseQuotient(tp.mass_ee_kg);
+                                     .cwiseQuotient(tp.mass_ee_kg) +
+                                 reference_.ee_acceleration_m_s2;
 
   // qdd_b^d = diag(M_b, I_b)^-1 W_b^d in world axes, then in udot coordinates:
   // p'' = R (d/dt v_B + w_B x v_B), w' = R d/dt w_B.

@@ -216,8 +216,21 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
             std::string::npos)
       << report;
 
+  // Walking on command while trotting: 0.2 m/s forward for 2 s (ramped at 0.5 m/s^2).
+  ControllerRequest walk;
+  walk.kind = ControllerRequest::Kind::walk;
+  walk.velocity = {0.2, 0.0, 0.0};
+  const double x_before_m = robot.robot().ground_truth().q[0];
+  EXPECT_EQ(rig->request(walk), nullptr);
+  rig->executive->run_ticks(2000);
+  EXPECT_NEAR(robot.robot().ground_truth().q[0] - x_before_m, 0.2 * (2.0 - 0.2), 0.08);
+  walk.velocity = {0.0, 0.0, 0.0};
+  EXPECT_EQ(rig->request(walk), nullptr);
+  rig->executive->run_ticks(500);
+
   EXPECT_EQ(rig->request(stand), nullptr);
   rig->executive->run_ticks(1000);  // the swinging feet land within a swing time (0.25 s)
+  EXPECT_STREQ(rig->request(walk), "walking needs the trot (mode control, gait trot)");
   EXPECT_EQ(rig->control.controller().gait_state(), control::GaitState::stand);
   EXPECT_EQ(rig->control.controller().state().stance, kAllFeet);
   EXPECT_EQ(rig->request(tare), nullptr);  // in control: taken at the next stand, never during a push

@@ -27,8 +27,8 @@ TEST(OperatorLine, Parsing) {
   EXPECT_EQ(parse_operator_line("start").kind, K::command);
   EXPECT_EQ(parse_operator_line("  mode   control \r").command, safety::OperatorCommand::mode_control);
   EXPECT_EQ(parse_operator_line("status").kind, K::status);
-  EXPECT_EQ(parse_operator_line("").error, "error: empty command (start, stop, mode, reset, status, gait, tare, controller)");
-  EXPECT_EQ(parse_operator_line("START").error, "error: unknown command 'START' (start, stop, mode, reset, status, gait, tare, controller)");
+  EXPECT_EQ(parse_operator_line("").error, "error: empty command (start, stop, mode, reset, status, gait, walk, tare, controller)");
+  EXPECT_EQ(parse_operator_line("START").error, "error: unknown command 'START' (start, stop, mode, reset, status, gait, walk, tare, controller)");
   EXPECT_EQ(parse_operator_line("stop now").error, "error: stop takes no argument");
   EXPECT_EQ(parse_operator_line("mode").error, "error: mode needs one argument: stand or control");
   EXPECT_EQ(parse_operator_line("mode idle").error, "error: unknown mode 'idle' (stand or control)");
@@ -55,6 +55,14 @@ TEST(OperatorLine, ControllerRequests) {
   EXPECT_EQ(stand.kind, K::controller_request);
   EXPECT_EQ(stand.request.gait.kind, control::GaitKind::stand);
   EXPECT_EQ(parse_operator_line("tare").request.kind, ControllerRequest::Kind::tare);
+  const ParsedLine walk = parse_operator_line("walk 0.3 -0.1 0.25");
+  ASSERT_EQ(walk.kind, K::controller_request) << walk.error;
+  EXPECT_EQ(walk.name, "walk");
+  EXPECT_EQ(walk.request.kind, ControllerRequest::Kind::walk);
+  EXPECT_EQ(walk.request.velocity, (std::array<double, 3>{0.3, -0.1, 0.25}));
+  EXPECT_EQ(parse_operator_line("walk 0.6 0 0").error, "error: walk.velocity_x: must be in [-0.5, 0.5], got 0.6");
+  EXPECT_EQ(parse_operator_line("walk 0 0 nan").error, "error: walk.yaw_rate: must be a finite number, got 'nan'");
+  EXPECT_EQ(parse_operator_line("walk 0.1").error, "error: walk needs three numbers: v_x v_y yaw_rate (m/s, m/s, rad/s)");
   EXPECT_EQ(parse_operator_line("controller").kind, K::controller_status);
 
   EXPECT_EQ(parse_operator_line("gait trot duty_factor=0.3").error,
@@ -176,7 +184,7 @@ TEST_F(OperatorSocket, CommandsAndMalformedLines) {
   ASSERT_EQ(replies.size(), 16u);
   EXPECT_EQ(replies[0].substr(0, 38), "ok status mode=idle faults=none ticks=");
   EXPECT_EQ(replies[1], "error: mode control: mode control needs mode stand (mode=idle faults=none)");
-  EXPECT_EQ(replies[2], "error: unknown command 'frobnicate' (start, stop, mode, reset, status, gait, tare, controller)");
+  EXPECT_EQ(replies[2], "error: unknown command 'frobnicate' (start, stop, mode, reset, status, gait, walk, tare, controller)");
   EXPECT_EQ(replies[3], "error: mode needs one argument: stand or control");
   EXPECT_EQ(replies[4], "error: start takes no argument");
   EXPECT_EQ(replies[5], "error: non-printable byte in the command");

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <atomic>
+#include <array>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -32,8 +33,11 @@ inline constexpr std::size_t kMaxOperatorLine = 255;  // bytes, without the newl
 
 // A request for the control mode's controller (taken by the RT thread at a tick).
 struct ControllerRequest {
-  enum class Kind : std::uint8_t { gait, tare } kind = Kind::tare;
+  enum class Kind : std::uint8_t { gait, tare, walk } kind = Kind::tare;
   control::GaitCommand gait;  // with kind == gait
+  // With kind == walk: [v_x, v_y, yaw rate], the trunk's horizontal frame (a plain array:
+  // requests cross a lock-free ring by value).
+  std::array<double, 3> velocity{};
 };
 
 struct ParsedLine {

@@ -25,6 +25,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <initializer_list>
+#include <span>
 #include <string>
 #include <string_view>
 #include <type_traits>
@@ -94,7 +95,10 @@ class Field {
 
   // This must be a map (empty and absent count as one with every default): else an error.
   // Unknown and duplicated keys are errors. Returns false when this is not a map.
-  bool allow_only(std::initializer_list<std::string_view> keys) const;
+  bool allow_only(std::initializer_list<std::string_view> keys) const {
+    return allow_only(std::span<const std::string_view>(keys.begin(), keys.size()));
+  }
+  bool allow_only(std::span<const std::string_view> keys) const;
   // This must be a list (of `n` elements when n > 0): else an error and false. Absent: false.
   bool expect_list(std::size_t n = 0) const;
 

@@ -45,6 +45,10 @@
 namespace springbok::control {
 
 enum class GaitKind : std::uint8_t { stand = 0, trot = 1 };
+
+// How fast the walking velocity follows its command.
+inline constexpr double kWalkAcceleration_m_s2 = 0.5;
+inline constexpr double kWalkYawAcceleration_rad_s2 = 1.0;
 const char* to_string(GaitKind kind) noexcept;
 
 struct GaitCommand {
@@ -118,6 +122,13 @@ class WholeBodyControl {
   // trot with parameters outside read_trot_params' ranges. rt: no alloc
   bool request_gait(const GaitCommand& command) noexcept;
   void request_tare() noexcept;
+  // Walking: a new trunk velocity [v_x, v_y, yaw rate] (m/s, m/s, rad/s, the trunk's
+  // horizontal frame) for the running trot, without restarting it; refused (false)
+  // outside kTrotFields' velocity ranges. The rest pose follows it, ramped at
+  // kWalkAcceleration_m_s2 / kWalkYawAcceleration_rad_s2; a stand request ramps it to 0.
+  // rt: no alloc
+  bool request_velocity(const Vec3& velocity) noexcept;
+  const Vec3& walking_velocity() const noexcept { return velocity_now_; }
 
   bool engaged() const noexcept { return engaged_; }
   const RobotState& state() const noexcept { return state_; }
@@ -138,6 +149,7 @@ class WholeBodyControl {
   est::EstimateStatus estimate(const hal::Measurements& m, double dt_s, const Stance& stance) noexcept;
   void take_wrist(const hal::Measurements& m, bool collect) noexcept;
   void plan_gait(double dt_s, bool engaging) noexcept;
+  void move_rest_pose(double dt_s) noexcept;
   Vec3 footholds_shift_h(const Mat3& yaw) const noexcept;
 
   ControlParams params_;
@@ -156,6 +168,9 @@ class WholeBodyControl {
   GaitCommand requested_gait_;
   bool gait_request_pending_ = false;
   double gait_time_s_ = 0.0;
+  Vec3 velocity_command_ = Vec3::Zero();  // [v_x, v_y, yaw rate] in H, while trotting
+  Vec3 velocity_now_ = Vec3::Zero();      // the command ramped (kWalkAcceleration*)
+  wbc::PlanarMotion motion_;              // of the template's rest pose since engaging
   Tare tare_;
   Vec3 tare_force_sum_n_ = Vec3::Zero(), tare_torque_sum_nm_ = Vec3::Zero();
   std::uint64_t stance_changes_ = 0;

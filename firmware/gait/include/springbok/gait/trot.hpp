@@ -6,7 +6,8 @@
 // Footholds: under the hip, i.e. the foot's nominal position relative to the
 // trunk (taken at start()), moved by the base velocity as in the Reactive
 // Control Framework's heuristic (Barasuol et al., ICRA 2013):
-//     rho_td = rho_nominal + s + (T_stance / 2) v_xy + k_v (v_xy - v_xy^d),   v^d = 0 in place,
+//     rho_td = rho_nominal + s + (T_stance / 2) v_hip + k_v (v_xy - v_xy^d),
+//     v_hip = v_xy + w_z e_z x rho_nominal (the hip's velocity when the trunk turns),
 // where s shifts the whole pattern so that its centre, where the two diagonals
 // cross, lies on the ground under the point the robot's weight and external load
 // call for (the static zero-moment point, static_zmp below). A trot stands on one diagonal at
@@ -46,6 +47,11 @@ struct TrotParams {
   double step_height_m = 0.08;
   double velocity_gain_s = 0.0;      // k_v of the foothold correction
   double touchdown_depth_m = 0.005;  // the foothold this far below the nominal (the foot lands, not hovers)
+  // The commanded trunk velocity in its horizontal frame H (walking; 0: in place): the
+  // template's rest pose moves along it (springbok::control) and the footholds follow.
+  double velocity_x_m_s = 0.0;
+  double velocity_y_m_s = 0.0;
+  double yaw_rate_rad_s = 0.0;
 };
 
 // The one table of the trot's parameters: key, member, range (the config's reader,
@@ -55,12 +61,15 @@ struct TrotField {
   double TrotParams::*member;
   double lo, hi;
 };
-inline constexpr std::array<TrotField, 5> kTrotFields{{
+inline constexpr std::array<TrotField, 8> kTrotFields{{
     {"step_frequency", &TrotParams::step_frequency_hz, 0.1, 5.0},
     {"duty_factor", &TrotParams::duty_factor, 0.5, 0.95},
     {"step_height", &TrotParams::step_height_m, 0.0, 0.3},
     {"velocity_gain", &TrotParams::velocity_gain_s, 0.0, 1.0},
     {"touchdown_depth", &TrotParams::touchdown_depth_m, 0.0, 0.05},
+    {"velocity_x", &TrotParams::velocity_x_m_s, -0.5, 0.5},   // what the trot is built for:
+    {"velocity_y", &TrotParams::velocity_y_m_s, -0.2, 0.2},   // 0.5 m/s forward, 0.2 sideways,
+    {"yaw_rate", &TrotParams::yaw_rate_rad_s, -0.5, 0.5},     // 0.5 rad/s
 }};
 // The key of the first parameter outside kTrotFields' ranges (or not finite),
 // nullptr when all are within. rt: no alloc
@@ -110,8 +119,10 @@ class TrotGait {
   // point is its position on its first swing tick; its foothold is re-planned on
   // every tick of the swing from that tick's velocity and shift.
   // The swing references come out in trunk axes. rt: no alloc
+  // `commanded_velocity_h` is v^d (x, y in H), `yaw_rate_rad_s` the trunk's measured w_z.
   const ContactPlan& update(double t_s, const std::array<Vec3, kFeet>& feet_h, const Vec3& base_velocity_h,
-                            const Vec3& pattern_shift_h = Vec3::Zero(), const Mat3& tilt = Mat3::Identity()) noexcept;
+                            const Vec3& pattern_shift_h = Vec3::Zero(), const Mat3& tilt = Mat3::Identity(),
+                            const Vec3& commanded_velocity_h = Vec3::Zero(), double yaw_rate_rad_s = 0.0) noexcept;
 
   // The centre of the nominal footholds (mean of start()'s feet), frame H.
   const Vec3& nominal_centre_h() const noexcept { return nominal_centre_h_; }

@@ -29,7 +29,9 @@
 // foot_radius, ground_height, use_accelerometer.
 //
 // gait (read_trot_params), every key optional: the keys and ranges of gait::kTrotFields
-// (step_frequency 0.1..5 Hz, duty_factor 0.5..0.95, step_height, velocity_gain, touchdown_depth).
+// (step_frequency 0.1..5 Hz, duty_factor 0.5..0.95, step_height, velocity_gain, touchdown_depth,
+// velocity_x, velocity_y, yaw_rate), and `velocity: [v_x, v_y, yaw_rate]` for the last three at once.
+// With `schedule` yes the map may also hold `velocity_schedule` (a scenario's; its reader is the tool's).
 #pragma once
 
 #include "springbok/config/reader.hpp"
@@ -44,6 +46,7 @@ namespace springbok::params {
 enum class WithControllerParts : bool { no, yes };
 wbc::WbcParams read_wbc_params(const config::Field& f, WithControllerParts parts = WithControllerParts::no);
 est::EstimatorParams read_estimator_params(const config::Field& f);
-gait::TrotParams read_trot_params(const config::Field& f);
+enum class WithVelocitySchedule : bool { no, yes };
+gait::TrotParams read_trot_params(const config::Field& f, WithVelocitySchedule schedule = WithVelocitySchedule::no);
 
 }  // namespace springbok::params

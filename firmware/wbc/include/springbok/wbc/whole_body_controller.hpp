@@ -135,11 +135,29 @@ struct WbcInput {
   Vec3 wrist_torque_nm = Vec3::Zero();
 };
 
-// Desired (initial) poses the template's displacements are measured from.
+// The template's rest pose, which its displacements are measured from: the pose at
+// set_reference(), carried along a planar motion when the robot walks (move_reference).
+// World axes; velocities and accelerations are the rest pose's own.
 struct WbcReference {
   Vec3 base_position_m = Vec3::Zero();
   Mat3 base_rotation = Mat3::Identity();
   Vec3 ee_position_m = Vec3::Zero();
+  Vec3 base_velocity_m_s = Vec3::Zero();
+  Vec3 base_acceleration_m_s2 = Vec3::Zero();
+  Vec3 base_angular_velocity_rad_s = Vec3::Zero();
+  Vec3 ee_velocity_m_s = Vec3::Zero();
+  Vec3 ee_acceleration_m_s2 = Vec3::Zero();
+};
+
+// A rigid planar motion of the rest pose (walking): translated by offset (world, z = 0)
+// and turned by yaw about world z through the base's rest point; with their rates.
+struct PlanarMotion {
+  Vec3 offset_m = Vec3::Zero();
+  Vec3 velocity_m_s = Vec3::Zero();
+  Vec3 acceleration_m_s2 = Vec3::Zero();
+  double yaw_rad = 0.0;
+  double yaw_rate_rad_s = 0.0;
+  double yaw_acceleration_rad_s2 = 0.0;
 };
 
 struct WbcOutput {
@@ -173,6 +191,11 @@ class WholeBodyController {
   // recomputed at q). rt: no alloc (once, on entering the control mode)
   void set_reference(const VecNq& q, dyn::Data& data) noexcept;
   const WbcReference& reference() const noexcept { return reference_; }
+  // The rest pose of set_reference(), moved by `motion` (and at rest in it: the rates are
+  // the motion's). rt: no alloc
+  void move_reference(const PlanarMotion& motion) noexcept;
+  // The rest pose as set_reference() took it.
+  const WbcReference& engaged_reference() const noexcept { return engaged_; }
   const WbcParams& params() const noexcept { return params_; }
   Vec3 base_rotational_inertia_kgm2() const noexcept { return base_inertia_diag_; }
 
@@ -191,6 +214,7 @@ class WholeBodyController {
 
   WbcParams params_;
   WbcReference reference_;
+  WbcReference engaged_;
   Vec3 base_inertia_diag_ = Vec3::Ones();
   dyn::Model model_;
   std::unique_ptr<WbcSolver> solver_;
