@@ -21,7 +21,7 @@ import numpy as np  # noqa: E402
 AXES = ["base_x", "base_y", "base_z", "ee_x", "ee_y", "ee_z"]
 BASE_CASES = [("4", 4, 126.5), ("92", 92, 610), ("184", 184, 858)]
 ARM_CASES = [("0p4", 0.4, 29), ("4", 4, 90), ("10", 10, 142)]
-TROT_ARMS = [("0p4", 0.4), ("10", 10)]
+TROT_ARMS = [("0p4", 0.4), ("4", 4), ("10", 10)]
 TROT_GAITS = [("gp1", 1.4, 0.55), ("gp2", 1.4, 0.65), ("gp3", 1.8, 0.55), ("gp4", 1.8, 0.65)]
 TARGETS = {"arm_ee_nrmse": 0.03, "base_nrmse": 0.08, "steady": 0.01, "chirp_db": 2.0}
 

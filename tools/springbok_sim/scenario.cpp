@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <random>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -85,6 +87,66 @@ void read_initial(const Field& f, Scenario& s) {
   s.sim.initial_q = q;
 }
 
+// random_pushes: {seed, start_s, end_s, every_s: [lo, hi], duration_s, max_force_n, frames: [...]}:
+// horizontal pushes of a uniform direction and a magnitude uniform in [max/4, max], each on one of
+// the frames (uniformly), starting every lo..hi s from start_s until end_s. Expanded here into
+// step wrenches, deterministically from the seed (std::mt19937_64 and the tool's own uniform
+// draws, not std::uniform_*_distribution, whose algorithm the standard leaves open).
+void read_random_pushes(const Field& f, Scenario& s) {
+  if (!f.present() || !f.allow_only({"seed", "start_s", "end_s", "every_s", "duration_s", "max_force_n", "frames"})) {
+    return;
+  }
+  const std::size_t errors_before = f.errors().size();
+  std::uint64_t seed = 1;
+  double start_s = 0.0, end_s = s.duration_s, duration_s = 0.2, max_force_n = 80.0;
+  Eigen::Vector2d every_s(2.0, 4.0);
+  f["seed"].integer(seed, 0, std::numeric_limits<long long>::max());
+  f["start_s"].number(start_s, 0.0, 1e6);
+  f["end_s"].number(end_s, 0.0, 1e6);
+  f["duration_s"].number(duration_s, 1e-3, 10.0);
+  f["max_force_n"].number(max_force_n, 0.0, 1e4);
+  if (f["every_s"].vector<2>(every_s, 0.01, 1e3) && every_s[1] < every_s[0]) f["every_s"].fail("must be [lo, hi], lo <= hi");
+  std::vector<sim::FrameRef> frames;
+  std::vector<std::string> names;
+  const Field list = f["frames"];
+  if (list.require() && list.expect_list()) {
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      std::string name;
+      if (!list[i].text(name)) continue;
+      if (const auto frame = sim::find_frame(name)) {
+        frames.push_back(*frame);
+        names.push_back(name);
+      } else {
+        list[i].fail("unknown frame '" + name + "' (a link name or a fixed frame of the model)");
+      }
+    }
+    if (list.size() == 0) list.fail("must name at least one frame");
+  }
+  if (f.errors().size() != errors_before || frames.empty()) return;
+  std::mt19937_64 rng(seed);
+  const auto uniform = [&rng] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };  // [0, 1)
+  for (double t = start_s + every_s[0] + (every_s[1] - every_s[0]) * uniform(); t + duration_s <= end_s;
+       t += every_s[0] + (every_s[1] - every_s[0]) * uniform()) {
+    if (s.wrenches.size() >= static_cast<std::size_t>(sim::BulletRobot::kMaxExternalWrenches)) {
+      f.fail(fmt::format("more than {} pushes and wrenches in all (shorten end_s or lengthen every_s)",
+                         sim::BulletRobot::kMaxExternalWrenches));
+      return;
+    }
+    const std::size_t which = std::min(frames.size() - 1, static_cast<std::size_t>(uniform() * frames.size()));
+    const double angle = 2.0 * M_PI * uniform();
+    NamedWrench w;
+    w.frame = names[which];
+    w.wrench.frame = frames[which];
+    w.wrench.kind = sim::WrenchKind::force;
+    w.wrench.axis_world = Vec3(std::cos(angle), std::sin(angle), 0.0);
+    w.wrench.profile.shape = sim::ProfileShape::step;
+    w.wrench.profile.amplitude = max_force_n * (0.25 + 0.75 * uniform());
+    w.wrench.profile.start_s = t;
+    w.wrench.profile.duration_s = duration_s;
+    s.wrenches.push_back(std::move(w));
+  }
+}
+
 std::optional<NamedWrench> read_wrench(const Field& f) {
   if (!f.is_map()) {
     f.fail("must be a map, got " + f.describe());
@@ -153,7 +215,8 @@ Scenario load_scenario(const std::string& path) {
     top.fail("must be a map, got " + top.describe());
     refuse_if_any(errors, path);
   }
-  top.allow_only({"name", "description", "duration_s", "sim", "initial", "controller", "external_wrenches", "summary"});
+  top.allow_only({"name", "description", "duration_s", "sim", "initial", "controller", "external_wrenches",
+                  "random_pushes", "summary"});
   if (top["duration_s"].require()) top["duration_s"].number(s.duration_s, 1e-3, 3600.0);
   read_sim(top["sim"], s.sim);
   read_initial(top["initial"], s);
@@ -172,6 +235,7 @@ Scenario load_scenario(const std::string& path) {
       if (auto w = read_wrench(list[i])) s.wrenches.push_back(std::move(*w));
     }
   }
+  read_random_pushes(top["random_pushes"], s);
   const Field summary = top["summary"];
   summary.allow_only({"fall_height_m"});
   summary["fall_height_m"].number(s.fall_height_m, 0.0, 10.0);

@@ -236,6 +236,7 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
     const double lo = std::max(lo_q, (-v_max - qd) / dt_v), hi = std::min(hi_q, (v_max - qd) / dt_v);
     lb[row] = lo <= hi ? lo : lo_q;
     ub[row] = lo <= hi ? hi : hi_q;
+    position_only_bounds_[static_cast<std::size_t>(j)] = {lo_q, hi_q};
     ++row;
   }
   // Torque limits through the actuated rows of eq. 1 (c_j qd_j: the compensated friction):
@@ -347,7 +348,21 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& 
   if (have_warm_start_ && in.state.stance == last_stance_) hint.active_set = warm_start_.get();
   HessianFactor hessian_factor;
   if (factor_qp_hessian(*problem_, hessian_factor)) hint.cholesky_lower = hessian_factor.data();
-  const qp::Status status = solver_->solve(*problem_, *result_, hint);
+  qp::Status status = solver_->solve(*problem_, *result_, hint);
+  // The joints' speed limits give way to the torque limits and the contacts: a push the arm
+  // cannot hold back-drives it faster than its limit (a real arm would too), which with the
+  // speed rows has no solution. Solved again without them (the position limits stay).
+  out_.velocity_limits_relaxed = false;
+  if (status != qp::Status::optimal) {
+    for (int j = 0; j < kNj; ++j) {  // the joint-acceleration rows come first (build_qp)
+      problem_->lower[static_cast<std::size_t>(j)] = position_only_bounds_[static_cast<std::size_t>(j)][0];
+      problem_->upper[static_cast<std::size_t>(j)] = position_only_bounds_[static_cast<std::size_t>(j)][1];
+    }
+    WbcSolver::Hint cold;
+    cold.cholesky_lower = hint.cholesky_lower;
+    status = solver_->solve(*problem_, *result_, cold);
+    out_.velocity_limits_relaxed = status == qp::Status::optimal;
+  }
   out_.qp_status = status;
   out_.qp_iterations = result_->iterations;
   out_.qp_from_hint = result_->from_hint;

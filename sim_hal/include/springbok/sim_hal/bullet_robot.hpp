@@ -75,7 +75,7 @@ struct GroundTruth {
 
 class BulletRobot final : public hal::Hardware {
  public:
-  static constexpr int kMaxExternalWrenches = 8;
+  static constexpr int kMaxExternalWrenches = 64;  // a 60 s soak of random pushes holds ~30
 
   explicit BulletRobot(const SimConfig& config);
   ~BulletRobot() override;

@@ -168,6 +168,7 @@ struct WbcOutput {
   int qp_iterations = 0;
   bool qp_from_hint = false;                   // solved directly on the last tick's active set
   bool failed = false;                         // the QP failed this tick: tau_nm is the last solved tick's
+  bool velocity_limits_relaxed = false;        // solved only without the joints' speed limits
   // What the tasks asked for, for logs and plots.
   Vec6 base_wrench_desired = Vec6::Zero();     // [F_b^d; T_b^d], world
   Vec3 ee_acceleration_desired = Vec3::Zero(); // world
@@ -227,6 +228,7 @@ class WholeBodyController {
   std::array<SwingKinematics, kFeet> swing_{};   // this tick's swing feet
   Vec6 wrench_ee_world_ = Vec6::Zero();
   VecNj joint_friction_nm_ = VecNj::Zero();  // c qd this tick
+  std::array<std::array<double, 2>, kNj> position_only_bounds_{};  // the acceleration rows without the speed limits
   WbcOutput out_;
   std::uint64_t qp_failures_ = 0;
 };
