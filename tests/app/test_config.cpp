@@ -198,6 +198,27 @@ DriveGainRanges mini_cheetah_legs() {
   return r;
 }
 
+// Every damping the shipped config commands is one a law evaluated once per tick renders:
+// kd dt / I < 2 (explicit Euler on the joint's own inertia I, rotor included; beyond it the
+// joint chatters, as the Gen3's wrist did with the stand gains before the rotors). The MIT
+// drives run their law faster; the simulated drives and CiA 402's host-side law run it per tick.
+TEST(ShippedConfig, EveryDampingIsRenderableInOneTick) {
+  const ConfigResult loaded = load_config_file(SPRINGBOK_APP_CONFIG);
+  ASSERT_TRUE(loaded.ok);
+  const AppConfig& c = loaded.config;
+  const double dt_s = 1.0 / c.rate_hz;
+  for (int j = 0; j < kNj; ++j) {
+    const double limit = 2.0 * joint_own_axis_inertia_kgm2(j) / dt_s;
+    const std::string joint(robot::kJoints[static_cast<std::size_t>(j)].name);
+    EXPECT_LT(c.stand_gains.kd_nms_per_rad[j], limit) << "gains.stand, " << joint;
+    EXPECT_LT(c.control_gains.kd_nms_per_rad[j], limit) << "gains.control, " << joint;
+    EXPECT_LT(c.safety.damping_nms_per_rad[j], limit) << "safety.damping_nms_per_rad, " << joint;
+    EXPECT_LT(c.safety.idle_damping_nms_per_rad[j], limit) << "safety.idle_damping_nms_per_rad, " << joint;
+  }
+  // The wrist's last joint, the lightest: ~0.016 kg m^2 with its rotor, 32 N m s/rad at 1 kHz.
+  EXPECT_GT(2.0 * joint_own_axis_inertia_kgm2(kNj - 1) / dt_s, 10.0 * c.stand_gains.kd_nms_per_rad[kNj - 1]);
+}
+
 TEST(DriveGains, GainsTheDrivesCannotRenderAreNamedWithTheRange) {
   ConfigResult loaded = load_config_file(SPRINGBOK_APP_CONFIG);
   ASSERT_TRUE(loaded.ok);
