@@ -90,8 +90,9 @@ constexpr model::Inertia body_inertia(int body, Rotors rotors = Rotors::included
 
 // The inertia of joint j's own body about the joint's axis (z of its frame) [kg m^2]: a
 // lower bound of what the joint drives (the bodies beyond it add to it). A damping law
-// evaluated once per step dt is stable only below about this / dt: 0.24 N m s/rad for the
-// wrist's last joint at 1 ms (the drive emulator caps what it renders there).
+// evaluated once per step dt is stable only below about 2 this / dt: for the wrist's last
+// joint at 1 ms ~31 N m s/rad with its rotor, 0.5 without (the drive emulator caps what it
+// renders at this / dt).
 constexpr double joint_own_axis_inertia_kgm2(int j) {
   const model::Inertia in = body_inertia(j + 1);
   return in.inertia_com_kgm2[2] + in.mass_kg * (in.com_m[0] * in.com_m[0] + in.com_m[1] * in.com_m[1]);
