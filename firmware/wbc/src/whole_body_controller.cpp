@@ -353,6 +353,7 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& 
   // cannot hold back-drives it faster than its limit (a real arm would too), which with the
   // speed rows has no solution. Solved again without them (the position limits stay).
   out_.velocity_limits_relaxed = false;
+  out_.joint_limits_relaxed = false;
   if (status != qp::Status::optimal) {
     for (int j = 0; j < kNj; ++j) {  // the joint-acceleration rows come first (build_qp)
       problem_->lower[static_cast<std::size_t>(j)] = position_only_bounds_[static_cast<std::size_t>(j)][0];
@@ -362,6 +363,18 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& 
     cold.cholesky_lower = hint.cholesky_lower;
     status = solver_->solve(*problem_, *result_, cold);
     out_.velocity_limits_relaxed = status == qp::Status::optimal;
+    // Still none: a joint heading into its position limit faster than its torque can brake
+    // (a push the arm cannot hold flings it). The braking rows give way too, last: the
+    // joint's stop takes the rest, where a failed tick would have the supervisor damp the
+    // whole robot to the ground.
+    if (status != qp::Status::optimal) {
+      for (int j = 0; j < kNj; ++j) {
+        problem_->lower[static_cast<std::size_t>(j)] = -kInf;
+        problem_->upper[static_cast<std::size_t>(j)] = kInf;
+      }
+      status = solver_->solve(*problem_, *result_, cold);
+      out_.joint_limits_relaxed = status == qp::Status::optimal;
+    }
   }
   out_.qp_status = status;
   out_.qp_iterations = result_->iterations;

@@ -169,6 +169,7 @@ struct WbcOutput {
   bool qp_from_hint = false;                   // solved directly on the last tick's active set
   bool failed = false;                         // the QP failed this tick: tau_nm is the last solved tick's
   bool velocity_limits_relaxed = false;        // solved only without the joints' speed limits
+  bool joint_limits_relaxed = false;           // solved only without any joint-acceleration bound
   // What the tasks asked for, for logs and plots.
   Vec6 base_wrench_desired = Vec6::Zero();     // [F_b^d; T_b^d], world
   Vec3 ee_acceleration_desired = Vec3::Zero(); // world
