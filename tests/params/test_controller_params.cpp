@@ -68,6 +68,10 @@ TEST(WbcConfig, BadFieldsAreNamed) {
   EXPECT_NE(error_of(std::string(kGood) + "gains: {kp: 1}\n").find("wbc.gains: unknown key"), std::string::npos);
   EXPECT_EQ(error_of(std::string(kGood) + "limits: {torque_scale: 1.5}\n"),
             "wbc.limits.torque_scale: must be in [1e-06, 1], got 1.5 (line 9)");
+  EXPECT_EQ(error_of(std::string(kGood) + "limits: {velocity_scale: 1.5}\n"),
+            "wbc.limits.velocity_scale: must be in [1e-06, 1], got 1.5 (line 9)");
+  EXPECT_EQ(error_of(std::string(kGood) + "limits: {velocity_horizon_s: 0}\n"),
+            "wbc.limits.velocity_horizon_s: must be in [0.001, 10], got 0 (line 9)");
   EXPECT_EQ(error_of(std::string(kGood) + "swing: {kp: lots}\n"),
             "wbc.swing.kp: must be a number, got 'lots' (line 9)");
   // What a failed tick commands is the supervisor's: the old fallback section is unknown.

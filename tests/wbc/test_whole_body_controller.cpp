@@ -173,6 +173,34 @@ TEST_F(Fixture, JointAccelerationsKeepTheSpeedsWithinTheirLimits) {
   }
 }
 
+// A joint far past its speed limit, faster than its torque can brake within the horizon:
+// with the speed rows the QP has no solution; it is solved without them instead of failing
+// (and that tick does not allocate either).
+TEST_F(Fixture, SpeedRowsGiveWayWhereTheTorqueCannotBrake) {
+  tick();  // warm up
+  constexpr int kWrist2 = kFirstArmJoint + 5;
+  in.state.v[6 + kWrist2] = 20.0;  // braking to 1.22 rad/s within 0.02 s asks ~940 rad/s^2
+  std::size_t allocations = 0;
+  wbc::WbcOutput out;
+  {
+    test::AllocationTrap trap;
+    out = tick();
+    allocations = trap.disarm();
+  }
+  EXPECT_EQ(allocations, 0u);
+  ASSERT_EQ(out.qp_status, qp::Status::optimal);
+  EXPECT_FALSE(out.failed);
+  EXPECT_TRUE(out.velocity_limits_relaxed);
+  EXPECT_FALSE(out.joint_limits_relaxed);
+  EXPECT_LE(std::abs(out.tau_nm[kWrist2]), robot::kJoints[kWrist2].limits.effort_nm + 1e-9);
+  EXPECT_LT(out.udot[6 + kWrist2], 0.0) << "it still brakes";
+  EXPECT_LT(dynamics_residual(out, Vec6::Zero()).cwiseAbs().maxCoeff(), 1e-6);
+  // Back within its limit: the speed rows hold again.
+  in.state.v[6 + kWrist2] = 0.5;
+  const wbc::WbcOutput& calm = tick();
+  EXPECT_FALSE(calm.velocity_limits_relaxed);
+}
+
 TEST_F(Fixture, SwingFootCarriesNoForceAndTracksItsTarget) {
   in.state.stance = {true, false, false, true};  // trot pair LF + RH on the ground
   for (int f : {1, 2}) {

@@ -86,14 +86,7 @@ WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
         VelocityChange change{0.0, Vec3::Zero()};
         e["at_s"].number(change.at_s, 0.0, 1e6);
         gait::TrotParams v = cp.gait.trot;
-        if (e["velocity"].expect_list(3)) {
-          for (std::size_t k = 0; k < 3; ++k) {
-            const gait::TrotField& field = gait::kTrotFields[gait::kTrotFields.size() - 3 + k];
-            e["velocity"][k].number(v.*field.member, field.lo, field.hi);
-          }
-        } else if (!e["velocity"].present()) {
-          e["velocity"].fail("missing");
-        }
+        if (e["velocity"].require()) (void)params::read_walking_velocity(e["velocity"], v);
         change.velocity = Vec3(v.velocity_x_m_s, v.velocity_y_m_s, v.yaw_rate_rad_s);
         if (!velocity_schedule_.empty() && change.at_s <= velocity_schedule_.back().at_s) {
           e["at_s"].fail("must be after the previous change's");

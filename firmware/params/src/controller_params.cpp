@@ -125,14 +125,21 @@ gait::TrotParams read_trot_params(const Field& f, WithVelocitySchedule schedule)
   if (v.present()) {
     if (f["velocity_x"].present() || f["velocity_y"].present() || f["yaw_rate"].present()) {
       v.fail("give either velocity or velocity_x / velocity_y / yaw_rate");
-    } else if (v.expect_list(3)) {
-      for (std::size_t i = 0; i < 3; ++i) {
-        const gait::TrotField& field = gait::kTrotFields[gait::kTrotFields.size() - 3 + i];
-        v[i].number(p.*field.member, field.lo, field.hi);
-      }
+    } else {
+      (void)read_walking_velocity(v, p);
     }
   }
   return p;
+}
+
+bool read_walking_velocity(const Field& f, gait::TrotParams& p) {
+  if (!f.expect_list(3)) return false;
+  bool ok = true;
+  for (std::size_t i = 0; i < 3; ++i) {  // velocity_x, velocity_y, yaw_rate: kTrotFields' last three
+    const gait::TrotField& field = gait::kTrotFields[gait::kTrotFields.size() - 3 + i];
+    ok = f[i].number(p.*field.member, field.lo, field.hi) && ok;
+  }
+  return ok;
 }
 
 }  // namespace springbok::params

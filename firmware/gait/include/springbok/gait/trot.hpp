@@ -71,6 +71,10 @@ inline constexpr std::array<TrotField, 8> kTrotFields{{
     {"velocity_y", &TrotParams::velocity_y_m_s, -0.2, 0.2},   // 0.5 m/s forward, 0.2 sideways,
     {"yaw_rate", &TrotParams::yaw_rate_rad_s, -0.5, 0.5},     // 0.5 rad/s
 }};
+static_assert(kTrotFields[kTrotFields.size() - 3].member == &TrotParams::velocity_x_m_s &&
+                  kTrotFields[kTrotFields.size() - 2].member == &TrotParams::velocity_y_m_s &&
+                  kTrotFields[kTrotFields.size() - 1].member == &TrotParams::yaw_rate_rad_s,
+              "the walking velocity is kTrotFields' last three (params::read_walking_velocity)");
 // The key of the first parameter outside kTrotFields' ranges (or not finite),
 // nullptr when all are within. rt: no alloc
 const char* trot_params_error(const TrotParams& p) noexcept;

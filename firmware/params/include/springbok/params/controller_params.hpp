@@ -48,5 +48,8 @@ wbc::WbcParams read_wbc_params(const config::Field& f, WithControllerParts parts
 est::EstimatorParams read_estimator_params(const config::Field& f);
 enum class WithVelocitySchedule : bool { no, yes };
 gait::TrotParams read_trot_params(const config::Field& f, WithVelocitySchedule schedule = WithVelocitySchedule::no);
+// A walking velocity `[v_x, v_y, yaw_rate]` (a list of 3, each within its kTrotFields range)
+// into p's velocity_x / velocity_y / yaw_rate; false (and an error) when `f` is not such a list.
+bool read_walking_velocity(const config::Field& f, gait::TrotParams& p);
 
 }  // namespace springbok::params
