@@ -110,6 +110,33 @@ TEST_F(Fixture, PushOnTheHandObeysNewtonForTheWholeRobot) {
   for (int j = 0; j < kNj; ++j) EXPECT_LE(std::abs(out.tau_nm[j]), robot::kJoints[j].limits.effort_nm);
 }
 
+// The base wrench the solution applies (logged against W_b^d, the paper's Fig. 10) is the
+// template's base mass times the trunk acceleration of udot; on four feet the desired
+// one is reachable, so the two agree.
+TEST_F(Fixture, OnFourFeetTheAppliedBaseWrenchIsTheDesiredOne) {
+  in.state.q[0] += 0.02;   // the base 2 cm forward and 1 cm left of its rest pose
+  in.state.q[1] += 0.01;
+  in.state.v[1] = 0.05;    // moving sideways (trunk axes = world axes here)
+  const auto& out = tick();
+  ASSERT_EQ(out.qp_status, qp::Status::optimal);
+  const auto& tp = params.template_params;
+  const Vec3 force_expected = -tp.stiffness_base_n_per_m.cwiseProduct(Vec3(0.02, 0.01, 0.0)) -
+                              tp.damping_base_ns_per_m.cwiseProduct(Vec3(0.0, 0.05, 0.0)) +
+                              tp.damping_ee_ns_per_m.cwiseProduct(data->J_ee.topRows<3>() * in.state.v - Vec3(0.0, 0.05, 0.0)) +
+                              tp.stiffness_ee_n_per_m.cwiseProduct(Vec3(-0.02, -0.01, 0.0) +
+                                                                   data->frames[kEeFrame].translation -
+                                                                   wbc->reference().ee_position_m);
+  EXPECT_LT((out.base_wrench_desired.head<3>() - force_expected).norm(), 1e-9);
+  // Applied = M_b (R (d/dt v_B + w x v_B)); w = 0 here and R = I.
+  EXPECT_LT((out.base_wrench_applied.head<3>() - tp.mass_base_kg.cwiseProduct(out.udot.head<3>())).norm(), 1e-9);
+  EXPECT_LT((out.base_wrench_applied.tail<3>() -
+             wbc->base_rotational_inertia_kgm2().cwiseProduct(out.udot.segment<3>(3))).norm(), 1e-9);
+  EXPECT_LT((out.base_wrench_applied - out.base_wrench_desired).head<3>().norm(),
+            0.02 * out.base_wrench_desired.head<3>().norm())
+      << "desired " << out.base_wrench_desired.transpose() << "\napplied " << out.base_wrench_applied.transpose();
+  EXPECT_LT((out.base_wrench_applied - out.base_wrench_desired).tail<3>().norm(), 1.0);
+}
+
 TEST_F(Fixture, JointFrictionIsCompensatedInTheTorquesAndTheirLimits) {
   // Moving joints with a push on the hand: with friction b the same motion and forces, each
   // torque b qd higher (the equations of motion of a robot with that friction: M udot + h + B qd

@@ -15,7 +15,16 @@ namespace springbok::simtool {
 namespace {
 
 constexpr const char* kAxisKeys[6] = {"base_x", "base_y", "base_z", "ee_x", "ee_y", "ee_z"};
+constexpr const char* kRotationKeys[6] = {"base_rx", "base_ry", "base_rz", "ee_rx", "ee_ry", "ee_rz"};
 constexpr const char* kFootNames[kFeet] = {"lf", "rf", "lh", "rh"};
+// A joint is "at its torque limit" from this fraction of it on.
+constexpr double kAtLimit = 0.99;
+
+// The rotation vector of r (angle times axis).
+Vec3 rotation_vector(const Mat3& r) {
+  const Eigen::AngleAxisd aa(r);
+  return aa.angle() * aa.axis();
+}
 // An axis is scored only if the template's peak-to-peak there exceeds this
 // fraction of the largest peak-to-peak over the six axes (else `null`).
 constexpr double kMovingAxisFraction = 0.05;
@@ -138,7 +147,11 @@ void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth,
     stand_->tick(use_estimator_ ? control_->estimate().q : truth.q, out);
     report.posture_reached = truth.time_s + 1.5 * dt_s_ >= settle_s_;  // control from the next tick on
   } else if (sup.mode() == safety::Mode::control) {
-    if (!control_->engaged()) template_->reset();
+    if (!control_->engaged()) {
+      template_->reset();
+      dyn::forward_kinematics(model_, *data_, truth.q);  // the hand's orientation at engagement
+      ee_rotation_engaged_ = data_->frames[kEeFrame].rotation;
+    }
     control::BaseTruth base;
     base.pose = truth.q.head<7>();
     base.twist = truth.v.head<6>();
@@ -170,13 +183,20 @@ std::string WbcAdapter::csv_columns() const {
     for (const char* a : {"x", "y", "z"}) h += fmt::format(",{}_f{}_n", f, a);
   }
   h += ",qp_status,qp_iterations,tick_failed,manipulability,tick_us";
+  for (const char* b : {"base", "ee"}) {
+    for (const char* a : {"x", "y", "z"}) h += fmt::format(",{}_r{}_rad", b, a);
+  }
+  for (const char* w : {"desired", "applied"}) {
+    for (const char* a : {"x", "y", "z"}) h += fmt::format(",base_wrench_{}_f{}_n", w, a);
+    for (const char* a : {"x", "y", "z"}) h += fmt::format(",base_wrench_{}_t{}_nm", w, a);
+  }
   return h;
 }
 
 void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   if (!ticked_) {
     row += ",0";
-    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5; ++i) row += ",0";
+    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5 + 6 + 12; ++i) row += ",0";
     return;
   }
   const wbc::WbcOutput& o = control_->output();
@@ -194,6 +214,19 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
     s.reference[3 + a] = te[a];
   }
   s.force_world_n = o.external_force_world_n;
+  {
+    // The rest pose's orientations: the base's (it turns when walking) and the hand's at
+    // engagement, turned with it.
+    const Mat3 rot = Quat(truth.q[6], truth.q[3], truth.q[4], truth.q[5]).normalized().toRotationMatrix();
+    const Mat3 turned = ref.base_rotation * control_->wbc().engaged_reference().base_rotation.transpose();
+    const Vec3 rb = rotation_vector(rot * ref.base_rotation.transpose());
+    const Vec3 re = rotation_vector(data_->frames[kEeFrame].rotation * (turned * ee_rotation_engaged_).transpose());
+    for (int a = 0; a < 3; ++a) {
+      s.rotation[a] = rb[a];
+      s.rotation[3 + a] = re[a];
+    }
+  }
+  s.base_wrench_error = o.base_wrench_desired - o.base_wrench_applied;
   samples_.push_back(s);
   {
     const Mat3 rot = Quat(truth.q[6], truth.q[3], truth.q[4], truth.q[5]).normalized().toRotationMatrix();
@@ -211,15 +244,28 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   const bool failed = status_ != control::TickStatus::ok;
   if (failed) ++failed_ticks_;
   if (o.qp_from_hint) ++qp_from_hint_ticks_;
+  bool at_limit = false;
   for (int j = 0; j < kNj; ++j) {
     const auto& lim = robot::kJoints[j].limits;
-    max_torque_ratio_ = std::max(max_torque_ratio_, std::abs(truth.tau_applied_nm[j]) / lim.effort_nm);
+    const double torque_ratio = std::abs(truth.tau_applied_nm[j]) / lim.effort_nm;
+    max_torque_ratio_ = std::max(max_torque_ratio_, torque_ratio);
+    if (torque_ratio >= kAtLimit) {
+      ++torque_limit_ticks_[static_cast<std::size_t>(j)];
+      at_limit = true;
+    }
+    const double speed_ratio = std::abs(truth.v[6 + j]) / lim.velocity_rad_s;
+    if (speed_ratio > max_speed_ratio_) {
+      max_speed_ratio_ = speed_ratio;
+      max_speed_joint_ = j;
+    }
     const double q = truth.q[7 + j];
     if (lim.bounded && !joint_limit_hit_ && (q <= lim.lower_rad + 1e-3 || q >= lim.upper_rad - 1e-3)) {
       joint_limit_hit_ = true;
       joint_limit_joint_ = robot::kJoints[j].name;
     }
   }
+
+  if (at_limit) ++any_torque_limit_ticks_;
 
   row += ",1";
   for (double v : s.measured) put(row, v);
@@ -234,6 +280,9 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   row += failed ? ",1" : ",0";
   put(row, o.manipulability);
   put(row, tick_us_);
+  for (double v : s.rotation) put(row, v);
+  for (double v : o.base_wrench_desired) put(row, v);
+  for (double v : o.base_wrench_applied) put(row, v);
 }
 
 std::string WbcAdapter::summary_fields() const {
@@ -306,8 +355,35 @@ std::string WbcAdapter::summary_fields() const {
       if (any) chirp_db[a] = worst_db;
     }
   }
+  // Every axis's RMS error, rendered or not: translations against the template [m],
+  // orientations against the rest pose's [rad]; and W_b^d against what the solution applied.
+  std::string rms = "{";
+  Vec6 wrench_sq = Vec6::Zero();
+  for (int a = 0; a < 12; ++a) {
+    double sq = 0.0;
+    for (const auto& s : samples_) {
+      const double e = a < 6 ? s.measured[a] - s.reference[a] : s.rotation[a - 6];
+      sq += e * e;
+    }
+    rms += fmt::format("{}\"{}\": {}", a ? ", " : "", a < 6 ? kAxisKeys[a] : kRotationKeys[a - 6],
+                       n > 0 ? fmt::format("{:.6g}", std::sqrt(sq / static_cast<double>(n))) : "null");
+  }
+  rms += "}";
+  for (const auto& s : samples_) wrench_sq += s.base_wrench_error.cwiseAbs2();
+  if (n > 0) wrench_sq /= static_cast<double>(n);
+  const Vec6 wrench_rms = wrench_sq.cwiseSqrt();
+  const auto most_at_limit = std::max_element(torque_limit_ticks_.begin(), torque_limit_ticks_.end());
   std::string j;
   j += fmt::format("  \"wbc_start_s\": {:.6f},\n", n > 0 ? samples_.front().time_s - dt_s_ : 0.0);
+  j += fmt::format("  \"rms_error\": {},\n", rms);
+  j += fmt::format("  \"base_wrench_error_rms\": {{\"fx_n\": {:.6g}, \"fy_n\": {:.6g}, \"fz_n\": {:.6g}, "
+                   "\"tx_nm\": {:.6g}, \"ty_nm\": {:.6g}, \"tz_nm\": {:.6g}}},\n",
+                   wrench_rms[0], wrench_rms[1], wrench_rms[2], wrench_rms[3], wrench_rms[4], wrench_rms[5]);
+  j += fmt::format("  \"torque_limit_s\": {{\"any\": {:.6g}, \"most\": {:.6g}, \"most_joint\": \"{}\"}},\n",
+                   static_cast<double>(any_torque_limit_ticks_) * dt_s_, static_cast<double>(*most_at_limit) * dt_s_,
+                   robot::kJoints[static_cast<std::size_t>(most_at_limit - torque_limit_ticks_.begin())].name);
+  j += fmt::format("  \"max_joint_speed_ratio\": {:.6g},\n", max_speed_ratio_);
+  j += fmt::format("  \"max_joint_speed_joint\": \"{}\",\n", robot::kJoints[static_cast<std::size_t>(max_speed_joint_)].name);
   j += fmt::format("  \"nrmse\": {},\n", json_axes(nrmse));
   j += fmt::format("  \"steady_state_error\": {},\n", json_axes(steady));
   j += fmt::format("  \"peak_deviation\": {},\n", json_axes(peak));

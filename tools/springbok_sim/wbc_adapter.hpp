@@ -63,6 +63,10 @@ class WbcAdapter final : public Controller {
     double time_s;
     std::array<double, kAxes> measured;
     std::array<double, kAxes> reference;
+    // Orientation displacements from the rest pose (rotation vectors, world, rad): base
+    // rx ry rz, hand rx ry rz. Not rendered (the template is translational): reference 0.
+    std::array<double, kAxes> rotation;
+    Vec6 base_wrench_error;  // W_b^d - the solution's base wrench [N, N m]
     Vec3 force_world_n;
   };
 
@@ -102,6 +106,11 @@ class WbcAdapter final : public Controller {
   std::vector<Sample> samples_;
   std::vector<double> tick_us_all_;
   double max_torque_ratio_ = 0.0;
+  std::array<std::uint64_t, kNj> torque_limit_ticks_{};   // |tau| >= kAtLimit of the limit, per joint
+  std::uint64_t any_torque_limit_ticks_ = 0;              // ticks with some joint there
+  double max_speed_ratio_ = 0.0;                          // max |qd| / velocity limit
+  int max_speed_joint_ = 0;
+  Mat3 ee_rotation_engaged_ = Mat3::Identity();           // the hand's at the WBC's engagement
   std::uint64_t failed_ticks_ = 0;
   std::uint64_t qp_from_hint_ticks_ = 0;  // ticks whose QP was solved on the last tick's active set
   bool joint_limit_hit_ = false;

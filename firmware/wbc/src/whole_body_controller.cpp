@@ -306,6 +306,12 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
 void WholeBodyController::torques_from_solution(const WbcInput& in, const dyn::Data& d) noexcept {
   const Eigen::Map<const Vec<kQpVars>> x(result_->x.data());
   out_.udot = x.head<kNv>();
+  {
+    const Mat3& rot = in.state.rotation_wb;
+    const Vec3 acc_world = rot * (out_.udot.head<3>() + in.state.v.segment<3>(3).cross(in.state.v.head<3>()));
+    out_.base_wrench_applied.head<3>() = params_.template_params.mass_base_kg.cwiseProduct(acc_world);
+    out_.base_wrench_applied.tail<3>() = rot * base_inertia_diag_.cwiseProduct(out_.udot.segment<3>(3));
+  }
   VecNv tau_full = d.M * out_.udot + d.nle - d.J_ee.transpose() * wrench_ee_world_;
   tau_full.tail<kNj>() += joint_friction_nm_;
   for (int f = 0; f < kFeet; ++f) {

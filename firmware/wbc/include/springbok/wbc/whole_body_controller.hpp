@@ -104,7 +104,7 @@ struct WbcParams {
   // rows take a speed to its limit no faster than within this horizon (the Gen3's
   // 1.40 / 1.22 rad/s; a real arm faults beyond them).
   double joint_velocity_horizon_s = 0.02;
-  double joint_velocity_limit_scale = 1.0;
+  double joint_velocity_limit_scale = 0.97;  // the rows aim 3 % below the URDF limit: the arm overshoots them by up to 0.5 %
   double torque_limit_scale = 1.0;   // fraction of the URDF effort the QP may use
 
   // Swing foot Cartesian PD (relative to the base, base axes).
@@ -172,6 +172,9 @@ struct WbcOutput {
   bool joint_limits_relaxed = false;           // solved only without any joint-acceleration bound
   // What the tasks asked for, for logs and plots.
   Vec6 base_wrench_desired = Vec6::Zero();     // [F_b^d; T_b^d], world
+  // The wrench the solution renders on the template's base (the base task's rows at
+  // udot: [M_b p''; I_b w'], world); W_b^d minus it is what two feet could not give.
+  Vec6 base_wrench_applied = Vec6::Zero();
   Vec3 ee_acceleration_desired = Vec3::Zero(); // world
   VecArm arm_qdd_desired = VecArm::Zero();
   double manipulability = 0.0;
