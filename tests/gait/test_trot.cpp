@@ -1,8 +1,12 @@
 // The trot: the schedule's timing (duty factor, diagonal pairs, the four-feet
 // overlap), the swing trajectory against finite differences and its end
 // conditions, the foothold correction, the pattern's shift and the trunk's tilt,
-// the static ZMP against moment balance, config errors, no allocation.
+// the static ZMP against moment balance, config errors, no allocation; touch-down
+// detection on a recorded touch-down (early, and the same trace late) and the force ramps.
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 
 #include <Eigen/Geometry>
 
@@ -162,6 +166,207 @@ TEST(Trot, StaticZmpBalancesTheMoments) {
               1e-12);
   // A load that lifts the robot (F_z >= W) has no ZMP: the COM's projection.
   EXPECT_TRUE((gait::static_zmp(com, weight, point, Vec3(5, 5, weight), Vec3::Zero(), ground).head<2>() - com.head<2>()).isZero(0.0));
+}
+
+// ---- touch-down detection and force ramps ------------------------------------------
+
+// The estimated normal force on a foot around a touch-down, recorded in the shipped
+// trot_me10_gp1 (springbok-sim log, rf_fz_estimated_n, one value per 1 ms tick from the
+// tick the sphere first touched): the impact, a dip as the leg rebounds, the load.
+constexpr std::array<double, 19> kRecordedTouchdown_n{13.3, 41.0, 38.5, 32.9, 27.7, 24.5, 26.4, 30.8, 36.8, 44.1,
+                                                      53.0, 63.2, 74.4, 86.4, 99.1, 112.3, 126.0, 140.0, 154.4};
+
+// A trot driven tick by tick, with the evidence for foot 0 (lf) scripted: the other feet
+// read 230 N from 3 ms before their scheduled touch-down (they land a little early, as
+// in the simulator) to their lift-off, 0 in the air.
+struct Scripted {
+  gait::TrotParams params;
+  gait::TrotGait trot;
+  double t_s = 0.0;
+  static constexpr double kDt = 1e-3;
+  explicit Scripted(double fs = 1.4, double df = 0.55) : params(make(fs, df)), trot(params) { trot.start(nominal()); }
+  static gait::TrotParams make(double fs, double df) {
+    gait::TrotParams p;
+    p.step_frequency_hz = fs;
+    p.duty_factor = df;
+    return p;
+  }
+  bool scheduled_stance(int f, double t) const {
+    static constexpr std::array<double, kFeet> offset{0.0, 0.5, 0.5, 0.0};
+    double phase = t * params.step_frequency_hz - offset[f];
+    phase -= std::floor(phase);
+    return phase < params.duty_factor;
+  }
+  // One tick with `lf_n` on foot 0.
+  const gait::ContactPlan& tick(double lf_n) {
+    gait::ContactSense sense;
+    sense.valid = true;
+    for (int f = 1; f < kFeet; ++f) sense.normal_force_n[f] = on_ground(f, t_s) ? 230.0 : 0.0;
+    sense.normal_force_n[0] = lf_n;
+    const gait::ContactPlan& plan = trot.update(t_s, nominal(), Vec3::Zero(), Vec3::Zero(), Mat3::Identity(),
+                                                Vec3::Zero(), 0.0, &sense);
+    t_s += kDt;
+    return plan;
+  }
+  bool on_ground(int f, double t) const { return scheduled_stance(f, t) || scheduled_stance(f, t + 0.003); }
+  // Ticks until the time t (exclusive), lf reading as the others do.
+  void run_until(double t) {
+    while (t_s < t - kDt / 2) tick(on_ground(0, t_s) ? 230.0 : 0.0);
+  }
+  double liftoff_s(int cycle) const { return (cycle + params.duty_factor) / params.step_frequency_hz; }
+  double touchdown_s(int cycle) const { return (cycle + 1.0) / params.step_frequency_hz; }
+};
+
+TEST(Touchdown, AnEarlyTouchDownIsStanceFromItsSecondTickAboveTheThreshold) {
+  Scripted s;
+  const double swing = s.trot.swing_duration_s();
+  s.run_until(s.liftoff_s(1) + 0.9 * swing);  // lf at 90 % of its swing
+  const std::uint64_t early_before = s.trot.plan().early_touchdowns;
+  ASSERT_FALSE(s.trot.plan().stance[0]);
+  ASSERT_EQ(s.trot.plan().foot[0], gait::FootPhase::swing);
+  EXPECT_FALSE(s.tick(kRecordedTouchdown_n[0]).stance[0]);  // 13.3 N: below 25 N
+  EXPECT_FALSE(s.tick(kRecordedTouchdown_n[1]).stance[0]);  // 41 N: the first tick above
+  const gait::ContactPlan& plan = s.tick(kRecordedTouchdown_n[2]);  // 38.5 N: the second
+  EXPECT_TRUE(plan.stance[0]);
+  EXPECT_EQ(plan.foot[0], gait::FootPhase::landed_early);
+  EXPECT_EQ(plan.early_touchdowns, early_before + 1);
+  // The dip below the threshold (24.5 N) does not lift it again; the schedule's stance takes over.
+  for (std::size_t i = 3; i < kRecordedTouchdown_n.size(); ++i) EXPECT_TRUE(s.tick(kRecordedTouchdown_n[i]).stance[0]);
+  s.run_until(s.touchdown_s(1) + 0.01);
+  EXPECT_EQ(s.trot.plan().foot[0], gait::FootPhase::stance);
+  EXPECT_EQ(s.trot.plan().late_touchdowns, 0u);  // nobody was late
+  // It lifts off by the schedule.
+  s.run_until(s.liftoff_s(2) + 0.002);
+  EXPECT_FALSE(s.trot.plan().stance[0]);
+}
+
+TEST(Touchdown, ForceInTheFirstHalfOfTheSwingIsNotATouchDown) {
+  Scripted s;
+  s.run_until(s.liftoff_s(1) + 0.3 * s.trot.swing_duration_s());
+  for (double f : kRecordedTouchdown_n) {  // a scuff at 30-36 % of the swing
+    EXPECT_FALSE(s.tick(f).stance[0]);
+    EXPECT_EQ(s.trot.plan().foot[0], gait::FootPhase::swing);
+  }
+}
+
+TEST(Touchdown, ALateFootReachesDownUntilItTouches) {
+  Scripted s;
+  // lf reads 0 N from its lift-off; its stance is due at touchdown_s(1).
+  s.run_until(s.liftoff_s(1) + 0.01);
+  while (s.t_s < s.touchdown_s(1) - Scripted::kDt / 2) s.tick(0.0);
+  const gait::ContactPlan& due = s.tick(0.0);
+  EXPECT_FALSE(due.stance[0]);
+  EXPECT_EQ(due.foot[0], gait::FootPhase::late);
+  EXPECT_EQ(due.late_touchdowns, 1u);  // lf's, the only one
+  const Vec3 foothold = due.swing[0].position_m;  // the foothold itself on the first late tick
+  EXPECT_LT((foothold - (nominal()[0] - Vec3(0, 0, s.params.touchdown_depth_m))).norm(), 1e-9);
+  // Reaching down at kLateTouchdownSpeed_m_s, for 15 ms (the ground is lower than planned).
+  for (int k = 1; k < 15; ++k) {
+    const gait::ContactPlan& p = s.tick(0.0);
+    ASSERT_FALSE(p.stance[0]);
+    EXPECT_NEAR(p.swing[0].position_m.z(), foothold.z() - gait::kLateTouchdownSpeed_m_s * k * Scripted::kDt, 1e-9);
+    EXPECT_NEAR(p.swing[0].velocity_m_s.z(), -gait::kLateTouchdownSpeed_m_s, 1e-12);
+    EXPECT_EQ(p.swing[0].position_m.head<2>(), foothold.head<2>());
+  }
+  // Then it touches (the recorded trace, 15 ms late): stance from the second tick above 25 N.
+  EXPECT_FALSE(s.tick(kRecordedTouchdown_n[0]).stance[0]);
+  EXPECT_FALSE(s.tick(kRecordedTouchdown_n[1]).stance[0]);
+  EXPECT_TRUE(s.tick(kRecordedTouchdown_n[2]).stance[0]);
+  EXPECT_EQ(s.trot.plan().foot[0], gait::FootPhase::stance);
+}
+
+TEST(Touchdown, AFootThatNeverTouchesIsStanceAfterLateTouchdownSeconds) {
+  Scripted s;
+  s.run_until(s.liftoff_s(1) + 0.01);
+  while (s.t_s < s.touchdown_s(1) - Scripted::kDt / 2) s.tick(0.0);
+  int late_ticks = 0;
+  while (!s.tick(0.0).stance[0]) ++late_ticks;
+  // late_touchdown_s of 1 ms ticks (one more where the sum of the ticks rounds below it)
+  EXPECT_NEAR(late_ticks, s.params.late_touchdown_s / Scripted::kDt, 1.0);
+}
+
+TEST(Touchdown, WithoutEvidenceTheScheduleAloneDecidesAndNothingIsCapped) {
+  gait::TrotParams p;
+  p.duty_factor = 0.55;
+  gait::TrotGait with(p), without(p);
+  p.touchdown_force_n = 0.0;  // detection off: the evidence is ignored
+  gait::TrotGait off(p);
+  for (gait::TrotGait* g : {&with, &without, &off}) g->start(nominal());
+  gait::ContactSense nothing;  // valid = false
+  gait::ContactSense zero;
+  zero.valid = true;  // reads 0 N everywhere: would be late at every touch-down
+  for (int k = 0; k < 3000; ++k) {
+    const double t = k * 1e-3;
+    const auto& a = without.update(t, nominal(), Vec3::Zero());
+    const auto& b = with.update(t, nominal(), Vec3::Zero(), Vec3::Zero(), Mat3::Identity(), Vec3::Zero(), 0.0, &nothing);
+    const auto& c = off.update(t, nominal(), Vec3::Zero(), Vec3::Zero(), Mat3::Identity(), Vec3::Zero(), 0.0, &zero);
+    for (int f = 0; f < kFeet; ++f) {
+      ASSERT_EQ(a.stance[f], b.stance[f]);
+      ASSERT_EQ(a.stance[f], c.stance[f]);
+      ASSERT_EQ(a.stance[f], (t * p.step_frequency_hz - (f == 1 || f == 2 ? 0.5 : 0.0)) -
+                                     std::floor(t * p.step_frequency_hz - (f == 1 || f == 2 ? 0.5 : 0.0)) <
+                                 p.duty_factor);
+      ASSERT_TRUE(std::isinf(a.normal_force_cap_n[f]) && std::isinf(b.normal_force_cap_n[f]) &&
+                  std::isinf(c.normal_force_cap_n[f]));
+    }
+  }
+}
+
+TEST(Touchdown, ForcesRampOverTheFourFeetPhase) {
+  Scripted s(1.4, 0.55);
+  const double ramp = std::min(s.params.force_ramp_s, (0.55 - 0.5) / 1.4);  // 30 ms < the 35.7 ms overlap
+  // lf unloads from 230 N to 0 over the ramp before its lift-off, linearly in the time left.
+  s.run_until(s.liftoff_s(1) - 0.05);
+  for (double t = s.t_s; t < s.liftoff_s(1) - Scripted::kDt / 2; t = s.t_s) {
+    const gait::ContactPlan& p = s.tick(230.0);
+    ASSERT_TRUE(p.stance[0]);
+    const double left = s.liftoff_s(1) - t;
+    if (left >= ramp) {
+      EXPECT_TRUE(std::isinf(p.normal_force_cap_n[0])) << t;
+    } else {
+      EXPECT_NEAR(p.normal_force_cap_n[0], 230.0 * left / ramp, 1e-6) << t;
+    }
+  }
+  // rf (and lh) touch down: loaded from 0 to a diagonal foot's share over the ramp (half
+  // the feet's summed force).
+  Scripted u(1.4, 0.55);
+  u.run_until(0.5 / 1.4 + 1.0 / 1.4 - 0.01);  // 10 ms before rf's second scheduled touch-down
+  while (!u.tick(u.on_ground(0, u.t_s) ? 230.0 : 0.0).stance[1]) ASSERT_LT(u.t_s, 2.0);
+  const double touched = u.t_s - Scripted::kDt;  // it became stance on the last tick
+  EXPECT_NEAR(u.trot.plan().normal_force_cap_n[1], 0.0, 1e-9);
+  for (int k = 1; k < 40; ++k) {
+    const double now = u.t_s;
+    const gait::ContactPlan& p = u.tick(u.on_ground(0, now) ? 230.0 : 0.0);
+    int reading = 0;
+    for (int f = 0; f < kFeet; ++f) reading += u.on_ground(f, now) ? 1 : 0;
+    const double share = 0.5 * 230.0 * reading;
+    const double up = (now - touched) / ramp;
+    if (up < 1.0 - 1e-9) {
+      EXPECT_NEAR(p.normal_force_cap_n[1], up * share, 1e-6) << k;
+    } else if (up > 1.0 + 1e-9) {
+      EXPECT_TRUE(std::isinf(p.normal_force_cap_n[1])) << k;
+    }
+  }
+}
+
+TEST(Touchdown, AFootIsNotUnloadedWhileTheOtherDiagonalIsInTheAir) {
+  Scripted s(1.4, 0.55);
+  // rf and lh late: they read 0 N through lf's last 30 ms; lf keeps its full force.
+  s.run_until(s.liftoff_s(1) - 0.05);
+  int checked = 0;
+  while (s.t_s < s.liftoff_s(1) - Scripted::kDt / 2) {
+    gait::ContactSense sense;
+    sense.valid = true;
+    sense.normal_force_n = {230.0, 0.0, 0.0, 230.0};
+    const gait::ContactPlan& p = s.trot.update(s.t_s, nominal(), Vec3::Zero(), Vec3::Zero(), Mat3::Identity(),
+                                                Vec3::Zero(), 0.0, &sense);
+    s.t_s += Scripted::kDt;
+    if (!p.stance[1]) {
+      EXPECT_TRUE(std::isinf(p.normal_force_cap_n[0])) << s.t_s;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 30);  // rf stayed in the air (late) through lf's ramp window
 }
 
 TEST(Trot, UpdateDoesNotAllocate) {

@@ -137,6 +137,28 @@ TEST_F(Fixture, OnFourFeetTheAppliedBaseWrenchIsTheDesiredOne) {
   EXPECT_LT((out.base_wrench_applied - out.base_wrench_desired).tail<3>().norm(), 1.0);
 }
 
+// The gait's force ramps bound a stance foot's normal force; the others carry the rest,
+// Newton still holds; a bound below normal_force_min_n is that minimum.
+TEST_F(Fixture, ANormalForceCapIsObeyedAndTheOtherFeetTakeTheLoad) {
+  const double weight = total_mass_kg() * kGravity_m_s2;
+  const auto& free = tick();
+  ASSERT_EQ(free.qp_status, qp::Status::optimal);
+  const double lf_free = free.foot_force_n[0].z();
+  ASSERT_GT(lf_free, 150.0);
+  for (double cap : {100.0, 20.0, 1.0}) {
+    in.normal_force_cap_n = {cap, std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                             std::numeric_limits<double>::infinity()};
+    const auto& out = tick();
+    ASSERT_EQ(out.qp_status, qp::Status::optimal) << cap;
+    EXPECT_LE(out.foot_force_n[0].z(), std::max(cap, params.normal_force_min_n) + 1e-6) << cap;
+    EXPECT_GE(out.foot_force_n[0].z(), params.normal_force_min_n - 1e-6) << cap;
+    double fz = 0.0;
+    for (const auto& f : out.foot_force_n) fz += f.z();
+    EXPECT_NEAR(fz, weight, 0.05 * weight) << cap;  // at rest: the feet still carry the robot
+    EXPECT_LT(dynamics_residual(out, Vec6::Zero()).cwiseAbs().maxCoeff(), 1e-6) << cap;
+  }
+}
+
 TEST_F(Fixture, JointFrictionIsCompensatedInTheTorquesAndTheirLimits) {
   // Moving joints with a push on the hand: with friction b the same motion and forces, each
   // torque b qd higher (the equations of motion of a robot with that friction: M udot + h + B qd

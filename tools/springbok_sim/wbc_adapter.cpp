@@ -190,13 +190,16 @@ std::string WbcAdapter::csv_columns() const {
     for (const char* a : {"x", "y", "z"}) h += fmt::format(",base_wrench_{}_f{}_n", w, a);
     for (const char* a : {"x", "y", "z"}) h += fmt::format(",base_wrench_{}_t{}_nm", w, a);
   }
+  for (const char* f : kFootNames) h += fmt::format(",{}_fz_estimated_n", f);
+  for (const char* f : kFootNames) h += fmt::format(",{}_stance", f);
+  for (const char* f : kFootNames) h += fmt::format(",{}_fz_cap_n", f);
   return h;
 }
 
 void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   if (!ticked_) {
     row += ",0";
-    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5 + 6 + 12; ++i) row += ",0";
+    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5 + 6 + 12 + 3 * kFeet; ++i) row += ",0";
     return;
   }
   const wbc::WbcOutput& o = control_->output();
@@ -283,6 +286,9 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   for (double v : s.rotation) put(row, v);
   for (double v : o.base_wrench_desired) put(row, v);
   for (double v : o.base_wrench_applied) put(row, v);
+  for (const Vec3& f : control_->foot_force_estimate_n()) put(row, f.z());
+  for (bool c : control_->state().stance) row += c ? ",1" : ",0";
+  for (double v : control_->input().normal_force_cap_n) put(row, std::isfinite(v) ? v : -1.0);  // -1: no cap
 }
 
 std::string WbcAdapter::summary_fields() const {
@@ -404,9 +410,10 @@ std::string WbcAdapter::summary_fields() const {
     if (last > 0) mean /= static_cast<double>(last);
     const Vec3& command = control_->walking_velocity();
     j += fmt::format("  \"gait\": {{\"step_frequency_hz\": {:.6g}, \"duty_factor\": {:.6g}, \"step_height_m\": {:.6g}, "
-                     "\"stance_changes\": {}, \"mean_velocity\": {{\"x\": {:.6g}, \"y\": {:.6g}, \"yaw\": {:.6g}}}, "
+                     "\"stance_changes\": {}, \"early_touchdowns\": {}, \"late_touchdowns\": {}, \"mean_velocity\": {{\"x\": {:.6g}, \"y\": {:.6g}, \"yaw\": {:.6g}}}, "
                      "\"commanded_velocity\": {{\"x\": {:.6g}, \"y\": {:.6g}, \"yaw\": {:.6g}}}}},\n",
-                     g.step_frequency_hz, g.duty_factor, g.step_height_m, control_->stance_changes(), mean.x(), mean.y(),
+                     g.step_frequency_hz, g.duty_factor, g.step_height_m, control_->stance_changes(),
+                     control_->trot().plan().early_touchdowns, control_->trot().plan().late_touchdowns, mean.x(), mean.y(),
                      mean.z(), command.x(), command.y(), command.z());
   } else {
     j += "  \"gait\": null,\n";

@@ -188,6 +188,7 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
   }
   move_rest_pose(dt_s);
   Stance stance = kAllFeet;
+  input_.normal_force_cap_n.fill(gait::kNoCap);
   if (gait_state_ != GaitState::stand) {
     if (!start_trot) gait_time_s_ += dt_s;
     // Feet relative to the trunk in its horizontal frame H (yaw axes); the trunk's
@@ -201,12 +202,18 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
     }
     if (start_trot) trot_.start(feet_h);
     const double yaw_rate_rad_s = (rot * state_.v.segment<3>(3)).z();
+    gait::ContactSense sense;
+    sense.valid = foot_forces_.ready();
+    for (int f = 0; f < kFeet; ++f) sense.normal_force_n[f] = foot_forces_.force_world_n()[f].z();
     const gait::ContactPlan& plan = trot_.update(gait_time_s_, feet_h, tilt * state_.v.head<3>(), footholds_shift_h(yaw),
-                                                 tilt, Vec3(velocity_now_.x(), velocity_now_.y(), 0.0), yaw_rate_rad_s);
+                                                 tilt, Vec3(velocity_now_.x(), velocity_now_.y(), 0.0), yaw_rate_rad_s,
+                                                 &sense);
     bool all_down = true;
     for (int f = 0; f < kFeet; ++f) {
-      // Stopping: a foot on the ground stays there, a swinging one lands by the plan.
-      stance[f] = plan.stance[f] || (gait_state_ == GaitState::stopping && state_.stance[f]);
+      // Stopping: a foot on the ground stays there (at full force), a swinging one lands by the plan.
+      const bool kept = gait_state_ == GaitState::stopping && state_.stance[f];
+      stance[f] = plan.stance[f] || kept;
+      input_.normal_force_cap_n[f] = kept ? gait::kNoCap : plan.normal_force_cap_n[f];
       all_down = all_down && stance[f];
       input_.swing[f].position_m = plan.swing[f].position_m;
       input_.swing[f].velocity_m_s = plan.swing[f].velocity_m_s;
@@ -243,6 +250,9 @@ TickStatus WholeBodyControl::tick(const hal::Measurements& m, double dt_s, hal::
     engaged_ = true;
   }
   dyn::compute_tick(model_, *data_, state_.q, state_.v);  // the tick's kinematics and dynamics, once
+  if (engaging) foot_forces_.reset();
+  foot_forces_.update(*data_, state_.v, m.tau_nm,
+                      params_.wbc.joint_viscous_friction_nms_per_rad.cwiseProduct(state_.v.tail<kNj>()), dt_s);
   plan_gait(dt_s, engaging);
 
   const wbc::WbcOutput& o = wbc_->tick(input_, *data_);

@@ -271,7 +271,8 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
       }
       ain(row, c + 2) = 1.0;
       lb[row] = params_.normal_force_min_n;
-      ub[row] = params_.normal_force_max_n;
+      const double cap = in.normal_force_cap_n[f];
+      ub[row] = std::max(params_.normal_force_min_n, cap < params_.normal_force_max_n ? cap : params_.normal_force_max_n);
       ++row;
       continue;
     }

@@ -7,7 +7,8 @@
 //   -> "ok ..." or "error: ..."  (a malformed line changes nothing)
 //
 // `gait trot` takes the keys of the scenario's and config's `gait:` map
-// (step_frequency, duty_factor, step_height, velocity_gain, touchdown_depth),
+// (step_frequency, duty_factor, step_height, velocity_gain, touchdown_depth,
+// touchdown_force, late_touchdown, force_ramp, velocity_x, velocity_y, yaw_rate),
 // checked by the same reader (gait::read_trot_params: the error names the key);
 // missing keys keep their defaults. Gait changes are taken in the control mode
 // only; `tare` asks for a new wrist F/T tare, collected while the robot stands

@@ -9,7 +9,10 @@
 //          |              dyn::compute_tick: kinematics and dynamics once, one Data
 //          |                   |
 //          +-- wrist F/T --> gait: stand (four feet) or trot (stance set, swing targets,
-//              minus tare       footholds under the static ZMP of weight + wrist wrench)
+//          |   minus tare       footholds under the static ZMP of weight + wrist wrench,
+//          |                    touch-down from the feet's estimated forces, force ramps)
+//          +-- joint torques --> FootForceObserver (the ground force on each foot from
+//                                its leg's torques and motion)
 //                              |
 //                         WholeBodyController (QP) --> joint torques
 //
@@ -37,6 +40,7 @@
 
 #include "springbok/dynamics/dynamics.hpp"
 #include "springbok/estimation/base_estimator.hpp"
+#include "springbok/estimation/foot_force_observer.hpp"
 #include "springbok/gait/trot.hpp"
 #include "springbok/hal/types.hpp"
 #include "springbok/model/robot_state.hpp"
@@ -135,7 +139,11 @@ class WholeBodyControl {
   const est::BaseEstimate& estimate() const noexcept { return estimator_.estimate(); }
   const wbc::WbcOutput& output() const noexcept { return wbc_->output(); }
   const wbc::WholeBodyController& wbc() const noexcept { return *wbc_; }
+  // What the WBC got this tick (state, swing targets, force bounds, wrist wrench).
+  const wbc::WbcInput& input() const noexcept { return input_; }
   const gait::TrotGait& trot() const noexcept { return trot_; }
+  // The ground force on each foot estimated from its leg (world, N), this tick's.
+  const std::array<Vec3, kFeet>& foot_force_estimate_n() const noexcept { return foot_forces_.force_world_n(); }
   GaitState gait_state() const noexcept { return gait_state_; }
   const Tare& tare() const noexcept { return tare_; }
   // The wrist wrench the controller used this tick (tared; zero when not valid), EE frame.
@@ -156,6 +164,7 @@ class WholeBodyControl {
   dyn::Model model_;
   std::unique_ptr<dyn::Data> data_;
   est::BaseEstimator estimator_;
+  est::FootForceObserver foot_forces_;
   std::unique_ptr<wbc::WholeBodyController> wbc_;
   gait::TrotGait trot_;
   wbc::WbcInput input_;       // input_.state is the tick's RobotState

@@ -30,7 +30,7 @@
 //
 // gait (read_trot_params), every key optional: the keys and ranges of gait::kTrotFields
 // (step_frequency 0.1..5 Hz, duty_factor 0.5..0.95, step_height, velocity_gain, touchdown_depth,
-// velocity_x, velocity_y, yaw_rate), and `velocity: [v_x, v_y, yaw_rate]` for the last three at once.
+// touchdown_force, late_touchdown, force_ramp, velocity_x, velocity_y, yaw_rate), and `velocity: [v_x, v_y, yaw_rate]` for the last three at once.
 // With `schedule` yes the map may also hold `velocity_schedule` (a scenario's; its reader is the tool's).
 #pragma once
 

@@ -28,6 +28,7 @@
 #pragma once
 
 #include <array>
+#include <limits>
 #include <cstdint>
 #include <memory>
 
@@ -130,6 +131,11 @@ struct SwingTarget {
 struct WbcInput {
   RobotState state;                  // q, v, R_WB, the stance feet
   std::array<SwingTarget, kFeet> swing{};
+  // A stance foot's normal force bound, N (the gait's ramps at touch-down and lift-off),
+  // within [normal_force_min_n, normal_force_max_n]; infinity: normal_force_max_n.
+  std::array<double, kFeet> normal_force_cap_n{
+      std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+      std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
   // The wrist F/T measurement (external wrench on the EE, sensor axes, about its origin).
   Vec3 wrist_force_n = Vec3::Zero();
   Vec3 wrist_torque_nm = Vec3::Zero();
