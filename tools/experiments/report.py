@@ -230,9 +230,13 @@ def trot_study(out, trot_runs, trots, stance, checks):
                      f"{' / '.join(mm(e['ee_r' + a]) for a in 'xyz')} | "
                      f"{num(w['fy_n'], '{:.1f}')}, {num(w['fz_n'], '{:.1f}')}, {num(w['tx_nm'], '{:.1f}')}, "
                      f"{num(w['ty_nm'], '{:.1f}')}, {num(w['tz_nm'], '{:.1f}')} |")
-    lines += ["", "### Limits", "",
+    lines += ["", "### Limits and contacts", "",
+              "Touch-downs: detected from each leg's estimated ground force (early: before the schedule's end of "
+              "the swing, where the foothold's 5 mm below the ground puts them; late: the foot reached down past "
+              "its foothold).", "",
               "| scenario | max tau/limit | time with a joint >= 99 % of its torque limit [s] (most: joint, s) | "
-              "max joint speed / limit (joint) | joint position limit |", "|---|---|---|---|---|"]
+              "max joint speed / limit (joint) | joint position limit | touch-downs early / late |",
+              "|---|---|---|---|---|---|"]
     for n, *_ in trot_runs:
         s = trots[n]
         if s is None:
@@ -241,7 +245,8 @@ def trot_study(out, trot_runs, trots, stance, checks):
         at_limit = f"{tl['any']:.3f} ({tl['most_joint']}, {tl['most']:.3f})" if tl["any"] > 0 else "0"
         lines.append(f"| {n} | {s['max_torque_ratio']:.3f} | {at_limit} | "
                      f"{s['max_joint_speed_ratio']:.3f} ({s['max_joint_speed_joint']}) | "
-                     f"{s['joint_limit_hit'] or 'none'} |")
+                     f"{s['joint_limit_hit'] or 'none'} | "
+                     f"{(s['gait'] or {}).get('early_touchdowns', 'n/a')} / {(s['gait'] or {}).get('late_touchdowns', 'n/a')} |")
 
     figs = []
     for tag, m, label in (("0p4", 0.4, "low"), ("10", 10, "high")):
