@@ -2,6 +2,8 @@
 // named with its line, and every problem of a map is reported, not only the first.
 #include <string>
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "springbok/params/controller_params.hpp"
@@ -79,6 +81,18 @@ TEST(WbcConfig, BadFieldsAreNamed) {
   EXPECT_EQ(error_of(base_ok + "  ee: {mass: 4, damping: 9, stiffness: 5}\ncontact: {normal_force_min: 10, normal_force_max: 5}\n"),
             "wbc.contact.normal_force_max: must be above contact.normal_force_min (line 4)");
   EXPECT_EQ(error_of(std::string(kGood) + "contact: {friction_mu: 0.5}\n"), "wbc.contact: duplicate key (line 9)");
+}
+
+TEST(WbcConfig, TheHandsAccelerationBoundIsANumberOrNone) {
+  const std::string base_ok = "template:\n  base: {mass: 92, damping: 610, stiffness: 1000}\n"
+                              "  ee: {mass: 0.4, damping: 29, stiffness: 500}\n";
+  EXPECT_DOUBLE_EQ(load(base_ok).ee_acceleration_limit_m_s2, springbok::wbc::WbcParams{}.ee_acceleration_limit_m_s2);
+  EXPECT_DOUBLE_EQ(load(base_ok + "arm: {max_acceleration: 60}\n").ee_acceleration_limit_m_s2, 60.0);
+  EXPECT_TRUE(std::isinf(load(base_ok + "arm: {max_acceleration: none}\n").ee_acceleration_limit_m_s2));
+  EXPECT_EQ(error_of(base_ok + "arm: {max_acceleration: 0}\n"),
+            "wbc.arm.max_acceleration: must be in [1, 10000], got 0 (line 4)");
+  EXPECT_EQ(error_of(base_ok + "arm: {max_acceleration: lots}\n"),
+            "wbc.arm.max_acceleration: must be a number, got 'lots' (line 4)");
 }
 
 TEST(WbcConfig, JointFrictionIsOneNumberOrOnePerJoint) {

@@ -159,6 +159,27 @@ TEST_F(Fixture, ANormalForceCapIsObeyedAndTheOtherFeetTakeTheLoad) {
   }
 }
 
+// The hand's template acceleration is bounded in norm (arm.max_acceleration), its
+// direction kept; below the bound it is the template's, F / M_e at rest.
+TEST_F(Fixture, TheHandsTemplateAccelerationIsBoundedInNorm) {
+  params.template_params.mass_ee_kg = Vec3::Constant(0.4);
+  params.ee_acceleration_limit_m_s2 = 100.0;
+  WholeBodyController light(params);
+  light.set_reference(in.state.q, *data);
+  const Mat3& ft = data->frames[kWristFtFrame].rotation;
+  in.wrist_force_n = ft.transpose() * Vec3(30.0, 0.0, 0.0);  // 75 m/s^2: below
+  EXPECT_LT((tick(light).ee_acceleration_desired - Vec3(75.0, 0.0, 0.0)).norm(), 1e-9);
+  in.wrist_force_n = ft.transpose() * Vec3(80.0, -60.0, 0.0);  // 250 m/s^2: bounded to 100
+  const auto& out = tick(light);
+  ASSERT_EQ(out.qp_status, qp::Status::optimal);
+  EXPECT_NEAR(out.ee_acceleration_desired.norm(), 100.0, 1e-9);
+  EXPECT_LT((out.ee_acceleration_desired.normalized() - Vec3(0.8, -0.6, 0.0)).norm(), 1e-12);
+  params.ee_acceleration_limit_m_s2 = std::numeric_limits<double>::infinity();  // `none`: the paper's
+  WholeBodyController unbounded(params);
+  unbounded.set_reference(in.state.q, *data);
+  EXPECT_NEAR(tick(unbounded).ee_acceleration_desired.norm(), 250.0, 1e-9);
+}
+
 TEST_F(Fixture, JointFrictionIsCompensatedInTheTorquesAndTheirLimits) {
   // Moving joints with a push on the hand: with friction b the same motion and forces, each
   // torque b qd higher (the equations of motion of a robot with that friction: M udot + h + B qd

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <span>
 #include <string_view>
 
@@ -57,7 +58,7 @@ wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
   word_or(rot["inertia"], "auto", [&] { return triple(rot["inertia"], p.base_rot_inertia_kgm2, kTiny, 1e4); });
 
   const Field arm = f["arm"];
-  arm.allow_only({"posture_kp", "posture_kd", "posture", "pinv_lambda0", "manipulability_threshold"});
+  arm.allow_only({"posture_kp", "posture_kd", "posture", "pinv_lambda0", "manipulability_threshold", "max_acceleration"});
   arm["posture_kp"].number(p.posture_kp_per_s2, 0.0, 1e5);
   arm["posture_kd"].number(p.posture_kd_per_s, 0.0, 1e4);
   if (word_or(arm["posture"], "current",
@@ -66,6 +67,13 @@ wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
   }
   arm["pinv_lambda0"].number(p.pinv_lambda0, 0.0, 10.0);
   arm["manipulability_threshold"].number(p.manipulability_threshold, 0.0, 10.0);
+  // A number [m/s^2], or `none`: the paper's unbounded task.
+  const Field max_acc = arm["max_acceleration"];
+  if (max_acc.is_scalar() && max_acc.node().Scalar() == "none") {
+    p.ee_acceleration_limit_m_s2 = std::numeric_limits<double>::infinity();
+  } else {
+    max_acc.number(p.ee_acceleration_limit_m_s2, 1.0, 1e4);
+  }
 
   const Field w = f["weights"];
   w.allow_only({"base_force", "base_torque", "arm", "reg_acceleration", "reg_force", "reg_slack"});

@@ -123,10 +123,14 @@ void WholeBodyController::base_task(const WbcInput& in, const dyn::Data& d, Vec6
   out_.ee_displacement_m = x_e;
 
   // The EE's template acceleration (second line of eq. 3), world axes.
-  out_.ee_acceleration_desired = (-tp.stiffness_ee_n_per_m.cwiseProduct(x_be) -
-                                  tp.damping_ee_ns_per_m.cwiseProduct(xd_be) + out_.external_force_world_n)
-                                     .cwiseQuotient(tp.mass_ee_kg) +
-                                 reference_.ee_acceleration_m_s2;
+  Vec3 ee_template_acc = (-tp.stiffness_ee_n_per_m.cwiseProduct(x_be) - tp.damping_ee_ns_per_m.cwiseProduct(xd_be) +
+                          out_.external_force_world_n)
+                             .cwiseQuotient(tp.mass_ee_kg);
+  const double ee_acc_norm = ee_template_acc.norm();
+  if (ee_acc_norm > params_.ee_acceleration_limit_m_s2) {
+    ee_template_acc *= params_.ee_acceleration_limit_m_s2 / ee_acc_norm;
+  }
+  out_.ee_acceleration_desired = ee_template_acc + reference_.ee_acceleration_m_s2;
 
   // qdd_b^d = diag(M_b, I_b)^-1 W_b^d in world axes, then in udot coordinates:
   // p'' = R (d/dt v_B + w_B x v_B), w' = R d/dt w_B.

@@ -76,6 +76,13 @@ struct WbcParams {
   // Damped pseudo-inverse: lambda^2 = lambda_0^2 (1 - w / w_0)^2 below w_0.
   double pinv_lambda0 = 0.05;
   double manipulability_threshold = 0.02;
+  // Bound on the norm of the hand's template acceleration [m/s^2] (infinity: the paper's
+  // task). A light hand mass under a push the arm cannot follow asks for hundreds of m/s^2
+  // (M_e 0.4 kg, 104 N: 260): the saturated Gen3 flung the hand about, its joints to their
+  // limits, and the trotting robot fell. Bounded, the hand renders a heavier mass while
+  // the push lasts. 100 m/s^2 is beyond what the arm gave the hand in the 50 N steps (the
+  // M_e 0.4 step scores the same with 80).
+  double ee_acceleration_limit_m_s2 = 100.0;
 
   // QP weights.
   double weight_base_force = 1.0;    // on (M_b a_b - F_b^d) [1/N^2]
