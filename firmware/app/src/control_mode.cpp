@@ -1,5 +1,10 @@
 #include "springbok/app/control_mode.hpp"
 
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+
 namespace springbok::app {
 
 control::ControlParams control_params(const AppConfig& config) {
@@ -63,6 +68,39 @@ void ControlMode::publish(rt::LatestValue<ControllerSnapshot>& out) noexcept {
     s.base_velocity_m_s = c.state().rotation_wb * c.state().v.head<3>();
   }
   out.publish(s);
+}
+
+// rt: no alloc, no block
+void ControlMode::telemetry(TelemetryRecord& r) const noexcept {
+  r.wbc = kind_ == ControlModeKind::wbc;
+  if (!r.wbc) return;
+  const control::WholeBodyControl& c = *control_;
+  const auto put = [](Triple& to, const Vec3& from) { to = {from.x(), from.y(), from.z()}; };
+  // The base: the estimate (what the controller uses; also before it engages).
+  const est::BaseEstimate& e = c.estimate();
+  const Quat quat = Quat(e.q[6], e.q[3], e.q[4], e.q[5]).normalized();
+  const Mat3 rot = quat.toRotationMatrix();
+  put(r.base_position_m, e.q.head<3>());
+  r.base_quaternion_xyzw = {quat.x(), quat.y(), quat.z(), quat.w()};
+  r.base_rpy_rad = {std::atan2(rot(2, 1), rot(2, 2)), std::asin(std::clamp(-rot(2, 0), -1.0, 1.0)),
+                    std::atan2(rot(1, 0), rot(0, 0))};
+  put(r.base_velocity_m_s, rot * e.v.head<3>());
+  put(r.base_rate_rad_s, rot * e.v.segment<3>(3));
+  r.engaged = c.engaged();
+  r.tick_status = static_cast<std::uint8_t>(last_status_);
+  for (int f = 0; f < kFeet; ++f) r.stance[static_cast<std::size_t>(f)] = c.state().stance[f];
+  if (!r.engaged) return;
+  const wbc::WbcOutput& o = c.output();
+  const wbc::WbcReference& ref = c.wbc().reference();
+  r.qp_status = static_cast<std::uint8_t>(o.qp_status);
+  r.qp_iterations = o.qp_iterations;
+  put(r.base_rest_m, ref.base_position_m);
+  put(r.hand_rest_m, ref.ee_position_m);
+  put(r.base_displacement_m, o.base_displacement_m);
+  put(r.hand_displacement_m, o.ee_displacement_m);
+  put(r.hand_position_m, ref.ee_position_m + o.ee_displacement_m);
+  put(r.external_force_n, o.external_force_world_n);
+  for (int f = 0; f < kFeet; ++f) put(r.foot_force_n[static_cast<std::size_t>(f)], o.foot_force_n[f]);
 }
 
 // rt: no alloc, no block

@@ -106,6 +106,19 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   const auto executive =
       std::make_unique<FirmwareExecutive>(clock, loop, rt::kNsPerS / config.rate_hz, log_ring.get());
 
+  // Live telemetry (telemetry.hpp): the loop fills the ring, the sender's thread sends.
+  const auto telemetry_ring = std::make_unique<TelemetryRing>();
+  TelemetrySender telemetry;
+  if (config.telemetry.enabled) {
+    if (const std::string error = telemetry.open(config.telemetry); !error.empty()) {
+      std::fprintf(stderr, "%s\n", error.c_str());
+      hardware.deactivate();
+      return 1;
+    }
+    loop.set_telemetry(telemetry_ring.get(), telemetry_every_ticks(config.telemetry, config.rate_hz));
+    telemetry.start(*telemetry_ring);
+  }
+
   OperatorServer server(*mailbox, status, executive->published());
   if (const std::string error = server.open(config.operator_socket); !error.empty()) {
     std::fprintf(stderr, "%s\n", error.c_str());
@@ -156,6 +169,7 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   thread.join();
   hardware.deactivate();
   server.stop();
+  telemetry.stop();
   drainer.stop();
   if (log_file != stderr) std::fclose(log_file);
 
@@ -167,6 +181,13 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   print_histogram("wake latency", s.wake_latency);
   print_histogram("compute", s.compute);
   std::printf("log records dropped=%llu\n", static_cast<unsigned long long>(log_ring->dropped()));
+  if (config.telemetry.enabled) {
+    std::printf("telemetry to %s:%d every %u ticks: datagrams sent=%llu dropped=%llu send_errors=%llu\n",
+                config.telemetry.address.c_str(), config.telemetry.port,
+                telemetry_every_ticks(config.telemetry, config.rate_hz), static_cast<unsigned long long>(telemetry.sent()),
+                static_cast<unsigned long long>(telemetry_ring->dropped()),
+                static_cast<unsigned long long>(telemetry.send_errors()));
+  }
   std::printf("%s", hardware.diagnostics_report().c_str());
   return 0;
 }

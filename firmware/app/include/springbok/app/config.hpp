@@ -11,6 +11,7 @@
 
 #include <Eigen/Geometry>  // model.hpp names Eigen::Quaterniond but includes only Eigen/Core
 
+#include "springbok/app/telemetry.hpp"
 #include "springbok/control/whole_body_control.hpp"
 #include "springbok/estimation/base_estimator.hpp"
 #include "springbok/model/model.hpp"
@@ -52,6 +53,7 @@ struct AppConfig {
   std::uint32_t wrist_tare_samples = 500;  // the wrist F/T tare: the backend's (can.sensors.wrist_ft.tare_samples)
   std::string operator_socket;
   std::string log_path;                  // "-" = standard error
+  TelemetryConfig telemetry;             // telemetry: (live UDP stream; telemetry.hpp)
   bool has_can_section = false;
 };
 

@@ -1,6 +1,7 @@
 // One tick of the firmware, the executive's body:
 //   HAL read -> operator mailbox (to the supervisor or the controller) -> supervisor
 //   checks -> controller -> its state published -> supervisor (damping, clamping) -> HAL write
+//   -> (every N ticks) a telemetry record into its ring
 // Fixed-size structs passed by reference; the controller is a template
 // parameter (no virtual call, no std::function); one virtual call per HAL
 // exchange. Mode and fault changes, verdicts and HAL errors go to the log ring.
@@ -8,6 +9,7 @@
 
 #include "springbok/app/operator.hpp"
 #include "springbok/app/posture_control.hpp"
+#include "springbok/app/telemetry.hpp"
 #include "springbok/hal/hardware.hpp"
 #include "springbok/rt/executive.hpp"
 #include "springbok/safety/supervisor.hpp"
@@ -75,6 +77,13 @@ class ControlLoop {
     status_.stale_ticks.store(supervisor_.stale_ticks(), std::memory_order_relaxed);
     status_.limit_joint_position_rad.store(supervisor_.limit_joint_position_rad(), std::memory_order_relaxed);
     status_.limit_joint.store(supervisor_.limit_joint(), std::memory_order_release);
+    if (telemetry_ != nullptr && info.index % telemetry_every_ == 0) send_telemetry(info);
+  }
+
+  // Live telemetry: a record every `every_ticks` ticks into `ring` (nullptr: none). Start-up.
+  void set_telemetry(TelemetryRing* ring, std::uint32_t every_ticks) noexcept {
+    telemetry_ = ring;
+    telemetry_every_ = every_ticks < 1 ? 1 : every_ticks;
   }
 
   const hal::Measurements& measurements() const noexcept { return meas_; }
@@ -104,6 +113,27 @@ class ControlLoop {
     mailbox_.replies.push(reply);
   }
 
+  // The loop's part of a telemetry record, the controller's part, into the ring (a full
+  // ring drops it and counts). rt: no alloc, no block
+  void send_telemetry(const rt::TickInfo& info) noexcept {
+    TelemetryRecord& r = telemetry_record_;
+    r = TelemetryRecord{};
+    r.timestamp_s = static_cast<double>(info.scheduled_ns) * 1e-9;
+    r.tick = info.index;
+    r.mode = static_cast<std::uint8_t>(supervisor_.mode());
+    r.faults = supervisor_.faults();
+    r.compute_us = static_cast<double>(info.previous_compute_ns) * 1e-3;
+    r.wake_latency_us = static_cast<double>(info.wake_latency_ns) * 1e-3;
+    for (int j = 0; j < kNj; ++j) {
+      const auto i = static_cast<std::size_t>(j);
+      r.q_rad[i] = meas_.q_rad[j];
+      r.qd_rad_s[i] = meas_.qd_rad_s[j];
+      r.tau_nm[i] = meas_.tau_nm[j];
+    }
+    if constexpr (requires(Controller& c, TelemetryRecord& t) { c.telemetry(t); }) controller_.telemetry(r);
+    (void)telemetry_->push(r);
+  }
+
   void log(const rt::TickInfo& info, rt::LogEvent event, std::int64_t a, std::int64_t b, double x = 0.0) noexcept {
     if (log_ != nullptr) log_->push(rt::LogRecord{info.index, info.wake_ns, event, a, b, x});
   }
@@ -118,6 +148,9 @@ class ControlLoop {
   hal::JointCommands cmd_;
   hal::IoStatus last_io_ = hal::IoStatus::ok;
   safety::FaultMask sensors_lost_ = 0;
+  TelemetryRing* telemetry_ = nullptr;
+  std::uint32_t telemetry_every_ = 1;
+  TelemetryRecord telemetry_record_;
 };
 
 }  // namespace springbok::app

@@ -34,6 +34,9 @@ class ControlMode {
   // Gait changes in the control mode; a tare in any mode. rt: no alloc, no block
   const char* request(const ControllerRequest& r, safety::Mode mode) noexcept;
   void publish(rt::LatestValue<ControllerSnapshot>& out) noexcept;  // rt: no alloc, no block
+  // The estimate, the template's rest pose and displacements, F_e, the QP's forces and
+  // status into a telemetry record (the whole-body controller only). rt: no alloc, no block
+  void telemetry(TelemetryRecord& r) const noexcept;
 
   control::WholeBodyControl& controller() noexcept { return *control_; }
   const control::WholeBodyControl& controller() const noexcept { return *control_; }

@@ -14,6 +14,7 @@
 
 #include "springbok/app/config.hpp"
 #include "springbok/app/operator.hpp"
+#include "springbok/app/telemetry.hpp"
 #include "springbok/hal/types.hpp"
 #include "springbok/safety/supervisor.hpp"
 
@@ -116,6 +117,10 @@ class PostureModes {
   // The control mode's controller's. rt: no alloc
   const char* request(const ControllerRequest& r, safety::Mode mode) noexcept { return control_.request(r, mode); }
   void publish(rt::LatestValue<ControllerSnapshot>& out) noexcept { control_.publish(out); }
+  // The control mode's controller's part of a telemetry record, where it has one. rt: no alloc
+  void telemetry(TelemetryRecord& r) const noexcept {
+    if constexpr (requires(const Control& c, TelemetryRecord& t) { c.telemetry(t); }) control_.telemetry(r);
+  }
 
  private:
   Control& control_;

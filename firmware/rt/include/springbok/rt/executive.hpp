@@ -25,6 +25,7 @@ struct TickInfo {
   std::int64_t elapsed_ns = 0;        // scheduled time since the previous tick (true dt)
   std::uint32_t overrun_streak = 0;   // consecutive overruns ending with the previous tick
   std::uint32_t overruns_in_window = 0;  // overruns in the current 1 s window
+  std::int64_t previous_compute_ns = 0;  // the previous tick's body, wake to end (telemetry)
 };
 
 template <class B>
@@ -89,12 +90,14 @@ class Executive {
     info.elapsed_ns = scheduled_ns - previous_scheduled_ns_;
     info.overrun_streak = streak_;
     info.overruns_in_window = overruns_in_window_;
+    info.previous_compute_ns = previous_compute_ns_;
     previous_scheduled_ns_ = scheduled_ns;
 
     body_.tick(info);
 
     const std::int64_t end_ns = clock_.now_ns();
     const TickEnd end = schedule_.finish_tick(end_ns);
+    previous_compute_ns_ = end_ns - wake_ns;
     account(info, end_ns - wake_ns, end);
   }
 
@@ -148,6 +151,7 @@ class Executive {
   LogRing* log_;
   TickSchedule schedule_;
   std::int64_t previous_scheduled_ns_ = 0;
+  std::int64_t previous_compute_ns_ = 0;
   std::int64_t window_start_ns_ = 0;
   std::uint32_t streak_ = 0;
   std::uint32_t overruns_in_window_ = 0;

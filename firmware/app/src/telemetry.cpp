@@ -1,0 +1,160 @@
+#include "springbok/app/telemetry.hpp"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <string_view>
+
+#include "springbok/config/reader.hpp"
+
+namespace springbok::app {
+
+TelemetryConfig read_telemetry_config(const config::Field& f) {
+  TelemetryConfig c;
+  if (!f.present() || !f.allow_only({"enabled", "rate_hz", "address", "port"})) return c;
+  f["enabled"].boolean(c.enabled);
+  f["rate_hz"].number(c.rate_hz, 1.0, 1000.0);
+  if (f["address"].text(c.address)) {
+    in_addr parsed{};
+    if (inet_pton(AF_INET, c.address.c_str(), &parsed) != 1) f["address"].fail("must be an IPv4 address like 127.0.0.1");
+  }
+  f["port"].integer(c.port, 1, 65535);
+  return c;
+}
+
+std::uint32_t telemetry_every_ticks(const TelemetryConfig& config, int loop_rate_hz) noexcept {
+  const double every = std::round(static_cast<double>(loop_rate_hz) / config.rate_hz);
+  return every < 1.0 ? 1u : static_cast<std::uint32_t>(every);
+}
+
+namespace {
+
+// ,"name":value with 9 significant digits. JSON has no NaN or infinity: such a value is
+// left out of its datagram.
+void number(std::string& out, std::string_view name, double value) {
+  if (!std::isfinite(value)) return;
+  out += ",\"";
+  out += name;
+  out += "\":";
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, value, std::chars_format::general, 9);
+  out.append(buf, r.ptr);
+}
+
+void triple(std::string& out, std::string_view name, std::string_view unit, const Triple& v) {
+  static constexpr const char* kAxes[3] = {"_x_", "_y_", "_z_"};
+  for (std::size_t a = 0; a < 3; ++a) number(out, std::string(name) + kAxes[a] + std::string(unit), v[a]);
+}
+
+constexpr const char* kFootNames[kFeet] = {"lf", "rf", "lh", "rh"};
+
+}  // namespace
+
+std::string telemetry_json(const TelemetryRecord& r) {
+  std::string out;
+  out.reserve(6000);
+  out += "{\"timestamp\":";
+  char stamp[32];
+  const auto end = std::to_chars(stamp, stamp + sizeof stamp, r.timestamp_s, std::chars_format::fixed, 6);
+  out.append(stamp, end.ptr);
+  number(out, "tick", static_cast<double>(r.tick));
+  number(out, "mode", r.mode);
+  number(out, "faults", r.faults);
+  number(out, "compute_us", r.compute_us);
+  number(out, "wake_latency_us", r.wake_latency_us);
+  number(out, "wbc", r.wbc ? 1.0 : 0.0);
+  number(out, "engaged", r.engaged ? 1.0 : 0.0);
+  number(out, "tick_status", r.tick_status);
+  number(out, "qp_status", r.qp_status);
+  number(out, "qp_iterations", r.qp_iterations);
+  triple(out, "base", "m", r.base_position_m);
+  static constexpr const char* kQuat[4] = {"base_qx", "base_qy", "base_qz", "base_qw"};
+  for (std::size_t i = 0; i < 4; ++i) number(out, kQuat[i], r.base_quaternion_xyzw[i]);
+  number(out, "base_roll_rad", r.base_rpy_rad[0]);
+  number(out, "base_pitch_rad", r.base_rpy_rad[1]);
+  number(out, "base_yaw_rad", r.base_rpy_rad[2]);
+  triple(out, "base_velocity", "m_s", r.base_velocity_m_s);
+  triple(out, "base_rate", "rad_s", r.base_rate_rad_s);
+  triple(out, "hand", "m", r.hand_position_m);
+  triple(out, "base_rest", "m", r.base_rest_m);
+  triple(out, "hand_rest", "m", r.hand_rest_m);
+  triple(out, "base_displacement", "m", r.base_displacement_m);
+  triple(out, "hand_displacement", "m", r.hand_displacement_m);
+  triple(out, "fe", "n", r.external_force_n);
+  for (int f = 0; f < kFeet; ++f) {
+    triple(out, std::string(kFootNames[f]) + "_force", "n", r.foot_force_n[static_cast<std::size_t>(f)]);
+    number(out, std::string(kFootNames[f]) + "_stance", r.stance[static_cast<std::size_t>(f)] ? 1.0 : 0.0);
+  }
+  for (int j = 0; j < kNj; ++j) {
+    const std::string name(robot::kJoints[static_cast<std::size_t>(j)].name);
+    const auto i = static_cast<std::size_t>(j);
+    number(out, "q_" + name + "_rad", r.q_rad[i]);
+    number(out, "qd_" + name + "_rad_s", r.qd_rad_s[i]);
+    number(out, "tau_" + name + "_nm", r.tau_nm[i]);
+  }
+  out += '}';
+  return out;
+}
+
+TelemetrySender::~TelemetrySender() {
+  stop();
+  if (fd_ >= 0) ::close(fd_);
+}
+
+std::string TelemetrySender::open(const TelemetryConfig& config) {
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(static_cast<std::uint16_t>(config.port));
+  if (inet_pton(AF_INET, config.address.c_str(), &to.sin_addr) != 1) {
+    return "telemetry.address: not an IPv4 address: " + config.address;
+  }
+  fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (fd_ < 0) return std::string("telemetry: socket: ") + std::strerror(errno);
+  // Connected: send() goes to address:port, and nothing else is read from the socket.
+  if (::connect(fd_, reinterpret_cast<const sockaddr*>(&to), sizeof to) != 0) {
+    const std::string why = std::strerror(errno);
+    ::close(fd_);
+    fd_ = -1;
+    return "telemetry: connect to " + config.address + ":" + std::to_string(config.port) + ": " + why;
+  }
+  return "";
+}
+
+void TelemetrySender::drain(TelemetryRing& ring) {
+  TelemetryRecord record;
+  while (ring.pop(record)) {
+    const std::string datagram = telemetry_json(record);
+    // A refused or full send (nobody listening yet, a full buffer) is counted, never retried.
+    if (::send(fd_, datagram.data(), datagram.size(), MSG_DONTWAIT) == static_cast<ssize_t>(datagram.size())) {
+      sent_.fetch_add(1, std::memory_order_relaxed);
+    } else {
+      send_errors_.fetch_add(1, std::memory_order_relaxed);
+    }
+  }
+}
+
+void TelemetrySender::start(TelemetryRing& ring) {
+  ring_ = &ring;
+  stop_.store(false);
+  thread_ = std::thread([this] {
+    while (!stop_.load(std::memory_order_relaxed)) {
+      drain(*ring_);
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    drain(*ring_);
+  });
+}
+
+void TelemetrySender::stop() {
+  stop_.store(true);
+  if (thread_.joinable()) thread_.join();
+}
+
+}  // namespace springbok::app

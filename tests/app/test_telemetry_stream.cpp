@@ -1,0 +1,118 @@
+// The deployed program's live telemetry, end to end: springbok-on-sim (the firmware on
+// the simulated robot) runs for 2 s with the shipped config, its telemetry pointed at a
+// UDP socket of this test on loopback; the datagrams are what PlotJuggler's UDP server
+// reads (one flat JSON object each, a `timestamp` in seconds) at the configured 100 Hz.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+namespace {
+
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
+
+TEST(TelemetryStream, TheDeployedProgramStreamsPlotJugglerJsonAtTheConfiguredRate) {
+  // A UDP socket on 127.0.0.1 with an ephemeral port.
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  socklen_t len = sizeof a;
+  ASSERT_EQ(::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len), 0);
+  const int port = ntohs(a.sin_port);
+
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("springbok_telemetry_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::stringstream shipped;
+  shipped << std::ifstream(SPRINGBOK_APP_CONFIG).rdbuf();
+  std::string cfg = replaced(shipped.str(), "socket: /run/springbok/operator.sock", "socket: " + (dir / "op.sock").string());
+  cfg = replaced(cfg, "path: /var/log/springbok/rt.log", "path: \"-\"");
+  cfg = replaced(cfg, "port: 9870 ", "port: " + std::to_string(port) + " ");
+  std::ofstream(dir / "robot.yaml") << cfg;
+
+  std::atomic<bool> done{false};
+  std::string output;
+  std::thread program([&] {
+    const std::string cmd = std::string("\"") + SPRINGBOK_ON_SIM + "\" --config \"" + (dir / "robot.yaml").string() +
+                            "\" --duration 2 2>&1";
+    if (std::FILE* p = ::popen(cmd.c_str(), "r")) {
+      char buf[4096];
+      while (std::fgets(buf, sizeof buf, p) != nullptr) output += buf;
+      ::pclose(p);
+    }
+    done = true;
+  });
+  std::vector<std::string> datagrams;
+  char buf[65536];
+  while (true) {
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, 200) == 1) {
+      const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+      if (n > 0) datagrams.emplace_back(buf, static_cast<std::size_t>(n));
+    } else if (done) {
+      break;
+    }
+  }
+  program.join();
+  ::close(fd);
+  std::filesystem::remove_all(dir);
+
+  // 2 s of firmware time at 100 Hz (the warm-up's ticks stream too).
+  ASSERT_GE(datagrams.size(), 180u) << output;
+  EXPECT_LE(datagrams.size(), 220u) << output;
+  std::vector<double> stamps;
+  for (const std::string& d : datagrams) {
+    const YAML::Node n = YAML::Load(d);
+    ASSERT_TRUE(n.IsMap()) << d;
+    stamps.push_back(n["timestamp"].as<double>());
+  }
+  // The stamps are the ticks' grid times: 10 ms apart (a multiple of it after a skipped tick).
+  std::vector<double> gaps;
+  for (std::size_t i = 1; i < stamps.size(); ++i) {
+    const double gap = stamps[i] - stamps[i - 1];
+    EXPECT_NEAR(gap / 0.010, std::round(gap / 0.010), 1e-3) << i;
+    EXPECT_GE(std::round(gap / 0.010), 1.0) << i;
+    gaps.push_back(gap);
+  }
+  std::nth_element(gaps.begin(), gaps.begin() + static_cast<long>(gaps.size() / 2), gaps.end());
+  EXPECT_NEAR(gaps[gaps.size() / 2], 0.010, 1e-6);
+  // The fields: mode, faults, the base estimate, the hand, the template, F_e, foot forces,
+  // joints, the QP, the tick's time.
+  const YAML::Node last = YAML::Load(datagrams.back());
+  for (const char* key : {"mode", "faults", "compute_us", "wake_latency_us", "wbc", "engaged", "qp_status",
+                          "qp_iterations", "base_x_m", "base_qw", "base_roll_rad", "base_velocity_x_m_s",
+                          "base_rate_z_rad_s", "hand_x_m", "base_rest_x_m", "hand_rest_z_m", "base_displacement_x_m",
+                          "hand_displacement_y_m", "fe_x_n", "lf_force_z_n", "rh_stance", "q_lf_haa_joint_rad",
+                          "qd_arm_joint_7_rad_s", "tau_rh_kfe_joint_nm"}) {
+    EXPECT_TRUE(last[key].IsDefined()) << key << " in " << datagrams.back();
+  }
+  EXPECT_EQ(last["mode"].as<int>(), 0) << "nobody started it: idle";
+  EXPECT_EQ(last["wbc"].as<int>(), 1);  // the shipped control mode
+  EXPECT_NE(output.find("telemetry to 127.0.0.1:" + std::to_string(port)), std::string::npos) << output;
+  EXPECT_NE(output.find("dropped=0"), std::string::npos) << output;
+}
+
+}  // namespace
