@@ -26,7 +26,7 @@ have_sim=0
 
 # File lists: what each package must hold.
 list=$(dpkg-deb -c "$fw" | awk '{print $6}')
-for f in ./usr/bin/springbok ./usr/bin/springbok-can-up ./etc/springbok/springbok.yaml ./usr/lib/systemd/system/springbok.service; do
+for f in ./usr/bin/springbok ./usr/bin/springbok-can-up ./usr/bin/springbokctl ./etc/springbok/springbok.yaml ./usr/lib/systemd/system/springbok.service; do
   grep -qx "$f" <<<"$list" || fail "$fw lacks $f"
 done
 grep -q 'springbok-sim\|springbok-on-sim' <<<"$list" && fail "$fw holds a simulation binary"

@@ -3,6 +3,7 @@
 // an error and change nothing, clients cannot block the server or the loop.
 #include <gtest/gtest.h>
 #include <sys/socket.h>
+#include <sys/wait.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -199,6 +200,53 @@ TEST_F(OperatorSocket, CommandsAndMalformedLines) {
   EXPECT_EQ(replies[13], std::string("error: gait trot: ") + kNotTheWbc + " (mode=idle faults=none)");
   EXPECT_EQ(replies[14], std::string("error: tare: ") + kNotTheWbc + " (mode=idle faults=none)");
   EXPECT_EQ(replies[15], "ok controller controller=joint_pd");
+}
+
+// springbokctl, the socket's command-line client, run: the reply on stdout and exit 0 when
+// ok, on stderr and exit 1 when an error, --field prints one value, exit 2 without a server.
+struct CliRun {
+  int exit_code = -1;
+  std::string out;  // stdout and stderr
+};
+CliRun springbokctl(const std::string& args) {
+  CliRun r;
+  const std::string cmd = std::string(SPRINGBOK_BIN_DIR) + "/springbokctl " + args + " 2>&1";
+  std::FILE* p = ::popen(cmd.c_str(), "r");
+  if (p == nullptr) return r;
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p) != nullptr) r.out += buf;
+  const int status = ::pclose(p);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+TEST_F(OperatorSocket, SpringbokctlSendsOneCommandAndExitsWithItsVerdict) {
+  CliRun status, mode, field, missing_key, start, bad;
+  with_loop_running([&] {
+    status = springbokctl("--socket " + path + " status");
+    mode = springbokctl("--socket " + path + " mode control");
+    field = springbokctl("--socket " + path + " --field mode status");
+    missing_key = springbokctl("--socket " + path + " --field colour status");
+    start = springbokctl("--socket " + path + " start");
+    bad = springbokctl("--socket " + path + " gait trot duty_factor=2");
+  });
+  EXPECT_EQ(status.exit_code, 0) << status.out;
+  EXPECT_EQ(status.out.substr(0, 31), "ok status mode=idle faults=none");
+  EXPECT_EQ(mode.exit_code, 1) << mode.out;
+  EXPECT_EQ(mode.out, "error: mode control: mode control needs mode stand (mode=idle faults=none)\n");
+  EXPECT_EQ(field.exit_code, 0) << field.out;
+  EXPECT_EQ(field.out, "idle\n");
+  EXPECT_EQ(missing_key.exit_code, 1) << missing_key.out;
+  EXPECT_EQ(start.exit_code, 0) << start.out;
+  EXPECT_EQ(start.out, "ok start (mode=stand_up faults=none)\n");
+  EXPECT_EQ(bad.exit_code, 1) << bad.out;
+  const CliRun nobody = springbokctl("--socket " + dir + "/none.sock status");
+  EXPECT_EQ(nobody.exit_code, 2) << nobody.out;
+  EXPECT_NE(nobody.out.find("springbokctl: cannot connect to " + dir + "/none.sock"), std::string::npos) << nobody.out;
+  const CliRun help = springbokctl("--help");
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_NE(help.out.find("--field"), std::string::npos) << help.out;
+  EXPECT_NE(springbokctl("").exit_code, 0);  // a command is required
 }
 
 TEST_F(OperatorSocket, ClientsCannotBlockOrFloodTheServer) {
