@@ -45,6 +45,9 @@ const char* ControlMode::request(const ControllerRequest& r, safety::Mode mode) 
       return control_->request_velocity(Vec3(r.velocity[0], r.velocity[1], r.velocity[2]))
                  ? nullptr
                  : "walking velocity out of range";
+    case ControllerRequest::Kind::tune:
+      if (mode != safety::Mode::control) return "tuning needs mode control";
+      return control_->request_tuning(r.tune) ? nullptr : "tuning values out of range";
   }
   return "unknown request";
 }

@@ -1,5 +1,7 @@
 #include "springbok/app/operator.hpp"
 
+#include <algorithm>
+#include <cstdio>
 #include <vector>
 
 #include <yaml-cpp/yaml.h>
@@ -46,7 +48,7 @@ ParsedLine controller_request(ControllerRequest r, std::string name) {
   return p;
 }
 
-constexpr const char* kVerbs = "(start, stop, mode, reset, status, gait, walk, tare, controller)";
+constexpr const char* kVerbs = "(start, stop, mode, reset, status, gait, walk, tune, tare, controller)";
 
 // `walk <v_x> <v_y> <yaw_rate>`: the running trot's velocity (m/s, m/s, rad/s), checked by
 // the config's reader against the trot's velocity ranges.
@@ -63,6 +65,67 @@ ParsedLine parse_walk(const std::vector<std::string_view>& words) {
   r.kind = ControllerRequest::Kind::walk;
   r.velocity = {p.velocity_x_m_s, p.velocity_y_m_s, p.yaw_rate_rad_s};
   return controller_request(r, "walk");
+}
+
+// `tune key=value ...`: the template's M, D, K per body (base.mass .. ee.stiffness: a
+// number for every axis or [x,y,z]), posture_kp, posture_kd and ramp (s), read with the
+// config's reader and ranges (the message names the key).
+ParsedLine parse_tune(const std::vector<std::string_view>& words) {
+  static constexpr std::array<const char*, control::TuningRequest::kParts> kKeys{
+      "base.mass", "base.damping", "base.stiffness", "ee.mass", "ee.damping", "ee.stiffness"};
+  if (words.size() < 2) {
+    return error("tune needs key=value: base.mass, base.damping, base.stiffness, ee.mass, ee.damping, "
+                 "ee.stiffness (a number or [x,y,z]), posture_kp, posture_kd, ramp (s)");
+  }
+  YAML::Node params(YAML::NodeType::Map);
+  for (std::size_t i = 1; i < words.size(); ++i) {
+    const std::string_view word = words[i];
+    const std::size_t eq = word.find('=');
+    if (eq == std::string_view::npos || eq == 0 || eq + 1 == word.size()) {
+      return error("tune: expected key=value, got '" + std::string(word) + "'");
+    }
+    const std::string key(word.substr(0, eq));
+    if (params[key].IsDefined()) return error("tune." + key + ": given twice");
+    // A word, or [x,y,z] as a list of words (nodes without a position in a file: the
+    // messages carry no line).
+    const std::string value(word.substr(eq + 1));
+    if (value.front() == '[' && value.back() == ']') {
+      YAML::Node list(YAML::NodeType::Sequence);
+      std::size_t at = 1;
+      while (at < value.size()) {
+        const std::size_t end = std::min(value.find(',', at), value.size() - 1);
+        list.push_back(value.substr(at, end - at));
+        at = end + 1;
+      }
+      params[key] = list;
+    } else {
+      params[key] = value;
+    }
+  }
+  config::Errors errors;
+  const config::Field f(params, "tune", errors);
+  ControllerRequest r;
+  r.kind = ControllerRequest::Kind::tune;
+  control::TuningRequest& t = r.tune;
+  if (f.allow_only({"base.mass", "base.damping", "base.stiffness", "ee.mass", "ee.damping", "ee.stiffness",
+                    "posture_kp", "posture_kd", "ramp"})) {
+    for (std::size_t p = 0; p < kKeys.size(); ++p) {
+      const config::Field v = f[kKeys[p]];
+      if (!v.present()) continue;
+      Vec3 value;
+      t.set[p] = v.vector<3>(value, control::kTemplateRanges[p].lo, control::kTemplateRanges[p].hi, true);
+      t.value[p] = {value.x(), value.y(), value.z()};
+    }
+    if (f["posture_kp"].present()) {
+      t.set_posture_kp = f["posture_kp"].number(t.posture_kp_per_s2, control::kPostureKpRange.lo, control::kPostureKpRange.hi);
+    }
+    if (f["posture_kd"].present()) {
+      t.set_posture_kd = f["posture_kd"].number(t.posture_kd_per_s, control::kPostureKdRange.lo, control::kPostureKdRange.hi);
+    }
+    f["ramp"].number(t.ramp_s, control::kTuningRampRange.lo, control::kTuningRampRange.hi);
+  }
+  if (!errors.empty()) return error(errors.lines().front());
+  return controller_request(r, "tune");
 }
 
 // `gait stand` or `gait trot key=value ...`: the trot's keys read by the config's
@@ -128,6 +191,7 @@ ParsedLine parse_operator_line(std::string_view line) {
   }
   if (verb == "gait") return parse_gait(words);
   if (verb == "walk") return parse_walk(words);
+  if (verb == "tune") return parse_tune(words);
   if (verb == "tare" || verb == "controller") {
     if (args != 0) return error(std::string(verb) + " takes no argument");
     if (verb == "tare") return controller_request(ControllerRequest{}, "tare");
@@ -174,6 +238,11 @@ std::string describe_log_record(const rt::LogRecord& r) {
     case rt::LogEvent::controller_request_refused:
       if (r.a == static_cast<std::int64_t>(ControllerRequest::Kind::tare)) return "tare";
       if (r.a == static_cast<std::int64_t>(ControllerRequest::Kind::walk)) return "walk";
+      if (r.a == static_cast<std::int64_t>(ControllerRequest::Kind::tune)) {
+        char words[48];
+        std::snprintf(words, sizeof words, "tune (ramp %.3g s)", r.x);
+        return words;
+      }
       return r.b == static_cast<std::int64_t>(control::GaitKind::trot) ? "gait trot" : "gait stand";
     default: return {};
   }

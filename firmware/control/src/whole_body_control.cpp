@@ -225,6 +225,63 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
   state_.stance = stance;
 }
 
+bool WholeBodyControl::request_tuning(const TuningRequest& r) noexcept {
+  const auto within = [](double v, const TuningRange& range) { return v >= range.lo && v <= range.hi; };  // NaN: false
+  for (int p = 0; p < TuningRequest::kParts; ++p) {
+    if (!r.set[static_cast<std::size_t>(p)]) continue;
+    for (double v : r.value[static_cast<std::size_t>(p)]) {
+      if (!within(v, kTemplateRanges[static_cast<std::size_t>(p)])) return false;
+    }
+  }
+  if ((r.set_posture_kp && !within(r.posture_kp_per_s2, kPostureKpRange)) ||
+      (r.set_posture_kd && !within(r.posture_kd_per_s, kPostureKdRange)) || !within(r.ramp_s, kTuningRampRange)) {
+    return false;
+  }
+  tune_.request = r;
+  tune_.pending = true;
+  return true;
+}
+
+// Takes a pending tuning request (the ramp's start: this tick's values) and moves the
+// template and the posture gains along the ramp. rt: no alloc
+void WholeBodyControl::step_tuning(double dt_s) noexcept {
+  if (tune_.pending) {
+    tune_.pending = false;
+    const TuningRequest& r = tune_.request;
+    tune_.from = wbc_->params().template_params;
+    tune_.to = tune_.from;
+    std::array<Vec3*, TuningRequest::kParts> to{&tune_.to.mass_base_kg,        &tune_.to.damping_base_ns_per_m,
+                                                 &tune_.to.stiffness_base_n_per_m, &tune_.to.mass_ee_kg,
+                                                 &tune_.to.damping_ee_ns_per_m,   &tune_.to.stiffness_ee_n_per_m};
+    for (int p = 0; p < TuningRequest::kParts; ++p) {
+      const auto i = static_cast<std::size_t>(p);
+      if (r.set[i]) *to[i] = Vec3(r.value[i][0], r.value[i][1], r.value[i][2]);
+    }
+    tune_.kp_from = wbc_->params().posture_kp_per_s2;
+    tune_.kd_from = wbc_->params().posture_kd_per_s;
+    tune_.kp_to = r.set_posture_kp ? r.posture_kp_per_s2 : tune_.kp_from;
+    tune_.kd_to = r.set_posture_kd ? r.posture_kd_per_s : tune_.kd_from;
+    tune_.elapsed_s = 0.0;
+    tune_.active = true;
+  }
+  if (!tune_.active) return;
+  tune_.elapsed_s += dt_s;
+  const double ramp = tune_.request.ramp_s;
+  const double s = ramp > 0.0 ? std::min(1.0, tune_.elapsed_s / ramp) : 1.0;
+  const auto lerp = [s](const Vec3& a, const Vec3& b) { return Vec3(a + s * (b - a)); };
+  wbc::TemplateParams t;
+  t.mass_base_kg = lerp(tune_.from.mass_base_kg, tune_.to.mass_base_kg);
+  t.damping_base_ns_per_m = lerp(tune_.from.damping_base_ns_per_m, tune_.to.damping_base_ns_per_m);
+  t.stiffness_base_n_per_m = lerp(tune_.from.stiffness_base_n_per_m, tune_.to.stiffness_base_n_per_m);
+  t.mass_ee_kg = lerp(tune_.from.mass_ee_kg, tune_.to.mass_ee_kg);
+  t.damping_ee_ns_per_m = lerp(tune_.from.damping_ee_ns_per_m, tune_.to.damping_ee_ns_per_m);
+  t.stiffness_ee_n_per_m = lerp(tune_.from.stiffness_ee_n_per_m, tune_.to.stiffness_ee_n_per_m);
+  wbc_->set_template(t);
+  wbc_->set_posture_gains(tune_.kp_from + s * (tune_.kp_to - tune_.kp_from),
+                          tune_.kd_from + s * (tune_.kd_to - tune_.kd_from));
+  if (s >= 1.0) tune_.active = false;
+}
+
 TickStatus WholeBodyControl::tick(const hal::Measurements& m, double dt_s, hal::JointCommands& cmd,
                                   const BaseTruth* truth) noexcept {
   const est::EstimateStatus estimated = estimate(m, dt_s, state_.stance);  // last tick's stance
@@ -249,6 +306,7 @@ TickStatus WholeBodyControl::tick(const hal::Measurements& m, double dt_s, hal::
     wbc_->set_reference(state_.q, *data_);  // the template's rest pose: this instant's
     engaged_ = true;
   }
+  step_tuning(dt_s);
   dyn::compute_tick(model_, *data_, state_.q, state_.v);  // the tick's kinematics and dynamics, once
   if (engaging) foot_forces_.reset();
   foot_forces_.update(*data_, state_.v, m.tau_nm,

@@ -216,6 +216,21 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
             std::string::npos)
       << report;
 
+  // Live tuning while trotting: the template's base stiffness to 1500 N/m over 0.5 s.
+  ControllerRequest tune;
+  tune.kind = ControllerRequest::Kind::tune;
+  tune.tune.set[control::TuningRequest::base_stiffness] = true;
+  tune.tune.value[control::TuningRequest::base_stiffness] = {1500.0, 1500.0, 1500.0};
+  tune.tune.ramp_s = 0.5;
+  EXPECT_EQ(rig->request(tune), nullptr);
+  rig->executive->run_ticks(250);
+  EXPECT_NEAR(rig->control.controller().wbc().params().template_params.stiffness_base_n_per_m.x(),
+              0.5 * (config.wbc.template_params.stiffness_base_n_per_m.x() + 1500.0), 5.0);
+  rig->executive->run_ticks(300);
+  EXPECT_EQ(rig->control.controller().wbc().params().template_params.stiffness_base_n_per_m, Vec3::Constant(1500.0));
+  tune.tune.value[control::TuningRequest::base_stiffness] = {0.0, 1500.0, 1500.0};
+  EXPECT_STREQ(rig->request(tune), "tuning values out of range");
+
   // Walking on command while trotting: 0.2 m/s forward for 2 s (ramped at 0.5 m/s^2).
   ControllerRequest walk;
   walk.kind = ControllerRequest::Kind::walk;
@@ -252,6 +267,7 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
   rig->executive->run_ticks(config.wrist_tare_samples + 10);
   EXPECT_EQ(rig->control.controller().tare().completed, 3u);
   EXPECT_STREQ(rig->request(trot), "gait changes need mode control");
+  EXPECT_STREQ(rig->request(tune), "tuning needs mode control");
 }
 
 // The MIT wire between the loop and the simulated robot, as the CAN backend and the drive

@@ -28,8 +28,8 @@ TEST(OperatorLine, Parsing) {
   EXPECT_EQ(parse_operator_line("start").kind, K::command);
   EXPECT_EQ(parse_operator_line("  mode   control \r").command, safety::OperatorCommand::mode_control);
   EXPECT_EQ(parse_operator_line("status").kind, K::status);
-  EXPECT_EQ(parse_operator_line("").error, "error: empty command (start, stop, mode, reset, status, gait, walk, tare, controller)");
-  EXPECT_EQ(parse_operator_line("START").error, "error: unknown command 'START' (start, stop, mode, reset, status, gait, walk, tare, controller)");
+  EXPECT_EQ(parse_operator_line("").error, "error: empty command (start, stop, mode, reset, status, gait, walk, tune, tare, controller)");
+  EXPECT_EQ(parse_operator_line("START").error, "error: unknown command 'START' (start, stop, mode, reset, status, gait, walk, tune, tare, controller)");
   EXPECT_EQ(parse_operator_line("stop now").error, "error: stop takes no argument");
   EXPECT_EQ(parse_operator_line("mode").error, "error: mode needs one argument: stand or control");
   EXPECT_EQ(parse_operator_line("mode idle").error, "error: unknown mode 'idle' (stand or control)");
@@ -85,6 +85,37 @@ TEST(OperatorLine, ControllerRequests) {
 }
 
 // The log's words: what the numbers of a record mean, sensor and fault names included.
+// Live tuning: the template's keys (a number for every axis or [x,y,z]), the posture
+// gains and the ramp, with the config's ranges; keys not given are not set.
+TEST(OperatorLine, TuneTakesTheTemplatesKeysWithTheConfigsRanges) {
+  using K = ParsedLine::Kind;
+  using T = control::TuningRequest;
+  const ParsedLine p = parse_operator_line("tune base.stiffness=800 ee.mass=[4,4,2] posture_kp=50 ramp=0.5");
+  ASSERT_EQ(p.kind, K::controller_request) << p.error;
+  EXPECT_EQ(p.name, "tune");
+  ASSERT_EQ(p.request.kind, ControllerRequest::Kind::tune);
+  const T& t = p.request.tune;
+  EXPECT_TRUE(t.set[T::base_stiffness]);
+  EXPECT_EQ(t.value[T::base_stiffness], (std::array<double, 3>{800.0, 800.0, 800.0}));
+  EXPECT_TRUE(t.set[T::ee_mass]);
+  EXPECT_EQ(t.value[T::ee_mass], (std::array<double, 3>{4.0, 4.0, 2.0}));
+  for (int part : {T::base_mass, T::base_damping, T::ee_damping, T::ee_stiffness}) EXPECT_FALSE(t.set[part]) << part;
+  EXPECT_TRUE(t.set_posture_kp);
+  EXPECT_EQ(t.posture_kp_per_s2, 50.0);
+  EXPECT_FALSE(t.set_posture_kd);
+  EXPECT_EQ(t.ramp_s, 0.5);
+  EXPECT_EQ(parse_operator_line("tune ee.damping=100").request.tune.ramp_s, 1.0);  // the default ramp
+  EXPECT_EQ(parse_operator_line("tune ee.mass=0").error, "error: tune.ee.mass: must be in [1e-06, 10000], got 0");
+  EXPECT_EQ(parse_operator_line("tune base.mass=[1,2]").error, "error: tune.base.mass: must be a list of 3, got 2 elements");
+  EXPECT_EQ(parse_operator_line("tune ramp=100").error, "error: tune.ramp: must be in [0, 60], got 100");
+  EXPECT_EQ(parse_operator_line("tune base.stiffness=stiff").error,
+            "error: tune.base.stiffness: must be a number, got 'stiff'");
+  EXPECT_NE(parse_operator_line("tune colour=1").error.find("tune.colour: unknown key"), std::string::npos);
+  EXPECT_EQ(parse_operator_line("tune base.mass").error, "error: tune: expected key=value, got 'base.mass'");
+  EXPECT_EQ(parse_operator_line("tune").error.rfind("error: tune needs key=value", 0), 0u);
+  EXPECT_EQ(parse_operator_line("tune ramp=1 ramp=2").error, "error: tune.ramp: given twice");
+}
+
 TEST(OperatorLine, LogRecordsAreDescribedByName) {
   using safety::fault::kImuLost;
   using safety::fault::kWristFtLost;
@@ -185,7 +216,7 @@ TEST_F(OperatorSocket, CommandsAndMalformedLines) {
   ASSERT_EQ(replies.size(), 16u);
   EXPECT_EQ(replies[0].substr(0, 38), "ok status mode=idle faults=none ticks=");
   EXPECT_EQ(replies[1], "error: mode control: mode control needs mode stand (mode=idle faults=none)");
-  EXPECT_EQ(replies[2], "error: unknown command 'frobnicate' (start, stop, mode, reset, status, gait, walk, tare, controller)");
+  EXPECT_EQ(replies[2], "error: unknown command 'frobnicate' (start, stop, mode, reset, status, gait, walk, tune, tare, controller)");
   EXPECT_EQ(replies[3], "error: mode needs one argument: stand or control");
   EXPECT_EQ(replies[4], "error: start takes no argument");
   EXPECT_EQ(replies[5], "error: non-printable byte in the command");

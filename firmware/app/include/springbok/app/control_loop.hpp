@@ -100,7 +100,8 @@ class ControlLoop {
       reply.accepted = reply.refusal == nullptr;
       log(info, reply.accepted ? rt::LogEvent::controller_request : rt::LogEvent::controller_request_refused,
           static_cast<std::int64_t>(request.request.kind), static_cast<std::int64_t>(request.request.gait.kind),
-          request.request.gait.trot.step_frequency_hz);
+          request.request.kind == ControllerRequest::Kind::tune ? request.request.tune.ramp_s
+                                                                : request.request.gait.trot.step_frequency_hz);
     } else {
       reply.verdict = supervisor_.request(request.command);
       reply.accepted = reply.verdict == safety::Verdict::accepted;

@@ -3,7 +3,8 @@
 // verdicts back. One line per command, one line per reply:
 //
 //   the supervisor's:  start | stop | reset | mode stand | mode control | status
-//   the controller's:  gait stand | gait trot [key=value ...] | tare | controller
+//   the controller's:  gait stand | gait trot [key=value ...] | walk VX VY YAW_RATE |
+//                      tune key=value ... | tare | controller
 //   -> "ok ..." or "error: ..."  (a malformed line changes nothing)
 //
 // `gait trot` takes the keys of the scenario's and config's `gait:` map
@@ -13,7 +14,10 @@
 // missing keys keep their defaults. Gait changes are taken in the control mode
 // only; `tare` asks for a new wrist F/T tare, collected while the robot stands
 // (now in stand, at the next stand otherwise); `controller` reports the
-// whole-body controller's state.
+// whole-body controller's state. `tune` (control mode) retunes the template's M, D, K per
+// body (base.mass .. ee.stiffness: a number or [x,y,z]) and the arm's posture gains
+// (posture_kp, posture_kd) over `ramp` seconds (default 1), with the config's ranges
+// (control::kTemplateRanges); keys not given keep their values.
 #pragma once
 
 #include <atomic>
@@ -34,8 +38,9 @@ inline constexpr std::size_t kMaxOperatorLine = 255;  // bytes, without the newl
 
 // A request for the control mode's controller (taken by the RT thread at a tick).
 struct ControllerRequest {
-  enum class Kind : std::uint8_t { gait, tare, walk } kind = Kind::tare;
+  enum class Kind : std::uint8_t { gait, tare, walk, tune } kind = Kind::tare;
   control::GaitCommand gait;  // with kind == gait
+  control::TuningRequest tune;  // with kind == tune
   // With kind == walk: [v_x, v_y, yaw rate], the trunk's horizontal frame (a plain array:
   // requests cross a lock-free ring by value).
   std::array<double, 3> velocity{};

@@ -33,6 +33,7 @@
 // and lifts no new one, then stands.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 
@@ -59,6 +60,29 @@ struct GaitCommand {
   GaitKind kind = GaitKind::stand;
   gait::TrotParams trot;  // with kind == trot
 };
+
+// Live tuning: a new template (M, D, K per body and axis) and posture gains, reached
+// linearly over ramp_s from the values of the tick it is taken (0: at once). Plain arrays:
+// requests cross a lock-free ring by value. `set` says which are given; the rest keep
+// their current values.
+struct TuningRequest {
+  enum Part : std::uint8_t { base_mass, base_damping, base_stiffness, ee_mass, ee_damping, ee_stiffness, kParts };
+  std::array<std::array<double, 3>, kParts> value{};
+  std::array<bool, kParts> set{};
+  double posture_kp_per_s2 = 0.0;
+  double posture_kd_per_s = 0.0;
+  bool set_posture_kp = false;
+  bool set_posture_kd = false;
+  double ramp_s = 1.0;
+};
+// The ranges the config's reader takes (springbok::params), for the tuning's check.
+struct TuningRange {
+  double lo, hi;
+};
+inline constexpr std::array<TuningRange, TuningRequest::kParts> kTemplateRanges{{
+    {1e-6, 1e5}, {0.0, 1e6}, {1e-6, 1e7},   // base mass, damping, stiffness
+    {1e-6, 1e4}, {0.0, 1e6}, {1e-6, 1e7}}};  // ee
+inline constexpr TuningRange kPostureKpRange{0.0, 1e5}, kPostureKdRange{0.0, 1e4}, kTuningRampRange{0.0, 60.0};
 
 struct ControlParams {
   wbc::WbcParams wbc;
@@ -120,6 +144,7 @@ class WholeBodyControl {
     engaged_ = false;
     requested_gait_ = params_.gait;
     gait_request_pending_ = false;
+    tune_.pending = tune_.active = false;  // a ramp under way stops where it is
   }
 
   // Operator requests, taken at the next tick. request_gait refuses (false) a
@@ -132,6 +157,11 @@ class WholeBodyControl {
   // kWalkAcceleration_m_s2 / kWalkYawAcceleration_rad_s2; a stand request ramps it to 0.
   // rt: no alloc
   bool request_velocity(const Vec3& velocity) noexcept;
+  // Live tuning, in the control mode: refused (false, nothing changes) with a value outside
+  // kTemplateRanges / the posture ranges or not finite; otherwise the ramp starts at the
+  // next tick from the values then (a ramp under way is replaced from where it is). rt: no alloc
+  bool request_tuning(const TuningRequest& request) noexcept;
+  bool tuning() const noexcept { return tune_.active; }
   const Vec3& walking_velocity() const noexcept { return velocity_now_; }
 
   bool engaged() const noexcept { return engaged_; }
@@ -180,6 +210,15 @@ class WholeBodyControl {
   Vec3 velocity_command_ = Vec3::Zero();  // [v_x, v_y, yaw rate] in H, while trotting
   Vec3 velocity_now_ = Vec3::Zero();      // the command ramped (kWalkAcceleration*)
   wbc::PlanarMotion motion_;              // of the template's rest pose since engaging
+  struct TuneRamp {
+    bool pending = false;            // taken at the next tick
+    bool active = false;
+    TuningRequest request;
+    wbc::TemplateParams from, to;
+    double kp_from = 0.0, kp_to = 0.0, kd_from = 0.0, kd_to = 0.0;
+    double elapsed_s = 0.0;
+  } tune_;
+  void step_tuning(double dt_s) noexcept;
   Tare tare_;
   Vec3 tare_force_sum_n_ = Vec3::Zero(), tare_torque_sum_nm_ = Vec3::Zero();
   std::uint64_t stance_changes_ = 0;

@@ -215,6 +215,14 @@ class WholeBodyController {
   // The rest pose as set_reference() took it.
   const WbcReference& engaged_reference() const noexcept { return engaged_; }
   const WbcParams& params() const noexcept { return params_; }
+  // Live tuning (springbok::control ramps them tick by tick): the template's M, D, K and
+  // the arm's posture gains from the next tick on. The caller checks the values (the
+  // config's ranges); I_b stays what set_reference() took. rt: no alloc
+  void set_template(const TemplateParams& t) noexcept { params_.template_params = t; }
+  void set_posture_gains(double kp_per_s2, double kd_per_s) noexcept {
+    params_.posture_kp_per_s2 = kp_per_s2;
+    params_.posture_kd_per_s = kd_per_s;
+  }
   Vec3 base_rotational_inertia_kgm2() const noexcept { return base_inertia_diag_; }
 
   // `data` must hold dyn::compute_tick at (in.state.q, in.state.v). rt: no alloc,
