@@ -4,7 +4,10 @@
 // its field, and tools/experiments/report.py turns a run into plots and a report.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
+#include <sstream>
+#include <vector>
 #include <fstream>
 #include <string>
 
@@ -82,6 +85,49 @@ TEST(SimWbc, NegativeMassIsRefusedNamingTheField) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("controller.params.template.base.mass"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "out" / "log.csv"));
+}
+
+// Hand pose commands: the shipped hand_circle (the rest point draws a 10 cm circle at 0.5 Hz
+// while a 20 N push acts on the hand): the rest point moves on the circle, the hand follows
+// it and renders the push (measured 0.12 mm rms, ee_x NRMSE 0.02 %); waypoints the hand
+// cannot reach in time are refused naming the key.
+TEST(SimWbc, TheHandFollowsAMovingRestPointAndRendersThePushOnIt) {
+  const fs::path dir = scratch("wbc_hand_circle");
+  const CliResult r = run(std::string(SPRINGBOK_SOURCE_DIR) + "/tools/scenarios/hand_circle.yaml", dir / "out");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string json = slurp(dir / "out" / "summary.json");
+  EXPECT_FALSE(json_true(json, "fell"));
+  EXPECT_EQ(json_number(json, "qp_failures"), 0.0);
+  EXPECT_LE(member(json, "nrmse", "ee_x"), 0.03);
+  EXPECT_LE(member(json, "rms_error", "ee_y"), 0.005);
+  EXPECT_LE(member(json, "rms_error", "ee_z"), 0.005);
+  // The rest point went round: its offset reached the circle's top, 10 cm up.
+  const std::string log = slurp(dir / "out" / "log.csv");
+  const auto header_end = log.find('\n');
+  std::vector<std::string> header;
+  {
+    std::stringstream h(log.substr(0, header_end));
+    for (std::string c; std::getline(h, c, ',');) header.push_back(c);
+  }
+  const auto column = static_cast<std::size_t>(std::find(header.begin(), header.end(), "hand_rest_dz_m") - header.begin());
+  ASSERT_LT(column, header.size());
+  double top = 0.0;
+  std::stringstream rows(log.substr(header_end + 1));
+  for (std::string row; std::getline(rows, row);) {
+    std::stringstream cells(row);
+    std::string cell;
+    for (std::size_t i = 0; i <= column && std::getline(cells, cell, ','); ++i) {
+    }
+    top = std::max(top, std::strtod(cell.c_str(), nullptr));
+  }
+  EXPECT_NEAR(top, 0.10, 0.002);
+
+  std::string fast = slurp(std::string(SPRINGBOK_SOURCE_DIR) + "/tools/scenarios/hand_circle.yaml");
+  fast.replace(fast.find("{at_s: 1.2500"), 13, "{at_s: 1.1260");  // 16 mm in 1 ms
+  const CliResult refused = run(write_file(dir, "fast.yaml", fast).string(), dir / "fast");
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("controller.params.hand_trajectory: the path between the waypoints"), std::string::npos)
+      << refused.err;
 }
 
 TEST(SimWbc, RunAllNeedsTwoArguments) {

@@ -107,6 +107,30 @@ WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
   params_ = params::read_wbc_params(params, params::WithControllerParts::yes);
   cp.wbc = params_;
   control_ = std::make_unique<control::WholeBodyControl>(cp);
+  // hand_trajectory: [{at_s, position: [x, y, z]}, ...]: the hand's rest point's offset (m, the
+  // rest pose's horizontal frame) at scenario times; the controller counts from its
+  // engagement at settle_s.
+  if (const config::Field list = params["hand_trajectory"]; list.present() && list.expect_list()) {
+    std::vector<control::HandWaypoint> waypoints;
+    bool ok = true;
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const config::Field e = list[i];
+      if (!e.allow_only({"at_s", "position"})) {
+        ok = false;
+        continue;
+      }
+      control::HandWaypoint w;
+      ok = e["at_s"].require() && e["at_s"].number(w.at_s, 0.0, 1e6) && ok;
+      ok = e["position"].require() && e["position"].vector<3>(w.offset_m, -1.0, 1.0) && ok;
+      w.at_s -= settle_s_;
+      waypoints.push_back(w);
+    }
+    if (ok) {
+      if (const std::string why = control_->set_hand_trajectory(waypoints); !why.empty()) {
+        list.fail(why + " (times from the controller's start at settle_s)");
+      }
+    }
+  }
   supervisor_ = std::make_unique<safety::Supervisor>(safety::SupervisorConfig{});
   stand_ = std::make_unique<wbc::StandController>(wbc::StandGains{}, s.sim.initial_q.tail<kNj>());
   template_ = std::make_unique<wbc::TemplateReference>(params_.template_params, dt_s_);
@@ -193,13 +217,14 @@ std::string WbcAdapter::csv_columns() const {
   for (const char* f : kFootNames) h += fmt::format(",{}_fz_estimated_n", f);
   for (const char* f : kFootNames) h += fmt::format(",{}_stance", f);
   for (const char* f : kFootNames) h += fmt::format(",{}_fz_cap_n", f);
+  for (const char* a : {"x", "y", "z"}) h += fmt::format(",hand_rest_d{}_m", a);
   return h;
 }
 
 void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   if (!ticked_) {
     row += ",0";
-    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5 + 6 + 12 + 3 * kFeet; ++i) row += ",0";
+    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5 + 6 + 12 + 3 * kFeet + 3; ++i) row += ",0";
     return;
   }
   const wbc::WbcOutput& o = control_->output();
@@ -289,6 +314,9 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   for (const Vec3& f : control_->foot_force_estimate_n()) put(row, f.z());
   for (bool c : control_->state().stance) row += c ? ",1" : ",0";
   for (double v : control_->input().normal_force_cap_n) put(row, std::isfinite(v) ? v : -1.0);  // -1: no cap
+  // The hand's rest point from the engaged one (it moves with hand_trajectory and walking).
+  const Vec3 rest_d = ref.ee_position_m - control_->wbc().engaged_reference().ee_position_m;
+  for (int a = 0; a < 3; ++a) put(row, rest_d[a]);
 }
 
 std::string WbcAdapter::summary_fields() const {

@@ -45,6 +45,10 @@ const char* ControlMode::request(const ControllerRequest& r, safety::Mode mode) 
       return control_->request_velocity(Vec3(r.velocity[0], r.velocity[1], r.velocity[2]))
                  ? nullptr
                  : "walking velocity out of range";
+    case ControllerRequest::Kind::hand:
+      if (mode != safety::Mode::control) return "hand moves need mode control";
+      return control_->request_hand_move(Vec3(r.hand_target[0], r.hand_target[1], r.hand_target[2]),
+                                         r.hand_duration_s);
     case ControllerRequest::Kind::tune:
       if (mode != safety::Mode::control) return "tuning needs mode control";
       return control_->request_tuning(r.tune) ? nullptr : "tuning values out of range";

@@ -48,7 +48,7 @@ ParsedLine controller_request(ControllerRequest r, std::string name) {
   return p;
 }
 
-constexpr const char* kVerbs = "(start, stop, mode, reset, status, gait, walk, tune, tare, controller)";
+constexpr const char* kVerbs = "(start, stop, mode, reset, status, gait, walk, tune, hand, tare, controller)";
 
 // `walk <v_x> <v_y> <yaw_rate>`: the running trot's velocity (m/s, m/s, rad/s), checked by
 // the config's reader against the trot's velocity ranges.
@@ -65,6 +65,26 @@ ParsedLine parse_walk(const std::vector<std::string_view>& words) {
   r.kind = ControllerRequest::Kind::walk;
   r.velocity = {p.velocity_x_m_s, p.velocity_y_m_s, p.yaw_rate_rad_s};
   return controller_request(r, "walk");
+}
+
+// `hand X Y Z SECONDS`: the hand's rest point's target offset and the move's duration.
+ParsedLine parse_hand(const std::vector<std::string_view>& words) {
+  if (words.size() != 5) return error("hand needs x y z (m, from the engaged rest point) and a duration (s)");
+  YAML::Node params(YAML::NodeType::Map);
+  params["offset"].push_back(std::string(words[1]));
+  params["offset"].push_back(std::string(words[2]));
+  params["offset"].push_back(std::string(words[3]));
+  params["duration"] = std::string(words[4]);
+  config::Errors errors;
+  const config::Field f(params, "hand", errors);
+  Vec3 offset = Vec3::Zero();
+  ControllerRequest r;
+  r.kind = ControllerRequest::Kind::hand;
+  f["offset"].vector<3>(offset, -control::kHandMaxOffset_m, control::kHandMaxOffset_m);
+  f["duration"].number(r.hand_duration_s, control::kHandMinMove_s, 60.0);
+  if (!errors.empty()) return error(errors.lines().front());
+  r.hand_target = {offset.x(), offset.y(), offset.z()};
+  return controller_request(r, "hand");
 }
 
 // `tune key=value ...`: the template's M, D, K per body (base.mass .. ee.stiffness: a
@@ -192,6 +212,7 @@ ParsedLine parse_operator_line(std::string_view line) {
   if (verb == "gait") return parse_gait(words);
   if (verb == "walk") return parse_walk(words);
   if (verb == "tune") return parse_tune(words);
+  if (verb == "hand") return parse_hand(words);
   if (verb == "tare" || verb == "controller") {
     if (args != 0) return error(std::string(verb) + " takes no argument");
     if (verb == "tare") return controller_request(ControllerRequest{}, "tare");
@@ -238,6 +259,7 @@ std::string describe_log_record(const rt::LogRecord& r) {
     case rt::LogEvent::controller_request_refused:
       if (r.a == static_cast<std::int64_t>(ControllerRequest::Kind::tare)) return "tare";
       if (r.a == static_cast<std::int64_t>(ControllerRequest::Kind::walk)) return "walk";
+      if (r.a == static_cast<std::int64_t>(ControllerRequest::Kind::hand)) return "hand";
       if (r.a == static_cast<std::int64_t>(ControllerRequest::Kind::tune)) {
         char words[48];
         std::snprintf(words, sizeof words, "tune (ramp %.3g s)", r.x);

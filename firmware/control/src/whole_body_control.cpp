@@ -113,6 +113,10 @@ void WholeBodyControl::move_rest_pose(double dt_s) noexcept {
   motion_.acceleration_m_s2 = (velocity_world - motion_.velocity_m_s) / dt_s;
   motion_.velocity_m_s = velocity_world;
   motion_.offset_m += velocity_world * dt_s;
+  const HandSample hand = hand_.at(control_time_s_);
+  motion_.hand_offset_m = hand.offset_m;
+  motion_.hand_velocity_m_s = hand.velocity_m_s;
+  motion_.hand_acceleration_m_s2 = hand.acceleration_m_s2;
   wbc_->move_reference(motion_);
 }
 
@@ -225,6 +229,15 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
   state_.stance = stance;
 }
 
+std::string WholeBodyControl::set_hand_trajectory(std::span<const HandWaypoint> waypoints) {
+  return configured_hand_.set_waypoints(waypoints);
+}
+
+const char* WholeBodyControl::request_hand_move(const Vec3& target_m, double duration_s) noexcept {
+  if (!engaged_) return "hand moves need the controller engaged (mode control)";
+  return hand_.move_to(control_time_s_, target_m, duration_s);
+}
+
 bool WholeBodyControl::request_tuning(const TuningRequest& r) noexcept {
   const auto within = [](double v, const TuningRange& range) { return v >= range.lo && v <= range.hi; };  // NaN: false
   for (int p = 0; p < TuningRequest::kParts; ++p) {
@@ -303,9 +316,12 @@ TickStatus WholeBodyControl::tick(const hal::Measurements& m, double dt_s, hal::
 
   const bool engaging = !engaged_;
   if (engaging) {
+    control_time_s_ = 0.0;
+    hand_ = configured_hand_;
     wbc_->set_reference(state_.q, *data_);  // the template's rest pose: this instant's
     engaged_ = true;
   }
+  if (!engaging) control_time_s_ += dt_s;
   step_tuning(dt_s);
   dyn::compute_tick(model_, *data_, state_.q, state_.v);  // the tick's kinematics and dynamics, once
   if (engaging) foot_forces_.reset();

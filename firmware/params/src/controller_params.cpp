@@ -44,7 +44,7 @@ bool word_or(const Field& f, const char* word, Read&& read) {
 wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
   if (parts == WithControllerParts::yes) {
     f.allow_only({"template", "base_orientation", "arm", "weights", "contact", "limits", "swing", "joint_friction",
-                  "estimator", "gait"});
+                  "estimator", "gait", "hand_trajectory"});
   } else {
     f.allow_only({"template", "base_orientation", "arm", "weights", "contact", "limits", "swing", "joint_friction"});
   }

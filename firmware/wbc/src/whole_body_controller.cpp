@@ -82,16 +82,22 @@ void WholeBodyController::set_reference(const VecNq& q, dyn::Data& data) noexcep
 void WholeBodyController::move_reference(const PlanarMotion& m) noexcept {
   const Mat3 turn = Eigen::AngleAxisd(m.yaw_rad, Vec3::UnitZ()).toRotationMatrix();
   const Vec3 yaw_rate = m.yaw_rate_rad_s * Vec3::UnitZ();
-  const Vec3 arm = turn * (engaged_.ee_position_m - engaged_.base_position_m);  // base rest point to hand's
+  // The rest pose's horizontal frame: the engaged heading, turned.
+  const Mat3& r0 = engaged_.base_rotation;
+  const Mat3 heading = turn * Eigen::AngleAxisd(std::atan2(r0(1, 0), r0(0, 0)), Vec3::UnitZ()).toRotationMatrix();
+  const Vec3 hand_velocity = heading * m.hand_velocity_m_s;
+  // The base rest point to the hand's: the engaged arm, turned, plus the hand's offset.
+  const Vec3 arm = turn * (engaged_.ee_position_m - engaged_.base_position_m) + heading * m.hand_offset_m;
   reference_.base_position_m = engaged_.base_position_m + m.offset_m;
   reference_.base_rotation = turn * engaged_.base_rotation;
   reference_.ee_position_m = reference_.base_position_m + arm;
   reference_.base_velocity_m_s = m.velocity_m_s;
   reference_.base_acceleration_m_s2 = m.acceleration_m_s2;
   reference_.base_angular_velocity_rad_s = yaw_rate;
-  reference_.ee_velocity_m_s = m.velocity_m_s + yaw_rate.cross(arm);
+  reference_.ee_velocity_m_s = m.velocity_m_s + yaw_rate.cross(arm) + hand_velocity;
   reference_.ee_acceleration_m_s2 = m.acceleration_m_s2 + m.yaw_acceleration_rad_s2 * Vec3::UnitZ().cross(arm) +
-                                    yaw_rate.cross(yaw_rate.cross(arm));
+                                    yaw_rate.cross(yaw_rate.cross(arm)) + 2.0 * yaw_rate.cross(hand_velocity) +
+                                    heading * m.hand_acceleration_m_s2;
 }
 
 // Eq. 4-5 and the base task acceleration; returns the desired base acceleration

@@ -216,6 +216,21 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
             std::string::npos)
       << report;
 
+  // A hand move on the operator's command while trotting: the hand's rest point 5 cm forward
+  // (the rest pose's horizontal frame) along a minimum-jerk path over 0.5 s.
+  ControllerRequest hand;
+  hand.kind = ControllerRequest::Kind::hand;
+  hand.hand_target = {0.05, 0.0, 0.0};
+  hand.hand_duration_s = 0.5;
+  const Vec3 rest_before = rig->control.controller().wbc().reference().ee_position_m;
+  EXPECT_EQ(rig->request(hand), nullptr);
+  rig->executive->run_ticks(600);
+  const Mat3& heading = rig->control.controller().wbc().engaged_reference().base_rotation;
+  const Vec3 forward = Vec3(heading(0, 0), heading(1, 0), 0.0).normalized();
+  EXPECT_NEAR((rig->control.controller().wbc().reference().ee_position_m - rest_before).dot(forward), 0.05, 1e-3);
+  hand.hand_target = {0.3, 0.0, 0.0};
+  EXPECT_STREQ(rig->request(hand), "target more than 0.25 m from the hand's rest point");
+
   // Live tuning while trotting: the template's base stiffness to 1500 N/m over 0.5 s.
   ControllerRequest tune;
   tune.kind = ControllerRequest::Kind::tune;
@@ -268,6 +283,7 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
   EXPECT_EQ(rig->control.controller().tare().completed, 3u);
   EXPECT_STREQ(rig->request(trot), "gait changes need mode control");
   EXPECT_STREQ(rig->request(tune), "tuning needs mode control");
+  EXPECT_STREQ(rig->request(hand), "hand moves need mode control");
 }
 
 // The MIT wire between the loop and the simulated robot, as the CAN backend and the drive

@@ -28,8 +28,8 @@ TEST(OperatorLine, Parsing) {
   EXPECT_EQ(parse_operator_line("start").kind, K::command);
   EXPECT_EQ(parse_operator_line("  mode   control \r").command, safety::OperatorCommand::mode_control);
   EXPECT_EQ(parse_operator_line("status").kind, K::status);
-  EXPECT_EQ(parse_operator_line("").error, "error: empty command (start, stop, mode, reset, status, gait, walk, tune, tare, controller)");
-  EXPECT_EQ(parse_operator_line("START").error, "error: unknown command 'START' (start, stop, mode, reset, status, gait, walk, tune, tare, controller)");
+  EXPECT_EQ(parse_operator_line("").error, "error: empty command (start, stop, mode, reset, status, gait, walk, tune, hand, tare, controller)");
+  EXPECT_EQ(parse_operator_line("START").error, "error: unknown command 'START' (start, stop, mode, reset, status, gait, walk, tune, hand, tare, controller)");
   EXPECT_EQ(parse_operator_line("stop now").error, "error: stop takes no argument");
   EXPECT_EQ(parse_operator_line("mode").error, "error: mode needs one argument: stand or control");
   EXPECT_EQ(parse_operator_line("mode idle").error, "error: unknown mode 'idle' (stand or control)");
@@ -114,6 +114,18 @@ TEST(OperatorLine, TuneTakesTheTemplatesKeysWithTheConfigsRanges) {
   EXPECT_EQ(parse_operator_line("tune base.mass").error, "error: tune: expected key=value, got 'base.mass'");
   EXPECT_EQ(parse_operator_line("tune").error.rfind("error: tune needs key=value", 0), 0u);
   EXPECT_EQ(parse_operator_line("tune ramp=1 ramp=2").error, "error: tune.ramp: given twice");
+}
+
+TEST(OperatorLine, HandTakesAnOffsetAndADuration) {
+  const ParsedLine p = parse_operator_line("hand 0.1 -0.05 0.02 1.5");
+  ASSERT_EQ(p.kind, ParsedLine::Kind::controller_request) << p.error;
+  EXPECT_EQ(p.request.kind, ControllerRequest::Kind::hand);
+  EXPECT_EQ(p.request.hand_target, (std::array<double, 3>{0.1, -0.05, 0.02}));
+  EXPECT_EQ(p.request.hand_duration_s, 1.5);
+  EXPECT_EQ(parse_operator_line("hand 0.3 0 0 1").error, "error: hand.offset[0]: must be in [-0.25, 0.25], got 0.3");
+  EXPECT_EQ(parse_operator_line("hand 0 0 0 0.01").error, "error: hand.duration: must be in [0.1, 60], got 0.01");
+  EXPECT_EQ(parse_operator_line("hand 0 0 up 1").error, "error: hand.offset[2]: must be a number, got 'up'");
+  EXPECT_EQ(parse_operator_line("hand 0 0 1").error.rfind("error: hand needs x y z", 0), 0u);
 }
 
 TEST(OperatorLine, LogRecordsAreDescribedByName) {
@@ -216,7 +228,7 @@ TEST_F(OperatorSocket, CommandsAndMalformedLines) {
   ASSERT_EQ(replies.size(), 16u);
   EXPECT_EQ(replies[0].substr(0, 38), "ok status mode=idle faults=none ticks=");
   EXPECT_EQ(replies[1], "error: mode control: mode control needs mode stand (mode=idle faults=none)");
-  EXPECT_EQ(replies[2], "error: unknown command 'frobnicate' (start, stop, mode, reset, status, gait, walk, tune, tare, controller)");
+  EXPECT_EQ(replies[2], "error: unknown command 'frobnicate' (start, stop, mode, reset, status, gait, walk, tune, hand, tare, controller)");
   EXPECT_EQ(replies[3], "error: mode needs one argument: stand or control");
   EXPECT_EQ(replies[4], "error: start takes no argument");
   EXPECT_EQ(replies[5], "error: non-printable byte in the command");

@@ -4,7 +4,7 @@
 //
 //   the supervisor's:  start | stop | reset | mode stand | mode control | status
 //   the controller's:  gait stand | gait trot [key=value ...] | walk VX VY YAW_RATE |
-//                      tune key=value ... | tare | controller
+//                      tune key=value ... | hand X Y Z SECONDS | tare | controller
 //   -> "ok ..." or "error: ..."  (a malformed line changes nothing)
 //
 // `gait trot` takes the keys of the scenario's and config's `gait:` map
@@ -17,7 +17,9 @@
 // whole-body controller's state. `tune` (control mode) retunes the template's M, D, K per
 // body (base.mass .. ee.stiffness: a number or [x,y,z]) and the arm's posture gains
 // (posture_kp, posture_kd) over `ramp` seconds (default 1), with the config's ranges
-// (control::kTemplateRanges); keys not given keep their values.
+// (control::kTemplateRanges); keys not given keep their values. `hand X Y Z SECONDS`
+// (control mode) moves the hand's rest point to that offset from the engaged one (m, the
+// rest pose's horizontal frame) along a minimum-jerk path (control::HandTrajectory's limits).
 #pragma once
 
 #include <atomic>
@@ -38,12 +40,16 @@ inline constexpr std::size_t kMaxOperatorLine = 255;  // bytes, without the newl
 
 // A request for the control mode's controller (taken by the RT thread at a tick).
 struct ControllerRequest {
-  enum class Kind : std::uint8_t { gait, tare, walk, tune } kind = Kind::tare;
+  enum class Kind : std::uint8_t { gait, tare, walk, tune, hand } kind = Kind::tare;
   control::GaitCommand gait;  // with kind == gait
   control::TuningRequest tune;  // with kind == tune
   // With kind == walk: [v_x, v_y, yaw rate], the trunk's horizontal frame (a plain array:
   // requests cross a lock-free ring by value).
   std::array<double, 3> velocity{};
+  // With kind == hand: the hand's rest point's offset from the engaged one (m, the rest
+  // pose's horizontal frame) and the move's duration (s).
+  std::array<double, 3> hand_target{};
+  double hand_duration_s = 0.0;
 };
 
 struct ParsedLine {

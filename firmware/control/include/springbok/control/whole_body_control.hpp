@@ -36,11 +36,14 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <span>
+#include <string>
 
 #include <Eigen/Core>
 
 #include "springbok/dynamics/dynamics.hpp"
 #include "springbok/estimation/base_estimator.hpp"
+#include "springbok/control/hand_trajectory.hpp"
 #include "springbok/estimation/foot_force_observer.hpp"
 #include "springbok/gait/trot.hpp"
 #include "springbok/hal/types.hpp"
@@ -162,6 +165,14 @@ class WholeBodyControl {
   // next tick from the values then (a ramp under way is replaced from where it is). rt: no alloc
   bool request_tuning(const TuningRequest& request) noexcept;
   bool tuning() const noexcept { return tune_.active; }
+  // Hand pose commands (hand_trajectory.hpp): the waypoints the hand's rest point follows
+  // from each engagement on (start-up; "" or why not), and an operator's move of it to an
+  // offset from the engaged rest point over duration_s, in the control mode (nullptr or why
+  // not; nothing changes then). rt: no alloc (the move)
+  std::string set_hand_trajectory(std::span<const HandWaypoint> waypoints);
+  const char* request_hand_move(const Vec3& target_m, double duration_s) noexcept;
+  const HandTrajectory& hand_trajectory() const noexcept { return hand_; }
+  double control_time_s() const noexcept { return control_time_s_; }
   const Vec3& walking_velocity() const noexcept { return velocity_now_; }
 
   bool engaged() const noexcept { return engaged_; }
@@ -220,6 +231,9 @@ class WholeBodyControl {
   } tune_;
   void step_tuning(double dt_s) noexcept;
   Tare tare_;
+  HandTrajectory configured_hand_;        // set_hand_trajectory's, restarted at each engagement
+  HandTrajectory hand_;                   // the one followed (an operator's move replaces it)
+  double control_time_s_ = 0.0;           // since the engagement
   Vec3 tare_force_sum_n_ = Vec3::Zero(), tare_torque_sum_nm_ = Vec3::Zero();
   std::uint64_t stance_changes_ = 0;
   std::uint64_t failed_ticks_ = 0;

@@ -171,6 +171,11 @@ struct PlanarMotion {
   double yaw_rad = 0.0;
   double yaw_rate_rad_s = 0.0;
   double yaw_acceleration_rad_s2 = 0.0;
+  // The hand's rest point moved on top of that (hand pose commands): an offset in the rest
+  // pose's horizontal frame (the engaged heading, turned by yaw), with its rates in that frame.
+  Vec3 hand_offset_m = Vec3::Zero();
+  Vec3 hand_velocity_m_s = Vec3::Zero();
+  Vec3 hand_acceleration_m_s2 = Vec3::Zero();
 };
 
 struct WbcOutput {
