@@ -253,7 +253,10 @@ struct CliRun {
 };
 CliRun springbokctl(const std::string& args) {
   CliRun r;
-  const std::string cmd = std::string(SPRINGBOK_BIN_DIR) + "/springbokctl " + args + " 2>&1";
+  // A cross-built client runs under the build's emulator (qemu-aarch64), as ctest runs this test.
+  const std::string emulator = SPRINGBOK_TEST_EMULATOR;
+  const std::string cmd =
+      (emulator.empty() ? "" : emulator + " ") + std::string(SPRINGBOK_BIN_DIR) + "/springbokctl " + args + " 2>&1";
   std::FILE* p = ::popen(cmd.c_str(), "r");
   if (p == nullptr) return r;
   char buf[512];
