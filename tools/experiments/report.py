@@ -55,6 +55,16 @@ def num(v, fmt="{:.2f}"):
     return "n/a" if v is None else fmt.format(v)
 
 
+def save_figure(fig, out, filename, title=None, dpi=100):
+    """Title, layout, write OUT_DIR/filename, close; returns filename (the report links it)."""
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, filename), dpi=dpi)
+    plt.close(fig)
+    return filename
+
+
 def plot_cases(out, title, cases, axis_pairs, filename):
     """One panel per (scenario, label); each panel: measured vs template for the given columns."""
     fig, panels = plt.subplots(1, len(cases), figsize=(4.2 * len(cases), 3.4), squeeze=False)
@@ -77,11 +87,7 @@ def plot_cases(out, title, cases, axis_pairs, filename):
         drawn = True
     if drawn:
         panels[0][0].legend(fontsize=8)
-    fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(os.path.join(out, filename), dpi=110)
-    plt.close(fig)
-    return filename
+    return save_figure(fig, out, filename, title, dpi=110)
 
 
 def rise_time(out, name, measured, template):
@@ -148,11 +154,7 @@ def trot_figure(out, title, runs, filename, t0=1.0, t1=8.0):
             if row == 1:
                 panel.set_xlabel("time [s]")
     panels[0][0].legend(fontsize=8)
-    fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(os.path.join(out, filename), dpi=100)
-    plt.close(fig)
-    return filename
+    return save_figure(fig, out, filename, title)
 
 
 def wrench_figure(out, title, rows, filename, t0=1.5, t1=4.5):
@@ -179,11 +181,7 @@ def wrench_figure(out, title, rows, filename, t0=1.5, t1=4.5):
             if r == len(rows) - 1:
                 panel.set_xlabel("time [s]")
     panels[0][0].legend(fontsize=7)
-    fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(os.path.join(out, filename), dpi=100)
-    plt.close(fig)
-    return filename
+    return save_figure(fig, out, filename, title)
 
 
 def hand_figure(out, log, filename):
@@ -208,10 +206,7 @@ def hand_figure(out, log, filename):
     err.set_title("hand minus (rest point + template)")
     for a in (path, err):
         a.grid(True, alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(os.path.join(out, filename), dpi=100)
-    plt.close(fig)
-    return filename
+    return save_figure(fig, out, filename)
 
 
 def trot_study(out, trot_runs, trots, stance, checks):

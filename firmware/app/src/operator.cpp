@@ -67,6 +67,41 @@ ParsedLine parse_walk(const std::vector<std::string_view>& words) {
   return controller_request(r, "walk");
 }
 
+// `key=value` words from words[first] on, as a YAML map for the config's reader (nodes
+// without a position in a file: the messages carry no line); `lists`: a value [x,y,z] is a
+// list of three words. An empty string, or the error (`name: ...`) in `why`.
+YAML::Node key_values(const std::vector<std::string_view>& words, std::size_t first, const std::string& name,
+                      bool lists, std::string& why) {
+  YAML::Node params(YAML::NodeType::Map);
+  for (std::size_t i = first; i < words.size(); ++i) {
+    const std::string_view word = words[i];
+    const std::size_t eq = word.find('=');
+    if (eq == std::string_view::npos || eq == 0 || eq + 1 == word.size()) {
+      why = name + ": expected key=value, got '" + std::string(word) + "'";
+      return params;
+    }
+    const std::string key(word.substr(0, eq));
+    if (params[key].IsDefined()) {
+      why = name + "." + key + ": given twice";
+      return params;
+    }
+    const std::string value(word.substr(eq + 1));
+    if (lists && value.front() == '[' && value.back() == ']') {
+      YAML::Node list(YAML::NodeType::Sequence);
+      std::size_t at = 1;
+      while (at < value.size()) {
+        const std::size_t end = std::min(value.find(',', at), value.size() - 1);
+        list.push_back(value.substr(at, end - at));
+        at = end + 1;
+      }
+      params[key] = list;
+    } else {
+      params[key] = value;
+    }
+  }
+  return params;
+}
+
 // `hand X Y Z SECONDS`: the hand's rest point's target offset and the move's duration.
 ParsedLine parse_hand(const std::vector<std::string_view>& words) {
   if (words.size() != 5) return error("hand needs x y z (m, from the engaged rest point) and a duration (s)");
@@ -97,38 +132,20 @@ ParsedLine parse_tune(const std::vector<std::string_view>& words) {
     return error("tune needs key=value: base.mass, base.damping, base.stiffness, ee.mass, ee.damping, "
                  "ee.stiffness (a number or [x,y,z]), posture_kp, posture_kd, ramp (s)");
   }
-  YAML::Node params(YAML::NodeType::Map);
-  for (std::size_t i = 1; i < words.size(); ++i) {
-    const std::string_view word = words[i];
-    const std::size_t eq = word.find('=');
-    if (eq == std::string_view::npos || eq == 0 || eq + 1 == word.size()) {
-      return error("tune: expected key=value, got '" + std::string(word) + "'");
-    }
-    const std::string key(word.substr(0, eq));
-    if (params[key].IsDefined()) return error("tune." + key + ": given twice");
-    // A word, or [x,y,z] as a list of words (nodes without a position in a file: the
-    // messages carry no line).
-    const std::string value(word.substr(eq + 1));
-    if (value.front() == '[' && value.back() == ']') {
-      YAML::Node list(YAML::NodeType::Sequence);
-      std::size_t at = 1;
-      while (at < value.size()) {
-        const std::size_t end = std::min(value.find(',', at), value.size() - 1);
-        list.push_back(value.substr(at, end - at));
-        at = end + 1;
-      }
-      params[key] = list;
-    } else {
-      params[key] = value;
-    }
-  }
+  std::string why;
+  const YAML::Node params = key_values(words, 1, "tune", true, why);
+  if (!why.empty()) return error(why);
   config::Errors errors;
   const config::Field f(params, "tune", errors);
   ControllerRequest r;
   r.kind = ControllerRequest::Kind::tune;
   control::TuningRequest& t = r.tune;
-  if (f.allow_only({"base.mass", "base.damping", "base.stiffness", "ee.mass", "ee.damping", "ee.stiffness",
-                    "posture_kp", "posture_kd", "ramp"})) {
+  std::array<std::string_view, kKeys.size() + 3> allowed{};  // the template's keys, then the rest
+  std::copy(kKeys.begin(), kKeys.end(), allowed.begin());
+  allowed[kKeys.size()] = "posture_kp";
+  allowed[kKeys.size() + 1] = "posture_kd";
+  allowed[kKeys.size() + 2] = "ramp";
+  if (f.allow_only(allowed)) {
     for (std::size_t p = 0; p < kKeys.size(); ++p) {
       const config::Field v = f[kKeys[p]];
       if (!v.present()) continue;
@@ -160,17 +177,9 @@ ParsedLine parse_gait(const std::vector<std::string_view>& words) {
     return controller_request(r, "gait stand");
   }
   if (words[1] != "trot") return error("unknown gait '" + std::string(words[1]) + "' (stand or trot)");
-  YAML::Node params(YAML::NodeType::Map);
-  for (std::size_t i = 2; i < words.size(); ++i) {
-    const std::string_view word = words[i];
-    const std::size_t eq = word.find('=');
-    if (eq == std::string_view::npos || eq == 0 || eq + 1 == word.size()) {
-      return error("gait trot: expected key=value, got '" + std::string(word) + "'");
-    }
-    const std::string key(word.substr(0, eq));
-    if (params[key].IsDefined()) return error("gait trot." + key + ": given twice");
-    params[key] = std::string(word.substr(eq + 1));
-  }
+  std::string why;
+  const YAML::Node params = key_values(words, 2, "gait trot", false, why);
+  if (!why.empty()) return error(why);
   config::Errors errors;
   r.gait.kind = control::GaitKind::trot;
   r.gait.trot = params::read_trot_params(config::Field(params, "gait trot", errors));

@@ -258,17 +258,18 @@ bool WholeBodyControl::request_tuning(const TuningRequest& r) noexcept {
 // Takes a pending tuning request (the ramp's start: this tick's values) and moves the
 // template and the posture gains along the ramp. rt: no alloc
 void WholeBodyControl::step_tuning(double dt_s) noexcept {
+  // The template's parts in TuningRequest::Part's order.
+  static constexpr std::array<Vec3 wbc::TemplateParams::*, TuningRequest::kParts> kPart{
+      &wbc::TemplateParams::mass_base_kg,          &wbc::TemplateParams::damping_base_ns_per_m,
+      &wbc::TemplateParams::stiffness_base_n_per_m, &wbc::TemplateParams::mass_ee_kg,
+      &wbc::TemplateParams::damping_ee_ns_per_m,   &wbc::TemplateParams::stiffness_ee_n_per_m};
   if (tune_.pending) {
     tune_.pending = false;
     const TuningRequest& r = tune_.request;
     tune_.from = wbc_->params().template_params;
     tune_.to = tune_.from;
-    std::array<Vec3*, TuningRequest::kParts> to{&tune_.to.mass_base_kg,        &tune_.to.damping_base_ns_per_m,
-                                                 &tune_.to.stiffness_base_n_per_m, &tune_.to.mass_ee_kg,
-                                                 &tune_.to.damping_ee_ns_per_m,   &tune_.to.stiffness_ee_n_per_m};
-    for (int p = 0; p < TuningRequest::kParts; ++p) {
-      const auto i = static_cast<std::size_t>(p);
-      if (r.set[i]) *to[i] = Vec3(r.value[i][0], r.value[i][1], r.value[i][2]);
+    for (std::size_t i = 0; i < kPart.size(); ++i) {
+      if (r.set[i]) tune_.to.*kPart[i] = Vec3(r.value[i][0], r.value[i][1], r.value[i][2]);
     }
     tune_.kp_from = wbc_->params().posture_kp_per_s2;
     tune_.kd_from = wbc_->params().posture_kd_per_s;
@@ -281,14 +282,8 @@ void WholeBodyControl::step_tuning(double dt_s) noexcept {
   tune_.elapsed_s += dt_s;
   const double ramp = tune_.request.ramp_s;
   const double s = ramp > 0.0 ? std::min(1.0, tune_.elapsed_s / ramp) : 1.0;
-  const auto lerp = [s](const Vec3& a, const Vec3& b) { return Vec3(a + s * (b - a)); };
   wbc::TemplateParams t;
-  t.mass_base_kg = lerp(tune_.from.mass_base_kg, tune_.to.mass_base_kg);
-  t.damping_base_ns_per_m = lerp(tune_.from.damping_base_ns_per_m, tune_.to.damping_base_ns_per_m);
-  t.stiffness_base_n_per_m = lerp(tune_.from.stiffness_base_n_per_m, tune_.to.stiffness_base_n_per_m);
-  t.mass_ee_kg = lerp(tune_.from.mass_ee_kg, tune_.to.mass_ee_kg);
-  t.damping_ee_ns_per_m = lerp(tune_.from.damping_ee_ns_per_m, tune_.to.damping_ee_ns_per_m);
-  t.stiffness_ee_n_per_m = lerp(tune_.from.stiffness_ee_n_per_m, tune_.to.stiffness_ee_n_per_m);
+  for (const auto part : kPart) t.*part = tune_.from.*part + s * (tune_.to.*part - tune_.from.*part);
   wbc_->set_template(t);
   wbc_->set_posture_gains(tune_.kp_from + s * (tune_.kp_to - tune_.kp_from),
                           tune_.kd_from + s * (tune_.kd_to - tune_.kd_from));
