@@ -251,11 +251,23 @@ TEST_F(Control, TicksDoNotAllocate) {
     for (int i = 0; i < 300; ++i) c->tick(next(), kDt_s, cmd);
     (void)c->request_velocity(Vec3(0.3, 0.1, -0.2));
     for (int i = 0; i < 100; ++i) c->tick(next(), kDt_s, cmd);
+    // Live tuning (its ramp) and a hand move (the moving rest point) tick by tick.
+    control::TuningRequest tune;
+    tune.set[control::TuningRequest::base_stiffness] = true;
+    tune.value[control::TuningRequest::base_stiffness] = {1500.0, 1500.0, 1500.0};
+    tune.ramp_s = 0.05;
+    const bool taken = c->request_tuning(tune);
+    const char* hand = c->request_hand_move(Vec3(0.05, 0.0, 0.02), 0.3);
+    for (int i = 0; i < 350; ++i) c->tick(next(), kDt_s, cmd);
+    const bool tuned = !c->tuning();
     c->request_tare();
     for (int i = 0; i < 10; ++i) c->observe(next(), kDt_s, true);
     c->disengage();
     c->tick(next(), kDt_s, cmd);
     n = trap.disarm();
+    EXPECT_TRUE(taken);  // checked after the trap: a failure message allocates
+    EXPECT_EQ(hand, nullptr);
+    EXPECT_TRUE(tuned);
   }
   EXPECT_EQ(n, 0u);
 }
