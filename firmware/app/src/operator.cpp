@@ -149,7 +149,7 @@ ParsedLine parse_tune(const std::vector<std::string_view>& words) {
     for (std::size_t p = 0; p < kKeys.size(); ++p) {
       const config::Field v = f[kKeys[p]];
       if (!v.present()) continue;
-      Vec3 value;
+      Vec3 value = Vec3::Zero();
       t.set[p] = v.vector<3>(value, control::kTemplateRanges[p].lo, control::kTemplateRanges[p].hi, true);
       t.value[p] = {value.x(), value.y(), value.z()};
     }
