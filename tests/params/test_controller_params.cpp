@@ -95,6 +95,40 @@ TEST(WbcConfig, TheHandsAccelerationBoundIsANumberOrNone) {
             "wbc.arm.max_acceleration: must be a number, got 'lots' (line 4)");
 }
 
+TEST(WbcConfig, TheRotationalTemplateIsOnWhenPresent) {
+  EXPECT_FALSE(load(kGood).rotational_template_enabled) << "off by default: the paper's controller";
+  const auto p = load(std::string(kGood) +
+                      "rotational_template:\n"
+                      "  base: {inertia: auto, damping: 150, stiffness: [500, 600, 700]}\n"
+                      "  ee: {inertia: 0.4, damping: 9, stiffness: 50}\n"
+                      "swing: {kp: 300}\n");
+  EXPECT_TRUE(p.rotational_template_enabled);
+  EXPECT_LE(p.rotational_template.inertia_base_kgm2.maxCoeff(), 0.0);  // auto: the composite inertia
+  EXPECT_DOUBLE_EQ(p.rotational_template.stiffness_base_nm_per_rad.z(), 700.0);
+  EXPECT_DOUBLE_EQ(p.rotational_template.inertia_ee_kgm2.y(), 0.4);
+  EXPECT_DOUBLE_EQ(p.rotational_template.damping_ee_nms_per_rad.x(), 9.0);
+  const std::string base_ok = "template:\n  base: {mass: 92, damping: 610, stiffness: 1000}\n"
+                              "  ee: {mass: 0.4, damping: 29, stiffness: 500}\n";
+  const auto arm = load(base_ok + "arm: {max_angular_acceleration: 300, manipulability_threshold_6d: 0.01}\n");
+  EXPECT_DOUBLE_EQ(arm.ee_angular_acceleration_limit_rad_s2, 300.0);
+  EXPECT_DOUBLE_EQ(arm.manipulability_threshold_6d, 0.01);
+  EXPECT_DOUBLE_EQ(load(std::string(kGood) + "rotational_template:\n  base: {inertia: [6, 15, 18], damping: 1, stiffness: 1}\n"
+                                             "  ee: {inertia: 0.1, damping: 1, stiffness: 1}\n")
+                       .rotational_template.inertia_base_kgm2.y(),
+                   15.0);
+  const std::string rot = std::string(kGood) + "rotational_template:\n  base: {inertia: auto, damping: 150, stiffness: 500}\n";
+  EXPECT_EQ(error_of(rot + "  ee: {inertia: 0, damping: 4.5, stiffness: 50}\n"),
+            "wbc.rotational_template.ee.inertia: must be in [1e-06, 1000], got 0 (line 11)");
+  EXPECT_EQ(error_of(rot + "  ee: {inertia: 0.1, damping: 4.5}\n"), "wbc.rotational_template.ee.stiffness: missing (line 11)");
+  EXPECT_EQ(error_of(rot + "  ee: {inertia: 0.1, damping: -1, stiffness: 50}\n"),
+            "wbc.rotational_template.ee.damping: must be in [0, 10000], got -1 (line 11)");
+  EXPECT_EQ(error_of(std::string(kGood) + "rotational_template:\n  ee: {inertia: 0.1, damping: 1, stiffness: 1}\n"),
+            "wbc.rotational_template.base: missing (line 10)");
+  EXPECT_EQ(error_of(std::string(kGood) + "rotational_template:\n  base: {inertia: lots, damping: 1, stiffness: 1}\n"
+                                          "  ee: {inertia: 0.1, damping: 1, stiffness: 1}\n"),
+            "wbc.rotational_template.base.inertia: must be a number, got 'lots' (line 10)");
+}
+
 TEST(WbcConfig, JointFrictionIsOneNumberOrOnePerJoint) {
   EXPECT_EQ(load(kGood).joint_viscous_friction_nms_per_rad, springbok::VecNj::Zero()) << "default: none";
   EXPECT_EQ(load(std::string(kGood) + "joint_friction: {viscous: 0.5}\n").joint_viscous_friction_nms_per_rad,
@@ -115,7 +149,7 @@ TEST(WbcConfig, EveryProblemOfTheMapIsReported) {
   const std::string text = "template:\n  base: {mass: 0, damping: 610, stiffness: 1000}\n  ee: {mass: 4, damping: 90}\n"
                            "weights: {arm: lots}\nswing: {kp: 1}\ncolour: red\n";
   EXPECT_EQ(error_of(text),
-            "wbc.colour: unknown key (known: template, base_orientation, arm, weights, contact, limits, swing, "
+            "wbc.colour: unknown key (known: template, rotational_template, base_orientation, arm, weights, contact, limits, swing, "
             "joint_friction) (line 6)\n"
             "wbc.template.ee.stiffness: missing (line 3)\n"
             "wbc.template.base.mass: must be in [1e-06, 100000], got 0 (line 2)\n"

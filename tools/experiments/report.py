@@ -22,7 +22,8 @@ BASE_CASES = [("4", 4, 126.5), ("92", 92, 610), ("184", 184, 858)]
 ARM_CASES = [("0p4", 0.4, 29), ("4", 4, 90), ("10", 10, 142)]
 TROT_ARMS = [("0p4", 0.4), ("4", 4), ("10", 10)]
 TROT_GAITS = [("gp1", 1.4, 0.55), ("gp2", 1.4, 0.65), ("gp3", 1.8, 0.55), ("gp4", 1.8, 0.65)]
-TARGETS = {"arm_ee_nrmse": 0.03, "base_nrmse": 0.08, "steady": 0.01, "chirp_db": 2.0}
+TARGETS = {"arm_ee_nrmse": 0.03, "base_nrmse": 0.08, "steady": 0.01, "chirp_db": 2.0, "rot_nrmse": 0.05}
+ROT_INERTIAS = [("0p1", 0.1, 4.5), ("0p4", 0.4, 9.0)]
 
 
 def load_summary(out, name):
@@ -31,6 +32,11 @@ def load_summary(out, name):
         return None
     with open(path) as f:
         return json.load(f)
+
+
+def list_runs(out):
+    """Every run folder in OUT_DIR (one with a summary.json)."""
+    return sorted(d for d in os.listdir(out) if os.path.exists(os.path.join(out, d, "summary.json")))
 
 
 def load_log(out, name, columns):
@@ -65,8 +71,8 @@ def save_figure(fig, out, filename, title=None, dpi=100):
     return filename
 
 
-def plot_cases(out, title, cases, axis_pairs, filename):
-    """One panel per (scenario, label); each panel: measured vs template for the given columns."""
+def plot_cases(out, title, cases, axis_pairs, filename, ylabel="displacement [mm]"):
+    """One panel per (scenario, label); each panel: measured vs template for the given columns (times 1000)."""
     fig, panels = plt.subplots(1, len(cases), figsize=(4.2 * len(cases), 3.4), squeeze=False)
     drawn = False
     for panel, (name, label) in zip(panels[0], cases):
@@ -82,7 +88,7 @@ def plot_cases(out, title, cases, axis_pairs, filename):
         for (what, measured, template), colour in zip(axis_pairs, ["C0", "C1", "C2", "C3"]):
             panel.plot(t, 1000.0 * log[measured][on], color=colour, label=f"{what} measured")
             panel.plot(t, 1000.0 * log[template][on], color=colour, linestyle="--", label=f"{what} template")
-        panel.set_ylabel("displacement [mm]")
+        panel.set_ylabel(ylabel)
         panel.grid(True, alpha=0.3)
         drawn = True
     if drawn:
@@ -378,6 +384,82 @@ def trot_study(out, trot_runs, trots, stance, checks):
     return lines, figs
 
 
+def rot_step_figure(out, filename):
+    """Torque steps: one row per hand inertia, one column per axis; trunk and hand, measured vs template."""
+    fig, panels = plt.subplots(len(ROT_INERTIAS), 3, figsize=(12.6, 3.2 * len(ROT_INERTIAS)), squeeze=False,
+                               sharex=True)
+    for r, (t, inertia, _) in enumerate(ROT_INERTIAS):
+        for c, a in enumerate("xyz"):
+            panel = panels[r][c]
+            panel.set_title(f"I_e = {inertia} kg m^2, 5 N m about {a}", fontsize=9)
+            panel.grid(True, alpha=0.3)
+            log = load_log(out, f"rot_step_{a}_ie{t}", ["time_s", "wbc_active", f"base_r{a}_rad",
+                                                       f"template_base_r{a}_rad", f"ee_r{a}_rad", f"template_ee_r{a}_rad"])
+            if log is None:
+                panel.text(0.5, 0.5, "missing", ha="center", transform=panel.transAxes)
+                continue
+            on = log["wbc_active"] > 0.5
+            tt = log["time_s"][on]
+            for what, colour in (("base", "C0"), ("ee", "C1")):
+                label = "trunk" if what == "base" else "hand"
+                panel.plot(tt, 1000 * log[f"{what}_r{a}_rad"][on], color=colour, label=f"{label} measured")
+                panel.plot(tt, 1000 * log[f"template_{what}_r{a}_rad"][on], color=colour, linestyle="--",
+                           label=f"{label} template")
+            if c == 0:
+                panel.set_ylabel("rotation [mrad]")
+            if r == len(ROT_INERTIAS) - 1:
+                panel.set_xlabel("time [s]")
+    panels[0][0].legend(fontsize=7)
+    return save_figure(fig, out, filename, "Rotational template: 5 N m torque steps at the hand")
+
+
+def rotational_study(out, checks):
+    """The rotational template (beyond the paper): torque steps about each axis and chirps, two hand inertias."""
+    steps = [(f"rot_step_{a}_ie{t}", a, i, d) for t, i, d in ROT_INERTIAS for a in "xyz"]
+    chirps = [(f"rot_chirp_x_ie{t}", "x", i, d) for t, i, d in ROT_INERTIAS]
+    runs = {n: load_summary(out, n) for n, *_ in steps + chirps}
+    if not any(runs.values()):
+        return [], []
+    lines = ["", "## The rotational template at the hand (beyond the paper)", "",
+             "`controller.params.rotational_template`: per axis of rotation the same two-body template for the "
+             "trunk's orientation (I_b the composite inertia, D_rb 150 N m s/rad, K_rb 500 N m/rad) and the hand's "
+             "relative to the trunk (I_e 0.1 or 0.4 kg m^2, critically damped: D_re 4.5 or 9 N m s/rad, K_re 50 "
+             "N m/rad), driven by the *measured* wrist torque; orientation displacements are rotation vectors of "
+             "R R_rest^T (world axes), the template integrated exactly per axis. The arm task is 6-D (the hand's "
+             "position keeps the translational template, M_e 4). In stance, ground-truth base state; the torque acts "
+             "from 1 s: a 5 N m step (steady state T/K_rb = 10 mrad for the trunk, T/K_rb + T/K_re = 110 mrad for the "
+             "hand) or a 3 N m chirp 0-5 Hz over 10 s.", "",
+             "| scenario | axis | I_e [kg m^2] | NRMSE base | NRMSE hand | steady state base / hand | "
+             "gain error base / hand [dB] | max joint speed / limit | QP failures | fell |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for n, a, inertia, _ in steps + chirps:
+        s = runs[n]
+        if s is None:
+            lines.append(f"| {n} | missing |" + " |" * 8)
+            checks.append((n, False, "missing"))
+            continue
+        nr, ss, db = s["nrmse"], s["steady_state_error"], s["chirp_gain_db_error"] or {}
+        kb, ke = "base_r" + a, "ee_r" + a
+        chirp = n.startswith("rot_chirp")
+        lines.append(f"| {n} | {a} | {inertia} | {pct(nr[kb])} | {pct(nr[ke])} | "
+                     f"{'-' if chirp else pct(ss[kb]) + ' / ' + pct(ss[ke])} | "
+                     f"{num(db.get(kb)) + ' / ' + num(db.get(ke)) if chirp else '-'} | "
+                     f"{s['max_joint_speed_ratio']:.3f} ({s['max_joint_speed_joint']}) | {s['qp_failures']} | {s['fell']} |")
+        ok = (all(nr[k] is not None and nr[k] <= TARGETS["rot_nrmse"] for k in (kb, ke)) and not s["fell"]
+              and s["qp_failures"] == 0 and s["max_torque_ratio"] <= 1.0 and not s["joint_limit_hit"])
+        why = f"NRMSE base / hand r{a} {pct(nr[kb])} / {pct(nr[ke])} (target 5 %)"
+        if not chirp:
+            ok = ok and all(ss[k] is not None and ss[k] <= TARGETS["steady"] for k in (kb, ke))
+            why += f", steady state {pct(ss[kb])} / {pct(ss[ke])} (target 1 %)"
+        checks.append((n, ok, why))
+    figs = [rot_step_figure(out, "rot_step.png")]
+    figs.append(plot_cases(out, "Rotational template, 3 N m torque chirp 0-5 Hz about x at the hand",
+                           [(f"rot_chirp_x_ie{t}", f"I_e = {i} kg m^2") for t, i, _ in ROT_INERTIAS],
+                           [("trunk rx", "base_rx_rad", "template_base_rx_rad"),
+                            ("hand rx", "ee_rx_rad", "template_ee_rx_rad")], "rot_chirp_x.png", ylabel="rotation [mrad]"))
+    return lines, figs
+
+
 def main():
     parser = argparse.ArgumentParser(description="plots and report.md from springbok-sim runs")
     parser.add_argument("--require", nargs="+", default=[], metavar="NAME",
@@ -388,7 +470,7 @@ def main():
     step_runs = [f"base_step_mb{t}" for t, _, _ in BASE_CASES] + [f"arm_step_me{t}" for t, _, _ in ARM_CASES]
     chirp_runs = [f"base_chirp_{a}_mb{t}" for a in "xy" for t, _, _ in BASE_CASES]
     summaries = {n: load_summary(out, n) for n in step_runs + chirp_runs}
-    present = [n for n, s in summaries.items() if s is not None]
+    present = list_runs(out)
     if not present:
         print(f"report.py: no runs in {out}", file=sys.stderr)
         return 1
@@ -542,6 +624,10 @@ def main():
                   f"{mm(e['ee_y'])} / {mm(e['ee_z'])} | {mm(e['base_x'])} / {mm(e['base_y'])} / {mm(e['base_z'])} | "
                   f"{hand['max_joint_speed_ratio']:.3f} ({hand['max_joint_speed_joint']}) | {hand['qp_failures']} | "
                   f"{hand['fell']} |"]
+
+    rot_lines, rot_figs = rotational_study(out, checks)
+    lines += rot_lines
+    figs += rot_figs
 
     lines += ["", "## Targets", ""]
     lines += [f"- {'PASS' if ok else 'MISS'} {n}: {why}" for n, ok, why in checks]

@@ -14,8 +14,9 @@
 namespace springbok::simtool {
 namespace {
 
-constexpr const char* kAxisKeys[6] = {"base_x", "base_y", "base_z", "ee_x", "ee_y", "ee_z"};
-constexpr const char* kRotationKeys[6] = {"base_rx", "base_ry", "base_rz", "ee_rx", "ee_ry", "ee_rz"};
+constexpr int kScoredAxes = 12;
+constexpr const char* kAxisKeys[kScoredAxes] = {"base_x",  "base_y",  "base_z",  "ee_x",  "ee_y",  "ee_z",
+                                                "base_rx", "base_ry", "base_rz", "ee_rx", "ee_ry", "ee_rz"};
 constexpr const char* kFootNames[kFeet] = {"lf", "rf", "lh", "rh"};
 // A joint is "at its torque limit" from this fraction of it on.
 constexpr double kAtLimit = 0.99;
@@ -40,9 +41,9 @@ std::string json_number_or_null(const std::optional<double>& v) {
   return v && std::isfinite(*v) ? fmt::format("{:.6g}", *v) : std::string("null");
 }
 
-std::string json_axes(const std::array<std::optional<double>, 6>& values) {
+std::string json_axes(const std::array<std::optional<double>, kScoredAxes>& values) {
   std::string s = "{";
-  for (int a = 0; a < 6; ++a) s += fmt::format("{}\"{}\": {}", a ? ", " : "", kAxisKeys[a], json_number_or_null(values[a]));
+  for (int a = 0; a < kScoredAxes; ++a) s += fmt::format("{}\"{}\": {}", a ? ", " : "", kAxisKeys[a], json_number_or_null(values[a]));
   return s + "}";
 }
 
@@ -191,7 +192,16 @@ void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth,
     report.ok = status_ == control::TickStatus::ok;
     estimator_ok_ = estimator_ok_ && control_->estimate().status == est::EstimateStatus::ok;
     ticked_ = control_->engaged();
-    if (ticked_) template_->step(control_->output().external_force_world_n);
+    if (ticked_) {
+      template_->step(control_->output().external_force_world_n);
+      if (params_.rotational_template_enabled) {
+        if (!rotational_template_) {
+          rotational_template_.emplace(
+              wbc::template_axes(params_.rotational_template, control_->wbc().base_rotational_inertia_kgm2()), dt_s_);
+        }
+        rotational_template_->step(control_->output().external_torque_world_nm);
+      }
+    }
   }
   sup.finish(m, report, out);
 }
@@ -218,13 +228,17 @@ std::string WbcAdapter::csv_columns() const {
   for (const char* f : kFootNames) h += fmt::format(",{}_stance", f);
   for (const char* f : kFootNames) h += fmt::format(",{}_fz_cap_n", f);
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",hand_rest_d{}_m", a);
+  for (const char* b : {"base", "ee"}) {
+    for (const char* a : {"x", "y", "z"}) h += fmt::format(",template_{}_r{}_rad", b, a);
+  }
+  for (const char* a : {"x", "y", "z"}) h += fmt::format(",te_{}_nm", a);
   return h;
 }
 
 void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   if (!ticked_) {
     row += ",0";
-    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5 + 6 + 12 + 3 * kFeet + 3; ++i) row += ",0";
+    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5 + 6 + 12 + 3 * kFeet + 3 + 6 + 3; ++i) row += ",0";
     return;
   }
   const wbc::WbcOutput& o = control_->output();
@@ -249,11 +263,16 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
     const Mat3 turned = ref.base_rotation * control_->wbc().engaged_reference().base_rotation.transpose();
     const Vec3 rb = rotation_vector(rot * ref.base_rotation.transpose());
     const Vec3 re = rotation_vector(data_->frames[kEeFrame].rotation * (turned * ee_rotation_engaged_).transpose());
+    const Vec3 tb_r = rotational_template_ ? rotational_template_->base_m() : Vec3::Zero();
+    const Vec3 te_r = rotational_template_ ? rotational_template_->ee_m() : Vec3::Zero();
     for (int a = 0; a < 3; ++a) {
-      s.rotation[a] = rb[a];
-      s.rotation[3 + a] = re[a];
+      s.measured[6 + a] = rb[a];
+      s.measured[9 + a] = re[a];
+      s.reference[6 + a] = tb_r[a];
+      s.reference[9 + a] = te_r[a];
     }
   }
+  s.torque_world_nm = o.external_torque_world_nm;
   s.base_wrench_error = o.base_wrench_desired - o.base_wrench_applied;
   samples_.push_back(s);
   {
@@ -296,8 +315,8 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   if (at_limit) ++any_torque_limit_ticks_;
 
   row += ",1";
-  for (double v : s.measured) put(row, v);
-  for (double v : s.reference) put(row, v);
+  for (int a = 0; a < 6; ++a) put(row, s.measured[a]);
+  for (int a = 0; a < 6; ++a) put(row, s.reference[a]);
   for (int a = 0; a < 3; ++a) put(row, s.force_world_n[a]);
   for (const Vec3& f : truth.foot_force_n) {
     for (int a = 0; a < 3; ++a) put(row, f[a]);
@@ -308,7 +327,7 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   row += failed ? ",1" : ",0";
   put(row, o.manipulability);
   put(row, tick_us_);
-  for (double v : s.rotation) put(row, v);
+  for (int a = 6; a < 12; ++a) put(row, s.measured[a]);
   for (double v : o.base_wrench_desired) put(row, v);
   for (double v : o.base_wrench_applied) put(row, v);
   for (const Vec3& f : control_->foot_force_estimate_n()) put(row, f.z());
@@ -317,45 +336,56 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   // The hand's rest point from the engaged one (it moves with hand_trajectory and walking).
   const Vec3 rest_d = ref.ee_position_m - control_->wbc().engaged_reference().ee_position_m;
   for (int a = 0; a < 3; ++a) put(row, rest_d[a]);
+  for (int a = 6; a < 12; ++a) put(row, s.reference[a]);
+  for (int a = 0; a < 3; ++a) put(row, s.torque_world_nm[a]);
 }
 
 std::string WbcAdapter::summary_fields() const {
-  std::array<std::optional<double>, 6> nrmse{}, steady{}, peak{}, chirp_db{};
+  std::array<std::optional<double>, kAxes> nrmse{}, steady{}, peak{}, chirp_db{};
   const std::size_t n = samples_.size();
-  std::array<double, 6> ptp{};
-  double ptp_max = 0.0;
-  for (int a = 0; a < 6 && n > 0; ++a) {
+  // Translations (axes 0-5) and rotations (6-11) are scored apart: an axis counts as moved
+  // against the largest peak-to-peak of its own kind.
+  std::array<double, kAxes> ptp{};
+  std::array<double, 2> ptp_max{};
+  for (int a = 0; a < kAxes && n > 0; ++a) {
     double lo = samples_[0].reference[a], hi = lo;
     for (const auto& s : samples_) {
       lo = std::min(lo, s.reference[a]);
       hi = std::max(hi, s.reference[a]);
     }
     ptp[a] = hi - lo;
-    ptp_max = std::max(ptp_max, ptp[a]);
+    ptp_max[a / 6] = std::max(ptp_max[a / 6], ptp[a]);
   }
   const auto last_second = static_cast<std::size_t>(std::llround(1.0 / dt_s_));
-  for (int a = 0; a < 6 && n > 0; ++a) {
+  for (int a = 0; a < kAxes && n > 0; ++a) {
     double sq = 0.0, worst = 0.0;
     for (const auto& s : samples_) {
       const double e = s.measured[a] - s.reference[a];
       sq += e * e;
       worst = std::max(worst, std::abs(e));
     }
-    peak[a] = worst;
-    if (ptp_max <= 1e-9 || ptp[a] < kMovingAxisFraction * ptp_max) continue;
+    const bool rotation = a >= 6;
+    const bool rendered = !rotation || rotational_template_.has_value();
+    if (rendered) peak[a] = worst;
+    if (!rendered || ptp_max[a / 6] <= 1e-9 || ptp[a] < kMovingAxisFraction * ptp_max[a / 6]) continue;
     nrmse[a] = std::sqrt(sq / static_cast<double>(n)) / ptp[a];
     if (step_profile_ && n >= last_second) {
-      // The template's static displacement for the mean measured force of the last second.
-      Vec3 force = Vec3::Zero();
+      // The template's static displacement for the mean measured force (torque) of the last second.
+      Vec3 force = Vec3::Zero(), torque = Vec3::Zero();
       double measured = 0.0;
       for (std::size_t i = n - last_second; i < n; ++i) {
         force += samples_[i].force_world_n;
+        torque += samples_[i].torque_world_nm;
         measured += samples_[i].measured[a];
       }
       force /= static_cast<double>(last_second);
+      torque /= static_cast<double>(last_second);
       measured /= static_cast<double>(last_second);
       const auto& tp = params_.template_params;
-      const Vec3 fk = a < 3 ? wbc::steady_state_base_m(tp, force) : wbc::steady_state_ee_m(tp, force);
+      const auto& rp = params_.rotational_template;
+      const bool base = a % 6 < 3;
+      const Vec3 fk = rotation ? (base ? wbc::steady_state_base_rad(rp, torque) : wbc::steady_state_ee_rad(rp, torque))
+                               : (base ? wbc::steady_state_base_m(tp, force) : wbc::steady_state_ee_m(tp, force));
       const double target = fk[a % 3];
       if (std::abs(target) > 1e-9) steady[a] = std::abs(measured - target) / std::abs(target);
     }
@@ -390,16 +420,17 @@ std::string WbcAdapter::summary_fields() const {
     }
   }
   // Every axis's RMS error, rendered or not: translations against the template [m],
-  // orientations against the rest pose's [rad]; and W_b^d against what the solution applied.
+  // orientations against the rotational template or, where it is off, the rest pose [rad]; and W_b^d
+  // against what the solution applied.
   std::string rms = "{";
   Vec6 wrench_sq = Vec6::Zero();
-  for (int a = 0; a < 12; ++a) {
+  for (int a = 0; a < kAxes; ++a) {
     double sq = 0.0;
     for (const auto& s : samples_) {
-      const double e = a < 6 ? s.measured[a] - s.reference[a] : s.rotation[a - 6];
+      const double e = s.measured[a] - s.reference[a];
       sq += e * e;
     }
-    rms += fmt::format("{}\"{}\": {}", a ? ", " : "", a < 6 ? kAxisKeys[a] : kRotationKeys[a - 6],
+    rms += fmt::format("{}\"{}\": {}", a ? ", " : "", kAxisKeys[a],
                        n > 0 ? fmt::format("{:.6g}", std::sqrt(sq / static_cast<double>(n))) : "null");
   }
   rms += "}";

@@ -17,7 +17,9 @@
 // CSV. `controller.params.gait` makes the controller trot (springbok::gait::TrotGait).
 //
 // After each physics step it logs the measured base and EE displacements from
-// the reference pose (world), the template driven by the measured wrist force,
+// the reference pose (world; positions, and orientations as rotation vectors), the
+// template driven by the measured wrist force (and the rotational one by the wrist
+// torque, when it is on),
 // F_e, the foot forces, the QP status and iterations and the controller's
 // compute time; at the end it scores the run (nrmse, steady_state_error,
 // peak_deviation, chirp_gain_db_error, qp_failures, max_torque_ratio,
@@ -58,16 +60,17 @@ class WbcAdapter final : public Controller {
   control::TickStatus tick_status() const noexcept { return status_; }
 
  private:
-  static constexpr int kAxes = 6;  // base x y z, ee x y z
+  // base x y z, ee x y z [m], then the orientation displacements from the rest pose
+  // (rotation vectors, world) base rx ry rz, ee rx ry rz [rad]: reference 0 where the
+  // rotational template is off.
+  static constexpr int kAxes = 12;
   struct Sample {
     double time_s;
     std::array<double, kAxes> measured;
     std::array<double, kAxes> reference;
-    // Orientation displacements from the rest pose (rotation vectors, world, rad): base
-    // rx ry rz, hand rx ry rz. Not rendered (the template is translational): reference 0.
-    std::array<double, kAxes> rotation;
     Vec6 base_wrench_error;  // W_b^d - the solution's base wrench [N, N m]
     Vec3 force_world_n;
+    Vec3 torque_world_nm;
   };
 
   wbc::WbcParams params_;
@@ -91,6 +94,9 @@ class WbcAdapter final : public Controller {
   std::unique_ptr<safety::Supervisor> supervisor_;
   std::unique_ptr<wbc::StandController> stand_;
   std::unique_ptr<wbc::TemplateReference> template_;
+  // The rotational template driven by the measured wrist torque (controller.params.
+  // rotational_template), made at engagement: its I_b is the WBC's then.
+  std::optional<wbc::TemplateReference> rotational_template_;
   bool first_tick_ = true;
   safety::Mode tick_mode_ = safety::Mode::idle;
   bool estimator_ok_ = true;                        // every control tick's estimate was ok

@@ -39,17 +39,42 @@ bool word_or(const Field& f, const char* word, Read&& read) {
   return read();
 }
 
+// rotational_template: {base: {inertia: auto | I, damping, stiffness}, ee: {inertia, damping, stiffness}};
+// each a number or [x, y, z] (kg m^2, N m s/rad, N m/rad). Present: the template is on.
+void read_rotational_template(const Field& f, wbc::RotationalTemplateParams& t) {
+  f.allow_only({"base", "ee"});
+  const Field base = f["base"], ee = f["ee"];
+  for (const Field* part : {&base, &ee}) {
+    if (!part->require()) continue;
+    part->allow_only({"inertia", "damping", "stiffness"});
+    for (const char* key : {"inertia", "damping", "stiffness"}) (*part)[key].require();
+  }
+  if (!word_or(base["inertia"], "auto", [&] { return triple(base["inertia"], t.inertia_base_kgm2, kTiny, 1e4); })) {
+    t.inertia_base_kgm2.setZero();  // the composite inertia at the reference pose
+  }
+  triple(base["damping"], t.damping_base_nms_per_rad, 0.0, 1e5);
+  triple(base["stiffness"], t.stiffness_base_nm_per_rad, kTiny, 1e6);
+  triple(ee["inertia"], t.inertia_ee_kgm2, kTiny, 1e3);
+  triple(ee["damping"], t.damping_ee_nms_per_rad, 0.0, 1e4);
+  triple(ee["stiffness"], t.stiffness_ee_nm_per_rad, kTiny, 1e5);
+}
+
 }  // namespace
 
 wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
   if (parts == WithControllerParts::yes) {
-    f.allow_only({"template", "base_orientation", "arm", "weights", "contact", "limits", "swing", "joint_friction",
-                  "estimator", "gait", "hand_trajectory"});
+    f.allow_only({"template", "rotational_template", "base_orientation", "arm", "weights", "contact", "limits", "swing",
+                  "joint_friction", "estimator", "gait", "hand_trajectory"});
   } else {
-    f.allow_only({"template", "base_orientation", "arm", "weights", "contact", "limits", "swing", "joint_friction"});
+    f.allow_only({"template", "rotational_template", "base_orientation", "arm", "weights", "contact", "limits", "swing",
+                  "joint_friction"});
   }
   wbc::WbcParams p;
   if (f["template"].require()) read_template(f["template"], p.template_params);
+  if (f["rotational_template"].present()) {
+    p.rotational_template_enabled = true;
+    read_rotational_template(f["rotational_template"], p.rotational_template);
+  }
 
   const Field rot = f["base_orientation"];
   rot.allow_only({"kp", "kd", "inertia"});
@@ -58,7 +83,8 @@ wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
   word_or(rot["inertia"], "auto", [&] { return triple(rot["inertia"], p.base_rot_inertia_kgm2, kTiny, 1e4); });
 
   const Field arm = f["arm"];
-  arm.allow_only({"posture_kp", "posture_kd", "posture", "pinv_lambda0", "manipulability_threshold", "max_acceleration"});
+  arm.allow_only({"posture_kp", "posture_kd", "posture", "pinv_lambda0", "manipulability_threshold",
+                  "manipulability_threshold_6d", "max_acceleration", "max_angular_acceleration"});
   arm["posture_kp"].number(p.posture_kp_per_s2, 0.0, 1e5);
   arm["posture_kd"].number(p.posture_kd_per_s, 0.0, 1e4);
   if (word_or(arm["posture"], "current",
@@ -67,6 +93,8 @@ wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
   }
   arm["pinv_lambda0"].number(p.pinv_lambda0, 0.0, 10.0);
   arm["manipulability_threshold"].number(p.manipulability_threshold, 0.0, 10.0);
+  arm["manipulability_threshold_6d"].number(p.manipulability_threshold_6d, 0.0, 10.0);
+  arm["max_angular_acceleration"].number(p.ee_angular_acceleration_limit_rad_s2, 1.0, 1e5);
   // A number [m/s^2], or `none`: the paper's unbounded task.
   const Field max_acc = arm["max_acceleration"];
   if (max_acc.is_scalar() && max_acc.node().Scalar() == "none") {

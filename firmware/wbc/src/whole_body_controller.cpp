@@ -67,15 +67,16 @@ void WholeBodyController::set_reference(const VecNq& q, dyn::Data& data) noexcep
   reference_.base_position_m = q.head<3>();
   reference_.base_rotation = Quat(q[6], q[3], q[4], q[5]).normalized().toRotationMatrix();
   reference_.ee_position_m = data.frames[kEeFrame].translation;
+  reference_.ee_rotation = data.frames[kEeFrame].rotation;
   engaged_ = reference_;
   if (!params_.pin_arm_posture) params_.arm_posture_rad = q.segment<kArmDofs>(7 + kFirstArmJoint);
-  // I_b: the composite rotational inertia about the robot's COM, in trunk axes.
+  // I_b (the rotational template's when it is on): the composite rotational inertia about
+  // the robot's COM, in trunk axes, where no positive value is given.
+  const Vec3& given = params_.rotational_template_enabled ? params_.rotational_template.inertia_base_kgm2
+                                                          : params_.base_rot_inertia_kgm2;
   const Mat3 inertia_world = dyn::composite_inertia(model_, data, q);
   const Mat3 inertia_trunk = reference_.base_rotation.transpose() * inertia_world * reference_.base_rotation;
-  for (int i = 0; i < 3; ++i) {
-    base_inertia_diag_[i] =
-        params_.base_rot_inertia_kgm2[i] > 0.0 ? params_.base_rot_inertia_kgm2[i] : inertia_trunk(i, i);
-  }
+  for (int i = 0; i < 3; ++i) base_inertia_diag_[i] = given[i] > 0.0 ? given[i] : inertia_trunk(i, i);
   have_warm_start_ = false;
 }
 
@@ -91,6 +92,7 @@ void WholeBodyController::move_reference(const PlanarMotion& m) noexcept {
   reference_.base_position_m = engaged_.base_position_m + m.offset_m;
   reference_.base_rotation = turn * engaged_.base_rotation;
   reference_.ee_position_m = reference_.base_position_m + arm;
+  reference_.ee_rotation = turn * engaged_.ee_rotation;
   reference_.base_velocity_m_s = m.velocity_m_s;
   reference_.base_acceleration_m_s2 = m.acceleration_m_s2;
   reference_.base_angular_velocity_rad_s = yaw_rate;
@@ -120,9 +122,24 @@ void WholeBodyController::base_task(const WbcInput& in, const dyn::Data& d, Vec6
   const Vec3 force = -tp.stiffness_base_n_per_m.cwiseProduct(x_b) - tp.damping_base_ns_per_m.cwiseProduct(xd_b) +
                      tp.stiffness_ee_n_per_m.cwiseProduct(x_be) + tp.damping_ee_ns_per_m.cwiseProduct(xd_be) +
                      tp.mass_base_kg.cwiseProduct(reference_.base_acceleration_m_s2);
-  const Vec3 e_r = log_so3(reference_.base_rotation * rot.transpose());
-  const Vec3 torque = params_.kr_nm_per_rad.cwiseProduct(e_r) -
-                      params_.dr_nms_per_rad.cwiseProduct(omega_world - reference_.base_angular_velocity_rad_s);
+  Vec3 torque;
+  if (params_.rotational_template_enabled) {
+    // The rotational template's torque on the trunk and the hand's angular acceleration.
+    const RotationalTemplateParams& rp = params_.rotational_template;
+    const RotationalTemplateState rs = rotational_template_state(
+        rot, reference_.base_rotation, d.frames[kEeFrame].rotation, reference_.ee_rotation, omega_world,
+        reference_.base_angular_velocity_rad_s, d.J_ee.bottomRows<3>() * in.state.v);
+    torque = rotational_template_base_torque_nm(rp, rs);
+    Vec3 ee_angular_acc = rotational_template_ee_acceleration_rad_s2(rp, rs, out_.external_torque_world_nm);
+    const double norm = ee_angular_acc.norm();
+    if (norm > params_.ee_angular_acceleration_limit_rad_s2) ee_angular_acc *= params_.ee_angular_acceleration_limit_rad_s2 / norm;
+    out_.ee_angular_acceleration_desired = ee_angular_acc;
+  } else {
+    // Eq. 5: a rotational PD towards the rest orientation.
+    const Vec3 e_r = log_so3(reference_.base_rotation * rot.transpose());
+    torque = params_.kr_nm_per_rad.cwiseProduct(e_r) -
+             params_.dr_nms_per_rad.cwiseProduct(omega_world - reference_.base_angular_velocity_rad_s);
+  }
   out_.base_wrench_desired.head<3>() = force;  // (not <<: GCC 12 -march=native false array-bounds)
   out_.base_wrench_desired.tail<3>() = torque;
   out_.base_displacement_m = x_b;
@@ -149,22 +166,36 @@ void WholeBodyController::base_task(const WbcInput& in, const dyn::Data& d, Vec6
 // Eq. 8 with the sign of the posture term fixed (SPEC): the desired arm joint
 // accelerations. The base's part of the EE acceleration uses this tick's
 // desired base acceleration (the QP tracks it), so the arm does not lag a tick.
+// kTask 3: the hand's position (the paper); 6: position and orientation (the
+// rotational template), the posture in the 1-D null space left.
 void WholeBodyController::arm_task(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired) noexcept {
-  const Eigen::Matrix<double, 3, kArmDofs> jac = d.J_ee.block<3, kArmDofs>(0, kArmCol);
+  if (params_.rotational_template_enabled) {
+    arm_task_rows<6>(in, d, base_acc_desired);
+  } else {
+    arm_task_rows<3>(in, d, base_acc_desired);
+  }
+}
+
+template <int kTask>
+void WholeBodyController::arm_task_rows(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired) noexcept {
+  using MatTask = Eigen::Matrix<double, kTask, kTask>;
+  using VecTask = Eigen::Matrix<double, kTask, 1>;
+  const Eigen::Matrix<double, kTask, kArmDofs> jac = d.J_ee.block<kTask, kArmDofs>(0, kArmCol);
   const Eigen::Matrix<double, kArmDofs, kArmDofs> m_arm = d.M.block<kArmDofs, kArmDofs>(kArmCol, kArmCol);
   const Eigen::LLT<Eigen::Matrix<double, kArmDofs, kArmDofs>> llt(m_arm);
-  const Eigen::Matrix<double, kArmDofs, 3> minv_jt = llt.solve(jac.transpose());
+  const Eigen::Matrix<double, kArmDofs, kTask> minv_jt = llt.solve(jac.transpose());
 
-  const Mat3 jjt = jac * jac.transpose();
+  const MatTask jjt = jac * jac.transpose();
   const double w = std::sqrt(std::max(0.0, jjt.determinant()));
   out_.manipulability = w;
+  const double w0 = kTask == 3 ? params_.manipulability_threshold : params_.manipulability_threshold_6d;
   double lambda2 = 0.0;
-  if (w < params_.manipulability_threshold) {
-    const double s = 1.0 - w / params_.manipulability_threshold;
+  if (w < w0) {
+    const double s = 1.0 - w / w0;
     lambda2 = params_.pinv_lambda0 * params_.pinv_lambda0 * s * s;
   }
-  const Mat3 lambda = jac * minv_jt + lambda2 * Mat3::Identity();
-  const Eigen::Matrix<double, kArmDofs, 3> pinv = minv_jt * lambda.inverse();  // dynamically consistent
+  const MatTask lambda = jac * minv_jt + lambda2 * MatTask::Identity();
+  const Eigen::Matrix<double, kArmDofs, kTask> pinv = minv_jt * lambda.inverse();  // dynamically consistent
   const Eigen::Matrix<double, kArmDofs, kArmDofs> null_space =
       Eigen::Matrix<double, kArmDofs, kArmDofs>::Identity() - pinv * jac;
 
@@ -172,7 +203,10 @@ void WholeBodyController::arm_task(const WbcInput& in, const dyn::Data& d, const
   const VecArm qd_arm = in.state.v.segment<kArmDofs>(kArmCol);
   const VecArm qdd_posture =
       params_.posture_kp_per_s2 * (params_.arm_posture_rad - q_arm) - params_.posture_kd_per_s * qd_arm;
-  const Vec3 task = out_.ee_acceleration_desired - d.J_ee.block<3, 6>(0, 0) * base_acc_desired - d.dJv_ee.head<3>();
+  Vec6 ee_acc;
+  ee_acc.head<3>() = out_.ee_acceleration_desired;
+  ee_acc.tail<3>() = out_.ee_angular_acceleration_desired;
+  const VecTask task = ee_acc.head<kTask>() - d.J_ee.block<kTask, 6>(0, 0) * base_acc_desired - d.dJv_ee.head<kTask>();
   out_.arm_qdd_desired = pinv * task + null_space * qdd_posture;
 }
 
@@ -351,6 +385,7 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& 
   wrench_ee_world_.head<3>() = ee_rot * in.wrist_force_n;
   wrench_ee_world_.tail<3>() = ee_rot * in.wrist_torque_nm;
   out_.external_force_world_n = wrench_ee_world_.head<3>();
+  out_.external_torque_world_nm = wrench_ee_world_.tail<3>();
   joint_friction_nm_ = params_.joint_viscous_friction_nms_per_rad.cwiseProduct(in.state.v.tail<kNj>());
 
   Vec6 base_acc_desired;

@@ -9,9 +9,15 @@
 //   template:                     # required: the double mass-spring-damper to render
 //     base: {mass: 92, damping: 610, stiffness: 1000}   # each a number or [x, y, z]
 //     ee:   {mass: 4,  damping: 90,  stiffness: 500}
+//   rotational_template:          # optional, beyond the paper: present = on (the hand's
+//                                 # orientation too; base_orientation's kp/kd then unused)
+//     base: {inertia: auto, damping: 150, stiffness: 500}   # N m s/rad, N m/rad; each a number or [x, y, z]
+//     ee:   {inertia: 0.1, damping: 4.5, stiffness: 50}     # kg m^2 (base: auto = composite)
 //   base_orientation: {kp: 1600, kd: 160, inertia: auto}  # inertia: auto or [Ixx, Iyy, Izz]
 //   arm: {posture_kp: 100, posture_kd: 20, posture: current, pinv_lambda0: 0.05,
-//         manipulability_threshold: 0.02}                # posture: current or 7 angles
+//         manipulability_threshold: 0.02,                # posture: current or 7 angles
+//         manipulability_threshold_6d: 0.005,            # the 6-D task's (rotational template)
+//         max_acceleration: 100, max_angular_acceleration: 200}  # m/s^2 (or none), rad/s^2
 //   weights: {base_force: 1, base_torque: 1, arm: 100, reg_acceleration: 1e-4,
 //             reg_force: 1e-6, reg_slack: 1000}
 //   contact: {friction_mu: 0.6, normal_force_min: 5, normal_force_max: 1500,

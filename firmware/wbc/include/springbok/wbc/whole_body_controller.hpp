@@ -10,7 +10,8 @@
 //     rotational PD; the base task  diag(M_b, I_b) qdd_b = W_b^d;
 //  3. the arm task (eq. 8): the template's EE acceleration through the damped,
 //     dynamically consistent pseudo-inverse of the arm Jacobian, plus a
-//     null-space posture task;
+//     null-space posture task (with the rotational template: the hand's linear and
+//     angular accelerations through the full 6x7 Jacobian);
 //  4. one QP (eq. 6) over xi = [udot (25); 3 per foot] where a foot's three
 //     variables are its ground force when in stance and its swing-task slack
 //     when in swing, so the sizes never change, only which rows are live:
@@ -67,6 +68,13 @@ struct WbcParams {
   // rotational inertia at the reference pose" (the default).
   Vec3 base_rot_inertia_kgm2{0.0, 0.0, 0.0};
 
+  // The rotational template (impedance_template.hpp; beyond the paper, off by default):
+  // when on, the base task's rotational rows take its trunk torque (its I_b in place of
+  // base_rot_inertia_kgm2, kr/dr unused) and the arm task becomes 6-D, the hand's
+  // orientation following the template driven by the wrist torque.
+  bool rotational_template_enabled = false;
+  RotationalTemplateParams rotational_template;
+
   // Arm null-space posture task qdd_p = K_p (q_a^d - q_a) - D_p qd_a, and its posture.
   double posture_kp_per_s2 = 100.0;
   double posture_kd_per_s = 20.0;
@@ -83,6 +91,11 @@ struct WbcParams {
   // the push lasts. 100 m/s^2 is beyond what the arm gave the hand in the 50 N steps (the
   // M_e 0.4 step scores the same with 80).
   double ee_acceleration_limit_m_s2 = 100.0;
+  // The same bound on the hand's template angular acceleration [rad/s^2] (rotational template).
+  double ee_angular_acceleration_limit_rad_s2 = 200.0;
+  // With the 6-D arm task the damping follows the manipulability of the full hand Jacobian,
+  // sqrt(det(J J^T)) of the 6x7 J (units m^3 rad^3 per rad^7: its own threshold).
+  double manipulability_threshold_6d = 0.005;
 
   // QP weights.
   double weight_base_force = 1.0;    // on (M_b a_b - F_b^d) [1/N^2]
@@ -155,6 +168,7 @@ struct WbcReference {
   Vec3 base_position_m = Vec3::Zero();
   Mat3 base_rotation = Mat3::Identity();
   Vec3 ee_position_m = Vec3::Zero();
+  Mat3 ee_rotation = Mat3::Identity();  // the hand's rest orientation (turns with the base's)
   Vec3 base_velocity_m_s = Vec3::Zero();
   Vec3 base_acceleration_m_s2 = Vec3::Zero();
   Vec3 base_angular_velocity_rad_s = Vec3::Zero();
@@ -194,11 +208,13 @@ struct WbcOutput {
   // udot: [M_b p''; I_b w'], world); W_b^d minus it is what two feet could not give.
   Vec6 base_wrench_applied = Vec6::Zero();
   Vec3 ee_acceleration_desired = Vec3::Zero(); // world
+  Vec3 ee_angular_acceleration_desired = Vec3::Zero();  // world; zero without the rotational template
   VecArm arm_qdd_desired = VecArm::Zero();
   double manipulability = 0.0;
   Vec3 external_force_world_n = Vec3::Zero();  // F_e
   Vec3 base_displacement_m = Vec3::Zero();     // x_b
   Vec3 ee_displacement_m = Vec3::Zero();       // x_e
+  Vec3 external_torque_world_nm = Vec3::Zero(); // T_e (about the hand's origin)
 };
 
 class WholeBodyController {
@@ -240,6 +256,8 @@ class WholeBodyController {
  private:
   void base_task(const WbcInput& in, const dyn::Data& d, Vec6& base_acc_desired) noexcept;
   void arm_task(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired) noexcept;
+  template <int kTask>
+  void arm_task_rows(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired) noexcept;
   void build_qp(const WbcInput& in, const dyn::Data& d) noexcept;
   void torques_from_solution(const WbcInput& in, const dyn::Data& d) noexcept;
 
