@@ -34,6 +34,9 @@ void expect_consistent(const HandTrajectory& h, double t0, double t1) {
     const HandSample s = h.at(t), lo = h.at(t - d), hi = h.at(t + d);
     EXPECT_LT((s.velocity_m_s - (hi.offset_m - lo.offset_m) / (2 * d)).norm(), 1e-6) << t;
     EXPECT_LT((s.acceleration_m_s2 - (hi.velocity_m_s - lo.velocity_m_s) / (2 * d)).norm(), 1e-4) << t;
+    EXPECT_LT((s.rotation_rate_rad_s - (hi.rotation_rad - lo.rotation_rad) / (2 * d)).norm(), 1e-6) << t;
+    EXPECT_LT((s.rotation_acceleration_rad_s2 - (hi.rotation_rate_rad_s - lo.rotation_rate_rad_s) / (2 * d)).norm(), 1e-4)
+        << t;
   }
 }
 
@@ -91,7 +94,7 @@ TEST(HandTrajectory, AMoveGoesFromTheMovingStateToRestOnTheTargetWithoutAllocati
   ASSERT_GT(from.velocity_m_s.norm(), 0.1);
   const Vec3 target(0.1, -0.05, 0.02);
   springbok::test::AllocationTrap trap;
-  EXPECT_EQ(h.move_to(t0, target, 1.0), nullptr);
+  EXPECT_EQ(h.move_to(t0, target, Vec3::Zero(), 1.0), nullptr);
   EXPECT_EQ(trap.disarm(), 0u);
   const HandSample start = h.at(t0 + 1e-9);
   EXPECT_LT((start.offset_m - from.offset_m).norm(), 1e-9);
@@ -104,15 +107,47 @@ TEST(HandTrajectory, AMoveGoesFromTheMovingStateToRestOnTheTargetWithoutAllocati
   expect_consistent(h, t0, t0 + 1.0);
   EXPECT_EQ(h.at(t0 + 3.0).offset_m, target);
   // Refused: out of the workspace, too fast, too short; nothing changes.
-  EXPECT_NE(h.move_to(t0 + 2.0, Vec3(0.3, 0, 0), 2.0), nullptr);
-  EXPECT_NE(h.move_to(t0 + 2.0, Vec3(-0.1, 0.05, 0), 0.2), nullptr);  // 0.22 m in 0.2 s
-  EXPECT_NE(h.move_to(t0 + 2.0, Vec3::Zero(), 0.05), nullptr);
-  EXPECT_NE(h.move_to(t0 + 2.0, Vec3(NAN, 0, 0), 1.0), nullptr);
+  EXPECT_NE(h.move_to(t0 + 2.0, Vec3(0.3, 0, 0), Vec3::Zero(), 2.0), nullptr);
+  EXPECT_NE(h.move_to(t0 + 2.0, Vec3(-0.1, 0.05, 0), Vec3::Zero(), 0.2), nullptr);  // 0.22 m in 0.2 s
+  EXPECT_NE(h.move_to(t0 + 2.0, Vec3::Zero(), Vec3::Zero(), 0.05), nullptr);
+  EXPECT_NE(h.move_to(t0 + 2.0, Vec3(NAN, 0, 0), Vec3::Zero(), 1.0), nullptr);
   EXPECT_EQ(h.at(t0 + 3.0).offset_m, target);
   // From rest: the minimum-jerk peak speed, 1.875 distance / duration.
   HandTrajectory rest;
-  ASSERT_EQ(rest.move_to(0.0, Vec3(0.1, 0, 0), 1.0), nullptr);
+  ASSERT_EQ(rest.move_to(0.0, Vec3(0.1, 0, 0), Vec3::Zero(), 1.0), nullptr);
   EXPECT_NEAR(rest.max_speed_m_s(), 1.875 * 0.1, 1e-4);
+}
+
+// The hand's rest orientation: rotation vectors through the same spline, with their limits.
+TEST(HandTrajectory, TheRestOrientationTurnsThroughItsWaypointsWithinItsLimits) {
+  HandTrajectory h;
+  const std::vector<HandWaypoint> turn{{1.0, Vec3(0.02, 0, 0), Vec3(0.3, 0, 0)},
+                                       {2.0, Vec3(0.02, 0, 0), Vec3(0.3, -0.2, 0.1)},
+                                       {3.0, Vec3::Zero(), Vec3::Zero()}};
+  ASSERT_EQ(h.set_waypoints(turn), "");
+  EXPECT_TRUE(h.turns());
+  for (const HandWaypoint& w : turn) {
+    EXPECT_LT((h.at(w.at_s).rotation_rad - w.rotation_rad).norm(), 1e-12);
+    EXPECT_LT((h.at(w.at_s).offset_m - w.offset_m).norm(), 1e-12);
+  }
+  expect_consistent(h, 0.0, 3.0);
+  EXPECT_EQ(h.at(3.5).rotation_rate_rad_s, Vec3::Zero());
+  // Refused: beyond 0.6 rad, or turning faster than 1 rad/s between the waypoints.
+  HandTrajectory bad;
+  EXPECT_NE(bad.set_waypoints(std::vector<HandWaypoint>{{1.0, Vec3::Zero(), Vec3(0.7, 0, 0)}}).find("0.6"),
+            std::string::npos);
+  EXPECT_NE(bad.set_waypoints(std::vector<HandWaypoint>{{0.3, Vec3::Zero(), Vec3(0.5, 0, 0)}}).find("rad/s (at most 1"),
+            std::string::npos);
+  EXPECT_FALSE(bad.turns());
+  // An operator's turn: minimum jerk to the target rotation, at rest there; refused too fast.
+  HandTrajectory op;
+  EXPECT_NE(op.move_to(0.0, Vec3::Zero(), Vec3(0.5, 0, 0), 0.5), nullptr);  // 1.875 rad/s peak
+  EXPECT_NE(op.move_to(0.0, Vec3::Zero(), Vec3(0.0, 0.65, 0), 2.0), nullptr);
+  ASSERT_EQ(op.move_to(0.0, Vec3::Zero(), Vec3(0.0, 0.4, 0.0), 1.0), nullptr);
+  EXPECT_TRUE(op.turns());
+  EXPECT_LT((op.at(1.0 - 1e-9).rotation_rad - Vec3(0.0, 0.4, 0.0)).norm(), 1e-9);
+  EXPECT_NEAR(op.at(0.5).rotation_rate_rad_s.y(), 1.875 * 0.4, 1e-9);
+  expect_consistent(op, 0.0, 1.0);
 }
 
 }  // namespace

@@ -109,6 +109,36 @@ TEST(SimWbc, TorqueStepRendersTheRotationalTemplate) {
   }
 }
 
+// Hand pose commands, orientation: the shipped hand_turn (the rest orientation turns 0.4 rad
+// about z and 0.3 about y and back while a 2 N m torque about x acts): the hand follows its
+// moving rest orientation (measured 1.2 mrad rms) and renders the torque about it; without
+// the rotational template the turning waypoints are refused, naming the key.
+TEST(SimWbc, TheHandTurnsWithItsRestOrientationAndRendersTheTorqueAboutIt) {
+  const fs::path dir = scratch("wbc_hand_turn");
+  const std::string shipped = slurp(fs::path(SPRINGBOK_SOURCE_DIR) / "tools/scenarios/hand_turn.yaml");
+  const CliResult r = run(write_file(dir, "turn.yaml", shipped).string(), dir / "out");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string json = slurp(dir / "out" / "summary.json");
+  EXPECT_FALSE(json_true(json, "fell"));
+  EXPECT_EQ(json_number(json, "qp_failures"), 0.0);
+  EXPECT_LE(member(json, "nrmse", "ee_rx"), 0.05);
+  EXPECT_LE(member(json, "steady_state_error", "ee_rx"), 0.01);
+  EXPECT_LE(member(json, "rms_error", "ee_ry"), 0.005);
+  EXPECT_LE(member(json, "rms_error", "ee_rz"), 0.005);
+  EXPECT_LE(member(json, "rms_error", "ee_x"), 0.001);
+  EXPECT_NE(slurp(dir / "out" / "log.csv").find(",hand_rest_rz_rad"), std::string::npos);
+
+  std::string without = shipped;
+  const auto from = without.find("    rotational_template:");
+  const auto to = without.find("    contact:");
+  ASSERT_NE(from, std::string::npos);
+  without.erase(from, to - from);
+  const CliResult refused = run(write_file(dir, "no_rot.yaml", without).string(), dir / "refused");
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("controller.params.hand_trajectory"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("rotational template"), std::string::npos) << refused.err;
+}
+
 TEST(SimWbc, NegativeMassIsRefusedNamingTheField) {
   const fs::path dir = scratch("wbc_bad_mass");
   const CliResult r = run(write_file(dir, "bad.yaml", step_scenario("-4")).string(), dir / "out");

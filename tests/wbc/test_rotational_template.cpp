@@ -37,7 +37,7 @@ struct TwoBodies {
     const auto steps = static_cast<int>(std::llround(t_end / h));
     for (int k = 0; k < steps; ++k) {
       const wbc::RotationalTemplateState s = wbc::rotational_template_state(
-          r_base, Matrix3d::Identity(), r_ee, Matrix3d::Identity(), w_base, Vector3d::Zero(), w_ee);
+          r_base, Matrix3d::Identity(), r_ee, Matrix3d::Identity(), w_base, Vector3d::Zero(), w_ee, Vector3d::Zero());
       const Vector3d acc_base = wbc::rotational_template_base_torque_nm(p, s).cwiseQuotient(base_inertia);
       const Vector3d acc_ee = wbc::rotational_template_ee_acceleration_rad_s2(p, s, torque);
       w_base += h * acc_base;
@@ -90,6 +90,26 @@ TEST(RotationalTemplate, LargeAnglesSettleAtTorqueOverStiffness) {
   EXPECT_LT((bodies.r_ee - expected).norm(), 1e-6);
   // Its rotation vector differs from the small-angle sum T/K_rb + T/K_re only by the composition.
   EXPECT_LT((bodies.ee_rad() - wbc::steady_state_ee_rad(p, torque)).norm(), 0.02);
+}
+
+// The left Jacobian against the exponential map: [J_l(phi) phi']x = (d/dt exp(phi)) exp(phi)^T,
+// by central differences along a path phi(t) = phi0 + t phi' + t^2/2 phi''; and the
+// acceleration's rest term (d/dt J_l) phi' against the difference of J_l(phi(t)) phi'(t).
+TEST(RotationalTemplate, LeftJacobianGivesTheAngularVelocityAndItsRate) {
+  const Vector3d rate(0.4, -0.9, 0.3), acc(1.0, 0.5, -2.0);
+  for (const Vector3d& phi0 : {Vector3d(0.0, 0.0, 0.0), Vector3d(1e-3, -2e-3, 5e-4), Vector3d(0.3, -0.2, 0.1),
+                               Vector3d(-0.4, 0.5, 0.2), Vector3d(0.005, 0.004, -0.003)}) {
+    auto phi = [&](double t) { return Vector3d(phi0 + t * rate + 0.5 * t * t * acc); };
+    auto phi_rate = [&](double t) { return Vector3d(rate + t * acc); };
+    const double h = 1e-6;
+    const Matrix3d rdot_rt = (exp_map(phi(h)) - exp_map(phi(-h))) / (2 * h) * exp_map(phi0).transpose();
+    const Vector3d w_numeric(rdot_rt(2, 1), rdot_rt(0, 2), rdot_rt(1, 0));
+    EXPECT_LT((wbc::so3_left_jacobian(phi0) * rate - w_numeric).norm(), 1e-8) << phi0.transpose();
+    const Vector3d w_dot_numeric = (wbc::so3_left_jacobian(phi(h)) * phi_rate(h) -
+                                    wbc::so3_left_jacobian(phi(-h)) * phi_rate(-h)) / (2 * h);
+    const Vector3d w_dot = wbc::so3_left_jacobian(phi0) * acc + wbc::so3_left_jacobian_rate(phi0, rate);
+    EXPECT_LT((w_dot - w_dot_numeric).norm(), 1e-7) << phi0.transpose();
+  }
 }
 
 TEST(RotationalTemplate, ReferenceStepMatchesTheTranslationalAxisItIs) {
@@ -189,7 +209,8 @@ TEST_F(Controller, TrunkTorqueIsTheTemplatesLaw) {
   const Vec3 w_base = in.state.rotation_wb * in.state.v.segment<3>(3);
   const Vec3 w_ee = data->J_ee.bottomRows<3>() * in.state.v;
   const wbc::RotationalTemplateState s = wbc::rotational_template_state(
-      in.state.rotation_wb, ref.base_rotation, data->frames[kEeFrame].rotation, ref.ee_rotation, w_base, Vec3::Zero(), w_ee);
+      in.state.rotation_wb, ref.base_rotation, data->frames[kEeFrame].rotation, ref.ee_rotation, w_base, Vec3::Zero(), w_ee,
+      Vec3::Zero());
   EXPECT_NEAR(s.base_rad.x(), 0.02, 1e-12);
   EXPECT_GT(s.ee_from_base_rad.norm(), 0.04);
   const Vec3 expected = wbc::rotational_template_base_torque_nm(params.rotational_template, s);
@@ -197,6 +218,39 @@ TEST_F(Controller, TrunkTorqueIsTheTemplatesLaw) {
   // On four feet the trunk gets it: I_b w' = T_b^d.
   EXPECT_LT((out.base_wrench_applied.tail<3>() - expected).norm(), 0.05 * expected.norm());
   EXPECT_LT(dynamics_residual(out, Vec6::Zero()).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+// A hand pose command turns the hand's rest orientation while the rest pose walks and turns:
+// the reference's angular velocity and acceleration are the derivatives of its orientation
+// (central differences of move_reference along analytic paths).
+TEST_F(Controller, TheHandsRestOrientationMovesWithItsRates) {
+  auto motion = [](double t) {
+    wbc::PlanarMotion m;
+    m.yaw_rad = 0.3 * t + 0.2 * t * t;
+    m.yaw_rate_rad_s = 0.3 + 0.4 * t;
+    m.yaw_acceleration_rad_s2 = 0.4;
+    m.hand_rotation_rad = Vec3(0.2 + 0.1 * t, -0.3 * t * t, 0.05 + 0.2 * t * t * t);
+    m.hand_rotation_rate_rad_s = Vec3(0.1, -0.6 * t, 0.6 * t * t);
+    m.hand_rotation_acceleration_rad_s2 = Vec3(0.0, -0.6, 1.2 * t);
+    return m;
+  };
+  auto rest_at = [&](double t) {
+    wbc->move_reference(motion(t));
+    return wbc->reference();
+  };
+  const double t = 0.7, h = 1e-5;
+  const wbc::WbcReference now = rest_at(t), lo = rest_at(t - h), hi = rest_at(t + h);
+  const Matrix3d rdot_rt = (hi.ee_rotation - lo.ee_rotation) / (2 * h) * now.ee_rotation.transpose();
+  const Vec3 w_numeric(rdot_rt(2, 1), rdot_rt(0, 2), rdot_rt(1, 0));
+  EXPECT_LT((now.ee_angular_velocity_rad_s - w_numeric).norm(), 1e-8);
+  const Vec3 wdot_numeric = (hi.ee_angular_velocity_rad_s - lo.ee_angular_velocity_rad_s) / (2 * h);
+  EXPECT_LT((now.ee_angular_acceleration_rad_s2 - wdot_numeric).norm(), 1e-7);
+  // At rest in the motion: the hand's rest orientation is the engaged one turned by the
+  // base's turn and, in the rest pose's horizontal frame, by exp(phi).
+  const wbc::PlanarMotion m = motion(t);
+  const Matrix3d turn = Eigen::AngleAxisd(m.yaw_rad, Vector3d::UnitZ()).toRotationMatrix();
+  const Matrix3d expected = turn * exp_map(m.hand_rotation_rad) * wbc->engaged_reference().ee_rotation;  // heading0 = I
+  EXPECT_LT((now.ee_rotation - expected).norm(), 1e-12);
 }
 
 TEST_F(Controller, OffByDefaultTheHandsOrientationIsFree) {

@@ -108,21 +108,23 @@ WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
   params_ = params::read_wbc_params(params, params::WithControllerParts::yes);
   cp.wbc = params_;
   control_ = std::make_unique<control::WholeBodyControl>(cp);
-  // hand_trajectory: [{at_s, position: [x, y, z]}, ...]: the hand's rest point's offset (m, the
-  // rest pose's horizontal frame) at scenario times; the controller counts from its
-  // engagement at settle_s.
+  // hand_trajectory: [{at_s, position: [x, y, z], rotation: [rx, ry, rz]}, ...]: the hand's rest
+  // point's offset (m) and, optionally, its rest orientation's rotation vector (rad; with the
+  // rotational template), both in the rest pose's horizontal frame, at scenario times; the
+  // controller counts from its engagement at settle_s.
   if (const config::Field list = params["hand_trajectory"]; list.present() && list.expect_list()) {
     std::vector<control::HandWaypoint> waypoints;
     bool ok = true;
     for (std::size_t i = 0; i < list.size(); ++i) {
       const config::Field e = list[i];
-      if (!e.allow_only({"at_s", "position"})) {
+      if (!e.allow_only({"at_s", "position", "rotation"})) {
         ok = false;
         continue;
       }
       control::HandWaypoint w;
       ok = e["at_s"].require() && e["at_s"].number(w.at_s, 0.0, 1e6) && ok;
       ok = e["position"].require() && e["position"].vector<3>(w.offset_m, -1.0, 1.0) && ok;
+      if (e["rotation"].present()) ok = e["rotation"].vector<3>(w.rotation_rad, -4.0, 4.0) && ok;
       w.at_s -= settle_s_;
       waypoints.push_back(w);
     }
@@ -172,11 +174,7 @@ void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth,
     stand_->tick(use_estimator_ ? control_->estimate().q : truth.q, out);
     report.posture_reached = truth.time_s + 1.5 * dt_s_ >= settle_s_;  // control from the next tick on
   } else if (sup.mode() == safety::Mode::control) {
-    if (!control_->engaged()) {
-      template_->reset();
-      dyn::forward_kinematics(model_, *data_, truth.q);  // the hand's orientation at engagement
-      ee_rotation_engaged_ = data_->frames[kEeFrame].rotation;
-    }
+    if (!control_->engaged()) template_->reset();
     control::BaseTruth base;
     base.pose = truth.q.head<7>();
     base.twist = truth.v.head<6>();
@@ -232,13 +230,14 @@ std::string WbcAdapter::csv_columns() const {
     for (const char* a : {"x", "y", "z"}) h += fmt::format(",template_{}_r{}_rad", b, a);
   }
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",te_{}_nm", a);
+  for (const char* a : {"x", "y", "z"}) h += fmt::format(",hand_rest_r{}_rad", a);
   return h;
 }
 
 void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   if (!ticked_) {
     row += ",0";
-    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5 + 6 + 12 + 3 * kFeet + 3 + 6 + 3; ++i) row += ",0";
+    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5 + 6 + 12 + 3 * kFeet + 3 + 6 + 3 + 3; ++i) row += ",0";
     return;
   }
   const wbc::WbcOutput& o = control_->output();
@@ -257,12 +256,11 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   }
   s.force_world_n = o.external_force_world_n;
   {
-    // The rest pose's orientations: the base's (it turns when walking) and the hand's at
-    // engagement, turned with it.
+    // From the rest pose's orientations: the base's (it turns when walking) and the hand's (it
+    // turns with it, and with a hand pose command).
     const Mat3 rot = Quat(truth.q[6], truth.q[3], truth.q[4], truth.q[5]).normalized().toRotationMatrix();
-    const Mat3 turned = ref.base_rotation * control_->wbc().engaged_reference().base_rotation.transpose();
     const Vec3 rb = rotation_vector(rot * ref.base_rotation.transpose());
-    const Vec3 re = rotation_vector(data_->frames[kEeFrame].rotation * (turned * ee_rotation_engaged_).transpose());
+    const Vec3 re = rotation_vector(data_->frames[kEeFrame].rotation * ref.ee_rotation.transpose());
     const Vec3 tb_r = rotational_template_ ? rotational_template_->base_m() : Vec3::Zero();
     const Vec3 te_r = rotational_template_ ? rotational_template_->ee_m() : Vec3::Zero();
     for (int a = 0; a < 3; ++a) {
@@ -338,6 +336,9 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   for (int a = 0; a < 3; ++a) put(row, rest_d[a]);
   for (int a = 6; a < 12; ++a) put(row, s.reference[a]);
   for (int a = 0; a < 3; ++a) put(row, s.torque_world_nm[a]);
+  // The hand's rest orientation from the engaged one (world; it turns with a hand pose command).
+  const Vec3 rest_r = rotation_vector(ref.ee_rotation * control_->wbc().engaged_reference().ee_rotation.transpose());
+  for (int a = 0; a < 3; ++a) put(row, rest_r[a]);
 }
 
 std::string WbcAdapter::summary_fields() const {

@@ -116,7 +116,6 @@ class WbcAdapter final : public Controller {
   std::uint64_t any_torque_limit_ticks_ = 0;              // ticks with some joint there
   double max_speed_ratio_ = 0.0;                          // max |qd| / velocity limit
   int max_speed_joint_ = 0;
-  Mat3 ee_rotation_engaged_ = Mat3::Identity();           // the hand's at the WBC's engagement
   std::uint64_t failed_ticks_ = 0;
   std::uint64_t qp_from_hint_ticks_ = 0;  // ticks whose QP was solved on the last tick's active set
   bool joint_limit_hit_ = false;

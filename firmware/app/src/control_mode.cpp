@@ -48,6 +48,7 @@ const char* ControlMode::request(const ControllerRequest& r, safety::Mode mode) 
     case ControllerRequest::Kind::hand:
       if (mode != safety::Mode::control) return "hand moves need mode control";
       return control_->request_hand_move(Vec3(r.hand_target[0], r.hand_target[1], r.hand_target[2]),
+                                         Vec3(r.hand_rotation[0], r.hand_rotation[1], r.hand_rotation[2]),
                                          r.hand_duration_s);
     case ControllerRequest::Kind::tune:
       if (mode != safety::Mode::control) return "tuning needs mode control";

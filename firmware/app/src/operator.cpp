@@ -102,23 +102,31 @@ YAML::Node key_values(const std::vector<std::string_view>& words, std::size_t fi
   return params;
 }
 
-// `hand X Y Z SECONDS`: the hand's rest point's target offset and the move's duration.
+// `hand X Y Z [RX RY RZ] SECONDS`: the hand's rest point's target offset, optionally its
+// rotation vector, and the move's duration.
 ParsedLine parse_hand(const std::vector<std::string_view>& words) {
-  if (words.size() != 5) return error("hand needs x y z (m, from the engaged rest point) and a duration (s)");
+  if (words.size() != 5 && words.size() != 8) {
+    return error("hand needs x y z (m, from the engaged rest point), optionally rx ry rz (rad, a rotation vector "
+                 "from the engaged orientation), and a duration (s)");
+  }
+  const bool turns = words.size() == 8;
   YAML::Node params(YAML::NodeType::Map);
-  params["offset"].push_back(std::string(words[1]));
-  params["offset"].push_back(std::string(words[2]));
-  params["offset"].push_back(std::string(words[3]));
-  params["duration"] = std::string(words[4]);
+  for (std::size_t i = 1; i <= 3; ++i) params["offset"].push_back(std::string(words[i]));
+  if (turns) {
+    for (std::size_t i = 4; i <= 6; ++i) params["rotation"].push_back(std::string(words[i]));
+  }
+  params["duration"] = std::string(words.back());
   config::Errors errors;
   const config::Field f(params, "hand", errors);
-  Vec3 offset = Vec3::Zero();
+  Vec3 offset = Vec3::Zero(), rotation = Vec3::Zero();
   ControllerRequest r;
   r.kind = ControllerRequest::Kind::hand;
   f["offset"].vector<3>(offset, -control::kHandMaxOffset_m, control::kHandMaxOffset_m);
+  if (turns) f["rotation"].vector<3>(rotation, -control::kHandMaxRotation_rad, control::kHandMaxRotation_rad);
   f["duration"].number(r.hand_duration_s, control::kHandMinMove_s, 60.0);
   if (!errors.empty()) return error(errors.lines().front());
   r.hand_target = {offset.x(), offset.y(), offset.z()};
+  r.hand_rotation = {rotation.x(), rotation.y(), rotation.z()};
   return controller_request(r, "hand");
 }
 

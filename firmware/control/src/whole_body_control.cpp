@@ -117,6 +117,9 @@ void WholeBodyControl::move_rest_pose(double dt_s) noexcept {
   motion_.hand_offset_m = hand.offset_m;
   motion_.hand_velocity_m_s = hand.velocity_m_s;
   motion_.hand_acceleration_m_s2 = hand.acceleration_m_s2;
+  motion_.hand_rotation_rad = hand.rotation_rad;
+  motion_.hand_rotation_rate_rad_s = hand.rotation_rate_rad_s;
+  motion_.hand_rotation_acceleration_rad_s2 = hand.rotation_acceleration_rad_s2;
   wbc_->move_reference(motion_);
 }
 
@@ -230,12 +233,22 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
 }
 
 std::string WholeBodyControl::set_hand_trajectory(std::span<const HandWaypoint> waypoints) {
-  return configured_hand_.set_waypoints(waypoints);
+  HandTrajectory path;
+  if (std::string why = path.set_waypoints(waypoints); !why.empty()) return why;
+  if (path.turns() && !params_.wbc.rotational_template_enabled) {
+    return "turning the hand needs the rotational template (rotational_template), which renders about its orientation";
+  }
+  configured_hand_ = path;
+  return "";
 }
 
-const char* WholeBodyControl::request_hand_move(const Vec3& target_m, double duration_s) noexcept {
+const char* WholeBodyControl::request_hand_move(const Vec3& target_m, const Vec3& target_rotation_rad,
+                                                double duration_s) noexcept {
   if (!engaged_) return "hand moves need the controller engaged (mode control)";
-  return hand_.move_to(control_time_s_, target_m, duration_s);
+  if (target_rotation_rad != Vec3::Zero() && !params_.wbc.rotational_template_enabled) {
+    return "turning the hand needs the rotational template (control.wbc.rotational_template)";
+  }
+  return hand_.move_to(control_time_s_, target_m, target_rotation_rad, duration_s);
 }
 
 bool WholeBodyControl::request_tuning(const TuningRequest& r) noexcept {

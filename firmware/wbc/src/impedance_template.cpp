@@ -3,6 +3,8 @@
 // matrix functions are heavy to compile).
 #include "springbok/wbc/impedance_template.hpp"
 
+#include <cmath>
+
 #include <Eigen/Eigenvalues>
 #include <unsupported/Eigen/MatrixFunctions>
 
@@ -37,14 +39,40 @@ TemplateAxes template_axes(const RotationalTemplateParams& p, const Eigen::Vecto
 RotationalTemplateState rotational_template_state(const Eigen::Matrix3d& r_base, const Eigen::Matrix3d& r_base_rest,
                                                   const Eigen::Matrix3d& r_ee, const Eigen::Matrix3d& r_ee_rest,
                                                   const Eigen::Vector3d& w_base, const Eigen::Vector3d& w_rest,
-                                                  const Eigen::Vector3d& w_ee) noexcept {
+                                                  const Eigen::Vector3d& w_ee, const Eigen::Vector3d& w_ee_rest) noexcept {
   const Eigen::Matrix3d base_turn = r_base * r_base_rest.transpose();
   RotationalTemplateState s;
   s.base_rad = log_map(base_turn);
   s.ee_from_base_rad = log_map(r_ee * (base_turn * r_ee_rest).transpose());
   s.base_rate_rad_s = w_base - w_rest;
-  s.ee_from_base_rate_rad_s = w_ee - w_base;
+  s.ee_from_base_rate_rad_s = (w_ee - w_ee_rest) - (w_base - w_rest);
   return s;
+}
+
+Eigen::Matrix3d so3_left_jacobian(const Eigen::Vector3d& phi) noexcept {
+  const double theta2 = phi.squaredNorm();
+  const double theta = std::sqrt(theta2);
+  // (1 - cos t) / t^2 and (t - sin t) / t^3, by their series below 1e-4 rad.
+  const double a = theta < 1e-4 ? 0.5 - theta2 / 24.0 : (1.0 - std::cos(theta)) / theta2;
+  const double b = theta < 1e-4 ? 1.0 / 6.0 - theta2 / 120.0 : (theta - std::sin(theta)) / (theta2 * theta);
+  Eigen::Matrix3d skew;
+  skew << 0.0, -phi.z(), phi.y(), phi.z(), 0.0, -phi.x(), -phi.y(), phi.x(), 0.0;
+  return Eigen::Matrix3d::Identity() + a * skew + b * skew * skew;
+}
+
+Eigen::Vector3d so3_left_jacobian_rate(const Eigen::Vector3d& phi, const Eigen::Vector3d& phi_rate) noexcept {
+  // J_l = I + a(t) S + b(t) S^2 with S = [phi]x, t = |phi|; along phi' (and [phi']x phi' = 0):
+  //   (d/dt J_l) phi' = (phi . phi') (a'/t  phi x phi' + b'/t  phi x (phi x phi')) + b phi' x (phi x phi').
+  const double theta2 = phi.squaredNorm();
+  const double theta = std::sqrt(theta2);
+  const double s = std::sin(theta), c = std::cos(theta);
+  const bool small = theta < 1e-2;  // the closed forms cancel below: their series to t^2
+  const double b = theta < 1e-4 ? 1.0 / 6.0 - theta2 / 120.0 : (theta - s) / (theta2 * theta);
+  const double da = small ? -1.0 / 12.0 + theta2 / 180.0 : (theta * s - 2.0 * (1.0 - c)) / (theta2 * theta2);
+  const double db = small ? -1.0 / 60.0 + theta2 / 1260.0
+                          : (theta * (1.0 - c) - 3.0 * (theta - s)) / (theta2 * theta2 * theta);
+  const Eigen::Vector3d cross = phi.cross(phi_rate);
+  return phi.dot(phi_rate) * (da * cross + db * phi.cross(cross)) + b * phi_rate.cross(cross);
 }
 
 AxisSystem axis_system(const AxisParams& p) {

@@ -92,7 +92,19 @@ void WholeBodyController::move_reference(const PlanarMotion& m) noexcept {
   reference_.base_position_m = engaged_.base_position_m + m.offset_m;
   reference_.base_rotation = turn * engaged_.base_rotation;
   reference_.ee_position_m = reference_.base_position_m + arm;
-  reference_.ee_rotation = turn * engaged_.ee_rotation;
+  // The hand's rest orientation: the engaged one turned by exp(phi) in the rest pose's horizontal
+  // frame, R = heading exp(phi) heading0^T R_e0 (heading = turn heading0). Its angular velocity
+  // is the turn's plus the heading's J_l(phi) phi'.
+  const Vec3& phi = m.hand_rotation_rad;
+  const Vec3& phi_rate = m.hand_rotation_rate_rad_s;
+  const Mat3 hand_turn = phi.squaredNorm() > 0.0 ? Mat3(Eigen::AngleAxisd(phi.norm(), phi.normalized())) : Mat3::Identity();
+  const Mat3 jl = so3_left_jacobian(phi);
+  const Vec3 w_hand = heading * (jl * phi_rate);
+  const Vec3 jl_rate_phi = so3_left_jacobian_rate(phi, phi_rate);
+  reference_.ee_rotation = heading * hand_turn * (turn.transpose() * heading).transpose() * engaged_.ee_rotation;
+  reference_.ee_angular_velocity_rad_s = yaw_rate + w_hand;
+  reference_.ee_angular_acceleration_rad_s2 = m.yaw_acceleration_rad_s2 * Vec3::UnitZ() + yaw_rate.cross(w_hand) +
+                                              heading * (jl * m.hand_rotation_acceleration_rad_s2 + jl_rate_phi);
   reference_.base_velocity_m_s = m.velocity_m_s;
   reference_.base_acceleration_m_s2 = m.acceleration_m_s2;
   reference_.base_angular_velocity_rad_s = yaw_rate;
@@ -128,12 +140,12 @@ void WholeBodyController::base_task(const WbcInput& in, const dyn::Data& d, Vec6
     const RotationalTemplateParams& rp = params_.rotational_template;
     const RotationalTemplateState rs = rotational_template_state(
         rot, reference_.base_rotation, d.frames[kEeFrame].rotation, reference_.ee_rotation, omega_world,
-        reference_.base_angular_velocity_rad_s, d.J_ee.bottomRows<3>() * in.state.v);
+        reference_.base_angular_velocity_rad_s, d.J_ee.bottomRows<3>() * in.state.v, reference_.ee_angular_velocity_rad_s);
     torque = rotational_template_base_torque_nm(rp, rs);
     Vec3 ee_angular_acc = rotational_template_ee_acceleration_rad_s2(rp, rs, out_.external_torque_world_nm);
     const double norm = ee_angular_acc.norm();
     if (norm > params_.ee_angular_acceleration_limit_rad_s2) ee_angular_acc *= params_.ee_angular_acceleration_limit_rad_s2 / norm;
-    out_.ee_angular_acceleration_desired = ee_angular_acc;
+    out_.ee_angular_acceleration_desired = ee_angular_acc + reference_.ee_angular_acceleration_rad_s2;
   } else {
     // Eq. 5: a rotational PD towards the rest orientation.
     const Vec3 e_r = log_so3(reference_.base_rotation * rot.transpose());

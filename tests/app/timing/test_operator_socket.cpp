@@ -126,6 +126,14 @@ TEST(OperatorLine, HandTakesAnOffsetAndADuration) {
   EXPECT_EQ(parse_operator_line("hand 0 0 0 0.01").error, "error: hand.duration: must be in [0.1, 60], got 0.01");
   EXPECT_EQ(parse_operator_line("hand 0 0 up 1").error, "error: hand.offset[2]: must be a number, got 'up'");
   EXPECT_EQ(parse_operator_line("hand 0 0 1").error.rfind("error: hand needs x y z", 0), 0u);
+  const ParsedLine turn = parse_operator_line("hand 0 0 0.05 0.3 0 -0.2 2");
+  ASSERT_EQ(turn.kind, ParsedLine::Kind::controller_request) << turn.error;
+  EXPECT_EQ(turn.request.hand_rotation[0], 0.3);
+  EXPECT_EQ(turn.request.hand_rotation[2], -0.2);
+  EXPECT_EQ(turn.request.hand_target[2], 0.05);
+  EXPECT_EQ(turn.request.hand_duration_s, 2.0);
+  EXPECT_EQ(parse_operator_line("hand 0 0 0 0.7 0 0 2").error, "error: hand.rotation[0]: must be in [-0.6, 0.6], got 0.7");
+  EXPECT_EQ(parse_operator_line("hand 0 0 0 0 0 2").error.rfind("error: hand needs x y z", 0), 0u);
 }
 
 TEST(OperatorLine, LogRecordsAreDescribedByName) {

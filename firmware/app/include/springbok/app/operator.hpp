@@ -19,7 +19,9 @@
 // (posture_kp, posture_kd) over `ramp` seconds (default 1), with the config's ranges
 // (control::kTemplateRanges); keys not given keep their values. `hand X Y Z SECONDS`
 // (control mode) moves the hand's rest point to that offset from the engaged one (m, the
-// rest pose's horizontal frame) along a minimum-jerk path (control::HandTrajectory's limits).
+// rest pose's horizontal frame) along a minimum-jerk path (control::HandTrajectory's limits);
+// `hand X Y Z RX RY RZ SECONDS` also turns its rest orientation to that rotation vector
+// from the engaged one (rad, same frame; needs the rotational template).
 #pragma once
 
 #include <atomic>
@@ -47,8 +49,10 @@ struct ControllerRequest {
   // requests cross a lock-free ring by value).
   std::array<double, 3> velocity{};
   // With kind == hand: the hand's rest point's offset from the engaged one (m, the rest
-  // pose's horizontal frame) and the move's duration (s).
+  // pose's horizontal frame), its rotation vector from the engaged orientation (rad, the
+  // same frame) and the move's duration (s).
   std::array<double, 3> hand_target{};
+  std::array<double, 3> hand_rotation{};
   double hand_duration_s = 0.0;
 };
 

@@ -165,12 +165,13 @@ class WholeBodyControl {
   // next tick from the values then (a ramp under way is replaced from where it is). rt: no alloc
   bool request_tuning(const TuningRequest& request) noexcept;
   bool tuning() const noexcept { return tune_.active; }
-  // Hand pose commands (hand_trajectory.hpp): the waypoints the hand's rest point follows
+  // Hand pose commands (hand_trajectory.hpp): the waypoints the hand's rest pose follows
   // from each engagement on (start-up; "" or why not), and an operator's move of it to an
-  // offset from the engaged rest point over duration_s, in the control mode (nullptr or why
-  // not; nothing changes then). rt: no alloc (the move)
+  // offset and a rotation from the engaged rest pose over duration_s, in the control mode
+  // (nullptr or why not; nothing changes then). Turning the hand needs the rotational
+  // template (without it the hand's orientation is free). rt: no alloc (the move)
   std::string set_hand_trajectory(std::span<const HandWaypoint> waypoints);
-  const char* request_hand_move(const Vec3& target_m, double duration_s) noexcept;
+  const char* request_hand_move(const Vec3& target_m, const Vec3& target_rotation_rad, double duration_s) noexcept;
   const HandTrajectory& hand_trajectory() const noexcept { return hand_; }
   double control_time_s() const noexcept { return control_time_s_; }
   const Vec3& walking_velocity() const noexcept { return velocity_now_; }

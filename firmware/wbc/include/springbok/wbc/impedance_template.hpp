@@ -100,17 +100,24 @@ inline Eigen::Vector3d steady_state_ee_rad(const RotationalTemplateParams& p, co
 // The rotational template's law at the robot's orientations (world axes): the torque the
 // template's springs and dampers put on the trunk (K_rb, D_rb towards the rest
 // orientation, K_re, D_re from the hand) and the hand's template angular acceleration.
-// The rest orientations move with a walking rest pose (their angular velocity w_rest).
+// The rest orientations move with a walking rest pose (the trunk's angular velocity w_rest)
+// and a hand pose command (the hand's w_ee_rest).
 struct RotationalTemplateState {
   Eigen::Vector3d base_rad;           // th_b
   Eigen::Vector3d ee_from_base_rad;   // th_be
   Eigen::Vector3d base_rate_rad_s;    // w_b - w_rest
-  Eigen::Vector3d ee_from_base_rate_rad_s;  // w_e - w_b
+  Eigen::Vector3d ee_from_base_rate_rad_s;  // (w_e - w_e,rest) - (w_b - w_rest)
 };
 RotationalTemplateState rotational_template_state(const Eigen::Matrix3d& r_base, const Eigen::Matrix3d& r_base_rest,
                                                   const Eigen::Matrix3d& r_ee, const Eigen::Matrix3d& r_ee_rest,
                                                   const Eigen::Vector3d& w_base, const Eigen::Vector3d& w_rest,
-                                                  const Eigen::Vector3d& w_ee) noexcept;
+                                                  const Eigen::Vector3d& w_ee, const Eigen::Vector3d& w_ee_rest) noexcept;
+// The left Jacobian of SO(3): the angular velocity of exp(phi), in the axes phi is in, is
+// J_l(phi) d phi / dt. rt: no alloc
+Eigen::Matrix3d so3_left_jacobian(const Eigen::Vector3d& phi) noexcept;
+// (d/dt J_l(phi)) d phi / dt, the rest of the angular acceleration J_l phi'' + (d/dt J_l) phi'. rt: no alloc
+Eigen::Vector3d so3_left_jacobian_rate(const Eigen::Vector3d& phi, const Eigen::Vector3d& phi_rate) noexcept;
+
 inline Eigen::Vector3d rotational_template_base_torque_nm(const RotationalTemplateParams& p,
                                                           const RotationalTemplateState& s) noexcept {
   return -p.stiffness_base_nm_per_rad.cwiseProduct(s.base_rad) - p.damping_base_nms_per_rad.cwiseProduct(s.base_rate_rad_s) +

@@ -169,6 +169,8 @@ struct WbcReference {
   Mat3 base_rotation = Mat3::Identity();
   Vec3 ee_position_m = Vec3::Zero();
   Mat3 ee_rotation = Mat3::Identity();  // the hand's rest orientation (turns with the base's)
+  Vec3 ee_angular_velocity_rad_s = Vec3::Zero();
+  Vec3 ee_angular_acceleration_rad_s2 = Vec3::Zero();
   Vec3 base_velocity_m_s = Vec3::Zero();
   Vec3 base_acceleration_m_s2 = Vec3::Zero();
   Vec3 base_angular_velocity_rad_s = Vec3::Zero();
@@ -190,6 +192,11 @@ struct PlanarMotion {
   Vec3 hand_offset_m = Vec3::Zero();
   Vec3 hand_velocity_m_s = Vec3::Zero();
   Vec3 hand_acceleration_m_s2 = Vec3::Zero();
+  // And the hand's rest orientation turned by the rotation vector phi (same frame), with
+  // d phi / dt and d^2 phi / dt^2 (the rotational template renders about it).
+  Vec3 hand_rotation_rad = Vec3::Zero();
+  Vec3 hand_rotation_rate_rad_s = Vec3::Zero();
+  Vec3 hand_rotation_acceleration_rad_s2 = Vec3::Zero();
 };
 
 struct WbcOutput {
