@@ -84,6 +84,10 @@ void ControlMode::telemetry(TelemetryRecord& r) const noexcept {
   if (!r.wbc) return;
   const control::WholeBodyControl& c = *control_;
   const auto put = [](Triple& to, const Vec3& from) { to = {from.x(), from.y(), from.z()}; };
+  const auto put_quaternion = [](std::array<double, 4>& to, const Mat3& from) {
+    const Quat q(from);
+    to = {q.x(), q.y(), q.z(), q.w()};
+  };
   // The base: the estimate (what the controller uses; also before it engages).
   const est::BaseEstimate& e = c.estimate();
   const Quat quat = Quat(e.q[6], e.q[3], e.q[4], e.q[5]).normalized();
@@ -107,7 +111,10 @@ void ControlMode::telemetry(TelemetryRecord& r) const noexcept {
   put(r.base_displacement_m, o.base_displacement_m);
   put(r.hand_displacement_m, o.ee_displacement_m);
   put(r.hand_position_m, ref.ee_position_m + o.ee_displacement_m);
+  put_quaternion(r.hand_quaternion_xyzw, o.ee_rotation);
+  put_quaternion(r.hand_rest_quaternion_xyzw, ref.ee_rotation);
   put(r.external_force_n, o.external_force_world_n);
+  put(r.external_torque_nm, o.external_torque_world_nm);
   for (int f = 0; f < kFeet; ++f) put(r.foot_force_n[static_cast<std::size_t>(f)], o.foot_force_n[f]);
 }
 

@@ -53,16 +53,28 @@ void triple(std::string& out, std::string_view name, std::string_view unit, cons
   for (std::size_t a = 0; a < 3; ++a) number(out, std::string(name) + kAxes[a] + std::string(unit), v[a]);
 }
 
+// <name>_qx .. <name>_qw
+void quaternion(std::string& out, std::string_view name, const std::array<double, 4>& q) {
+  static constexpr const char* kParts[4] = {"_qx", "_qy", "_qz", "_qw"};
+  for (std::size_t i = 0; i < 4; ++i) number(out, std::string(name) + kParts[i], q[i]);
+}
+
 constexpr const char* kFootNames[kFeet] = {"lf", "rf", "lh", "rh"};
 
 }  // namespace
 
 std::string telemetry_json(const TelemetryRecord& r) {
+  // A datagram without a time cannot be plotted: none (the firmware clock is always finite).
+  if (!std::isfinite(r.timestamp_s)) return {};
   std::string out;
   out.reserve(6000);
   out += "{\"timestamp\":";
+  // Microseconds in fixed notation (a plain number for PlotJuggler); beyond 1e12 s, where
+  // that would not fit, 17 significant digits.
   char stamp[32];
-  const auto end = std::to_chars(stamp, stamp + sizeof stamp, r.timestamp_s, std::chars_format::fixed, 6);
+  const auto end = std::abs(r.timestamp_s) < 1e12
+                       ? std::to_chars(stamp, stamp + sizeof stamp, r.timestamp_s, std::chars_format::fixed, 6)
+                       : std::to_chars(stamp, stamp + sizeof stamp, r.timestamp_s, std::chars_format::general, 17);
   out.append(stamp, end.ptr);
   number(out, "tick", static_cast<double>(r.tick));
   number(out, "mode", r.mode);
@@ -75,19 +87,21 @@ std::string telemetry_json(const TelemetryRecord& r) {
   number(out, "qp_status", r.qp_status);
   number(out, "qp_iterations", r.qp_iterations);
   triple(out, "base", "m", r.base_position_m);
-  static constexpr const char* kQuat[4] = {"base_qx", "base_qy", "base_qz", "base_qw"};
-  for (std::size_t i = 0; i < 4; ++i) number(out, kQuat[i], r.base_quaternion_xyzw[i]);
+  quaternion(out, "base", r.base_quaternion_xyzw);
   number(out, "base_roll_rad", r.base_rpy_rad[0]);
   number(out, "base_pitch_rad", r.base_rpy_rad[1]);
   number(out, "base_yaw_rad", r.base_rpy_rad[2]);
   triple(out, "base_velocity", "m_s", r.base_velocity_m_s);
   triple(out, "base_rate", "rad_s", r.base_rate_rad_s);
   triple(out, "hand", "m", r.hand_position_m);
+  quaternion(out, "hand", r.hand_quaternion_xyzw);
   triple(out, "base_rest", "m", r.base_rest_m);
   triple(out, "hand_rest", "m", r.hand_rest_m);
+  quaternion(out, "hand_rest", r.hand_rest_quaternion_xyzw);
   triple(out, "base_displacement", "m", r.base_displacement_m);
   triple(out, "hand_displacement", "m", r.hand_displacement_m);
   triple(out, "fe", "n", r.external_force_n);
+  triple(out, "te", "nm", r.external_torque_nm);
   for (int f = 0; f < kFeet; ++f) {
     triple(out, std::string(kFootNames[f]) + "_force", "n", r.foot_force_n[static_cast<std::size_t>(f)]);
     number(out, std::string(kFootNames[f]) + "_stance", r.stance[static_cast<std::size_t>(f)] ? 1.0 : 0.0);
@@ -131,6 +145,10 @@ void TelemetrySender::drain(TelemetryRing& ring) {
   TelemetryRecord record;
   while (ring.pop(record)) {
     const std::string datagram = telemetry_json(record);
+    if (datagram.empty()) {  // no time to plot it at
+      send_errors_.fetch_add(1, std::memory_order_relaxed);
+      continue;
+    }
     // A refused or full send (nobody listening yet, a full buffer) is counted, never retried.
     if (::send(fd_, datagram.data(), datagram.size(), MSG_DONTWAIT) == static_cast<ssize_t>(datagram.size())) {
       sent_.fetch_add(1, std::memory_order_relaxed);

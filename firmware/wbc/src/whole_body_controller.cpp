@@ -398,6 +398,7 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& 
   wrench_ee_world_.tail<3>() = ee_rot * in.wrist_torque_nm;
   out_.external_force_world_n = wrench_ee_world_.head<3>();
   out_.external_torque_world_nm = wrench_ee_world_.tail<3>();
+  out_.ee_rotation = d.frames[kEeFrame].rotation;
   joint_friction_nm_ = params_.joint_viscous_friction_nms_per_rad.cwiseProduct(in.state.v.tail<kNj>());
 
   Vec6 base_acc_desired;

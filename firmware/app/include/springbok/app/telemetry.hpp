@@ -59,11 +59,14 @@ struct TelemetryRecord {
   Triple base_velocity_m_s{};
   Triple base_rate_rad_s{};
   Triple hand_position_m{};
+  std::array<double, 4> hand_quaternion_xyzw{0.0, 0.0, 0.0, 1.0};
   Triple base_rest_m{};              // the template's rest pose (its reference)
   Triple hand_rest_m{};
+  std::array<double, 4> hand_rest_quaternion_xyzw{0.0, 0.0, 0.0, 1.0};  // the rest orientation
   Triple base_displacement_m{};      // x_b, x_e: what the template renders
   Triple hand_displacement_m{};
   Triple external_force_n{};         // F_e, from the tared wrist F/T
+  Triple external_torque_nm{};       // T_e (about the hand's origin)
   std::array<Triple, kFeet> foot_force_n{};  // the QP's ground forces
   std::array<bool, kFeet> stance{};
   std::array<double, kNj> q_rad{};
@@ -72,7 +75,9 @@ struct TelemetryRecord {
 };
 using TelemetryRing = rt::SpscRing<TelemetryRecord, 256>;
 
-// The record as one flat JSON object (the datagram's payload).
+// The record as one flat JSON object (the datagram's payload): `timestamp` first, then
+// `"name":number` pairs; a non-finite value leaves its field out, a non-finite timestamp
+// the whole datagram ("": counted as a send error). Fuzzed: tests/fuzz/fuzz_telemetry.cpp.
 std::string telemetry_json(const TelemetryRecord& record);
 
 // The non-RT sender: drains the ring, one datagram per record.

@@ -222,6 +222,7 @@ struct WbcOutput {
   Vec3 base_displacement_m = Vec3::Zero();     // x_b
   Vec3 ee_displacement_m = Vec3::Zero();       // x_e
   Vec3 external_torque_world_nm = Vec3::Zero(); // T_e (about the hand's origin)
+  Mat3 ee_rotation = Mat3::Identity();          // the hand's orientation this tick (world)
 };
 
 class WholeBodyController {
