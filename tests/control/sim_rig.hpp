@@ -105,6 +105,17 @@ struct Rig {
     push.profile.start_s = start_s;
     EXPECT_TRUE(robot->add_external_wrench(push));
   }
+  // A torque step at the hand from start_s on (world axes).
+  void twist_hand(const Vec3& torque_nm, double start_s) {
+    sim::ExternalWrench twist;
+    twist.frame = *sim::find_frame("arm_end_effector_link");
+    twist.kind = sim::WrenchKind::torque;
+    twist.axis_world = torque_nm.normalized();
+    twist.profile.shape = sim::ProfileShape::step;
+    twist.profile.amplitude = torque_nm.norm();
+    twist.profile.start_s = start_s;
+    EXPECT_TRUE(robot->add_external_wrench(twist));
+  }
 
   bool fallen() const {
     const sim::GroundTruth& t = robot->ground_truth();

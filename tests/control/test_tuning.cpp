@@ -64,7 +64,7 @@ double settle(Rig& rig) {
 TEST(LiveTuning, ARetuneRampsTheTemplateWithoutSteppingTheTorquesAndTheNewOneIsRendered) {
   Rig rig(stance_params());
   const double steady = settle(rig);
-  ASSERT_TRUE(rig.control->request_tuning(stiffer_base_lighter_hand(1.0)));
+  ASSERT_EQ(rig.control->request_tuning(stiffer_base_lighter_hand(1.0)), nullptr);
   // Half way: half way between the old and the new values.
   double worst = max_torque_step(rig, 500);
   const wbc::TemplateParams& mid = rig.control->wbc().params().template_params;
@@ -92,10 +92,53 @@ TEST(LiveTuning, ARetuneRampsTheTemplateWithoutSteppingTheTorquesAndTheNewOneIsR
 TEST(LiveTuning, TheSameRetuneAtOnceStepsTheTorques) {
   Rig rig(stance_params());
   const double steady = settle(rig);
-  ASSERT_TRUE(rig.control->request_tuning(stiffer_base_lighter_hand(0.0)));
+  ASSERT_EQ(rig.control->request_tuning(stiffer_base_lighter_hand(0.0)), nullptr);
   const double at_once = max_torque_step(rig, 20);
   std::printf("largest torque change per tick: steady hold %.3f N m, the same retune at once %.3f N m\n", steady, at_once);
   EXPECT_GT(at_once, 1.0) << "steady " << steady << " N m, at once " << at_once;
+}
+
+// The rotational template retuned live (the hand's stiffness 50 -> 100 N m/rad and its inertia
+// 0.1 -> 0.2 kg m^2 over 1 s under a 3 N m torque about y): no torque step, and the hand then
+// settles at the new T/K_rb + T/K_re; without the rotational template its keys are refused.
+TEST(LiveTuning, TheRotationalTemplateRetunesLiveToo) {
+  control::ControlParams cp = stance_params();
+  cp.wbc.rotational_template_enabled = true;
+  cp.wbc.rotational_template.inertia_ee_kgm2.setConstant(0.1);
+  cp.wbc.rotational_template.damping_ee_nms_per_rad.setConstant(4.5);
+  cp.wbc.rotational_template.stiffness_ee_nm_per_rad.setConstant(50.0);
+  Rig rig(cp);
+  rig.twist_hand(Vec3(0.0, 3.0, 0.0), 1.0);
+  while (rig.robot->ground_truth().time_s < 2.5) rig.tick();
+  ASSERT_EQ(rig.supervisor.mode(), safety::Mode::control);
+  const double steady = max_torque_step(rig, 500);
+  control::TuningRequest r;
+  r.set[control::TuningRequest::rot_ee_stiffness] = true;
+  r.value[control::TuningRequest::rot_ee_stiffness] = {100.0, 100.0, 100.0};
+  r.set[control::TuningRequest::rot_ee_inertia] = true;
+  r.value[control::TuningRequest::rot_ee_inertia] = {0.2, 0.2, 0.2};
+  r.set[control::TuningRequest::rot_ee_damping] = true;
+  r.value[control::TuningRequest::rot_ee_damping] = {9.0, 9.0, 9.0};
+  ASSERT_EQ(rig.control->request_tuning(r), nullptr);
+  const Vec3 base_inertia = rig.control->wbc().base_rotational_inertia_kgm2();
+  double worst = max_torque_step(rig, 500);
+  EXPECT_NEAR(rig.control->wbc().params().rotational_template.stiffness_ee_nm_per_rad.y(), 75.0, 0.2);
+  worst = std::max(worst, max_torque_step(rig, 520));
+  EXPECT_FALSE(rig.control->tuning());
+  std::printf("largest torque change per tick: steady hold %.4f N m, during the 1 s rotational retune %.4f N m\n", steady,
+              worst);
+  EXPECT_LT(worst, 2.0 * steady + 0.05) << "steady " << steady << " N m, during the ramp " << worst;
+  EXPECT_EQ(rig.control->wbc().base_rotational_inertia_kgm2(), base_inertia);  // I_b as engaged
+  // The hand settles at T/K_rb + T/K_re about y: 3/500 + 3/100 = 36 mrad from its rest orientation.
+  while (rig.robot->ground_truth().time_s < 6.0) rig.tick();
+  const wbc::WbcReference& ref = rig.control->wbc().reference();
+  const Eigen::AngleAxisd turned(rig.control->output().ee_rotation * ref.ee_rotation.transpose());
+  EXPECT_NEAR((turned.angle() * turned.axis()).y(), 3.0 / 500.0 + 3.0 / 100.0, 0.01 * 0.036);
+  EXPECT_FALSE(rig.fallen());
+
+  Rig off(stance_params());
+  while (off.supervisor.mode() != safety::Mode::control) off.tick();
+  EXPECT_STREQ(off.control->request_tuning(r), "the rotational template is off (control.wbc.rotational_template)");
 }
 
 TEST(LiveTuning, ValuesOutsideTheConfigsRangesAreRefusedAndChangeNothing) {
@@ -107,15 +150,15 @@ TEST(LiveTuning, ValuesOutsideTheConfigsRangesAreRefusedAndChangeNothing) {
     control::TuningRequest r;
     r.set[control::TuningRequest::base_stiffness] = true;
     r.value[control::TuningRequest::base_stiffness] = {1000.0, bad, 1000.0};
-    EXPECT_FALSE(rig.control->request_tuning(r)) << bad;
+    EXPECT_STREQ(rig.control->request_tuning(r), "tuning values out of range") << bad;
   }
   control::TuningRequest ramp;
   ramp.ramp_s = -1.0;
-  EXPECT_FALSE(rig.control->request_tuning(ramp));
+  EXPECT_STREQ(rig.control->request_tuning(ramp), "tuning values out of range");
   control::TuningRequest kp;
   kp.set_posture_kp = true;
   kp.posture_kp_per_s2 = std::numeric_limits<double>::infinity();
-  EXPECT_FALSE(rig.control->request_tuning(kp));
+  EXPECT_STREQ(rig.control->request_tuning(kp), "tuning values out of range");
   for (int k = 0; k < 10; ++k) rig.tick();
   EXPECT_EQ(rig.control->wbc().params().template_params.stiffness_base_n_per_m, before.stiffness_base_n_per_m);
   EXPECT_FALSE(rig.control->tuning());

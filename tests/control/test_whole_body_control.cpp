@@ -256,7 +256,7 @@ TEST_F(Control, TicksDoNotAllocate) {
     tune.set[control::TuningRequest::base_stiffness] = true;
     tune.value[control::TuningRequest::base_stiffness] = {1500.0, 1500.0, 1500.0};
     tune.ramp_s = 0.05;
-    const bool taken = c->request_tuning(tune);
+    const bool taken = c->request_tuning(tune) == nullptr;
     const char* hand = c->request_hand_move(Vec3(0.05, 0.0, 0.02), Vec3::Zero(), 0.3);
     for (int i = 0; i < 350; ++i) c->tick(next(), kDt_s, cmd);
     const bool tuned = !c->tuning();

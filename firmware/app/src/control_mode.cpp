@@ -52,7 +52,7 @@ const char* ControlMode::request(const ControllerRequest& r, safety::Mode mode) 
                                          r.hand_duration_s);
     case ControllerRequest::Kind::tune:
       if (mode != safety::Mode::control) return "tuning needs mode control";
-      return control_->request_tuning(r.tune) ? nullptr : "tuning values out of range";
+      return control_->request_tuning(r.tune);
   }
   return "unknown request";
 }

@@ -135,10 +135,13 @@ ParsedLine parse_hand(const std::vector<std::string_view>& words) {
 // config's reader and ranges (the message names the key).
 ParsedLine parse_tune(const std::vector<std::string_view>& words) {
   static constexpr std::array<const char*, control::TuningRequest::kParts> kKeys{
-      "base.mass", "base.damping", "base.stiffness", "ee.mass", "ee.damping", "ee.stiffness"};
+      "base.mass",       "base.damping",       "base.stiffness", "ee.mass",           "ee.damping",
+      "ee.stiffness",    "rot.base.damping",   "rot.base.stiffness", "rot.ee.inertia", "rot.ee.damping",
+      "rot.ee.stiffness"};
   if (words.size() < 2) {
     return error("tune needs key=value: base.mass, base.damping, base.stiffness, ee.mass, ee.damping, "
-                 "ee.stiffness (a number or [x,y,z]), posture_kp, posture_kd, ramp (s)");
+                 "ee.stiffness, rot.base.damping, rot.base.stiffness, rot.ee.inertia, rot.ee.damping, "
+                 "rot.ee.stiffness (a number or [x,y,z]), posture_kp, posture_kd, ramp (s)");
   }
   std::string why;
   const YAML::Node params = key_values(words, 1, "tune", true, why);

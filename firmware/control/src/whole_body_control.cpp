@@ -251,38 +251,53 @@ const char* WholeBodyControl::request_hand_move(const Vec3& target_m, const Vec3
   return hand_.move_to(control_time_s_, target_m, target_rotation_rad, duration_s);
 }
 
-bool WholeBodyControl::request_tuning(const TuningRequest& r) noexcept {
+const char* WholeBodyControl::request_tuning(const TuningRequest& r) noexcept {
   const auto within = [](double v, const TuningRange& range) { return v >= range.lo && v <= range.hi; };  // NaN: false
   for (int p = 0; p < TuningRequest::kParts; ++p) {
     if (!r.set[static_cast<std::size_t>(p)]) continue;
+    if (p >= TuningRequest::kTranslationalParts && !params_.wbc.rotational_template_enabled) {
+      return "the rotational template is off (control.wbc.rotational_template)";
+    }
     for (double v : r.value[static_cast<std::size_t>(p)]) {
-      if (!within(v, kTemplateRanges[static_cast<std::size_t>(p)])) return false;
+      if (!within(v, kTemplateRanges[static_cast<std::size_t>(p)])) return "tuning values out of range";
     }
   }
   if ((r.set_posture_kp && !within(r.posture_kp_per_s2, kPostureKpRange)) ||
       (r.set_posture_kd && !within(r.posture_kd_per_s, kPostureKdRange)) || !within(r.ramp_s, kTuningRampRange)) {
-    return false;
+    return "tuning values out of range";
   }
   tune_.request = r;
   tune_.pending = true;
-  return true;
+  return nullptr;
 }
 
 // Takes a pending tuning request (the ramp's start: this tick's values) and moves the
 // template and the posture gains along the ramp. rt: no alloc
 void WholeBodyControl::step_tuning(double dt_s) noexcept {
-  // The template's parts in TuningRequest::Part's order.
-  static constexpr std::array<Vec3 wbc::TemplateParams::*, TuningRequest::kParts> kPart{
+  // The templates' parts in TuningRequest::Part's order: the translational, then the rotational.
+  static constexpr std::array<Vec3 wbc::TemplateParams::*, TuningRequest::kTranslationalParts> kPart{
       &wbc::TemplateParams::mass_base_kg,          &wbc::TemplateParams::damping_base_ns_per_m,
       &wbc::TemplateParams::stiffness_base_n_per_m, &wbc::TemplateParams::mass_ee_kg,
       &wbc::TemplateParams::damping_ee_ns_per_m,   &wbc::TemplateParams::stiffness_ee_n_per_m};
+  static constexpr std::array<Vec3 wbc::RotationalTemplateParams::*,
+                              TuningRequest::kParts - TuningRequest::kTranslationalParts>
+      kRotPart{&wbc::RotationalTemplateParams::damping_base_nms_per_rad,
+               &wbc::RotationalTemplateParams::stiffness_base_nm_per_rad, &wbc::RotationalTemplateParams::inertia_ee_kgm2,
+               &wbc::RotationalTemplateParams::damping_ee_nms_per_rad, &wbc::RotationalTemplateParams::stiffness_ee_nm_per_rad};
+  const auto vec = [](const std::array<double, 3>& v) { return Vec3(v[0], v[1], v[2]); };
   if (tune_.pending) {
     tune_.pending = false;
     const TuningRequest& r = tune_.request;
     tune_.from = wbc_->params().template_params;
     tune_.to = tune_.from;
     for (std::size_t i = 0; i < kPart.size(); ++i) {
-      if (r.set[i]) tune_.to.*kPart[i] = Vec3(r.value[i][0], r.value[i][1], r.value[i][2]);
+      if (r.set[i]) tune_.to.*kPart[i] = vec(r.value[i]);
+    }
+    tune_.rot_from = wbc_->params().rotational_template;
+    tune_.rot_to = tune_.rot_from;
+    for (std::size_t i = 0; i < kRotPart.size(); ++i) {
+      const std::size_t part = TuningRequest::kTranslationalParts + i;
+      if (r.set[part]) tune_.rot_to.*kRotPart[i] = vec(r.value[part]);
     }
     tune_.kp_from = wbc_->params().posture_kp_per_s2;
     tune_.kd_from = wbc_->params().posture_kd_per_s;
@@ -298,6 +313,9 @@ void WholeBodyControl::step_tuning(double dt_s) noexcept {
   wbc::TemplateParams t;
   for (const auto part : kPart) t.*part = tune_.from.*part + s * (tune_.to.*part - tune_.from.*part);
   wbc_->set_template(t);
+  wbc::RotationalTemplateParams rt = tune_.rot_from;  // its base inertia stays the engaged one
+  for (const auto part : kRotPart) rt.*part = tune_.rot_from.*part + s * (tune_.rot_to.*part - tune_.rot_from.*part);
+  wbc_->set_rotational_template(rt);
   wbc_->set_posture_gains(tune_.kp_from + s * (tune_.kp_to - tune_.kp_from),
                           tune_.kd_from + s * (tune_.kd_to - tune_.kd_from));
   if (s >= 1.0) tune_.active = false;

@@ -104,6 +104,13 @@ TEST(OperatorLine, TuneTakesTheTemplatesKeysWithTheConfigsRanges) {
   EXPECT_EQ(t.posture_kp_per_s2, 50.0);
   EXPECT_FALSE(t.set_posture_kd);
   EXPECT_EQ(t.ramp_s, 0.5);
+  const ParsedLine rot = parse_operator_line("tune rot.ee.stiffness=100 rot.ee.inertia=[0.2,0.2,0.4] rot.base.damping=120");
+  ASSERT_EQ(rot.kind, K::controller_request) << rot.error;
+  EXPECT_EQ(rot.request.tune.value[T::rot_ee_stiffness], (std::array<double, 3>{100.0, 100.0, 100.0}));
+  EXPECT_EQ(rot.request.tune.value[T::rot_ee_inertia], (std::array<double, 3>{0.2, 0.2, 0.4}));
+  EXPECT_TRUE(rot.request.tune.set[T::rot_base_damping]);
+  EXPECT_FALSE(rot.request.tune.set[T::rot_base_stiffness]);
+  EXPECT_EQ(parse_operator_line("tune rot.ee.inertia=0").error, "error: tune.rot.ee.inertia: must be in [1e-06, 1000], got 0");
   EXPECT_EQ(parse_operator_line("tune ee.damping=100").request.tune.ramp_s, 1.0);  // the default ramp
   EXPECT_EQ(parse_operator_line("tune ee.mass=0").error, "error: tune.ee.mass: must be in [1e-06, 10000], got 0");
   EXPECT_EQ(parse_operator_line("tune base.mass=[1,2]").error, "error: tune.base.mass: must be a list of 3, got 2 elements");

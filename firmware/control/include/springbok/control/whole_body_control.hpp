@@ -64,12 +64,17 @@ struct GaitCommand {
   gait::TrotParams trot;  // with kind == trot
 };
 
-// Live tuning: a new template (M, D, K per body and axis) and posture gains, reached
-// linearly over ramp_s from the values of the tick it is taken (0: at once). Plain arrays:
-// requests cross a lock-free ring by value. `set` says which are given; the rest keep
-// their current values.
+// Live tuning: a new template (M, D, K per body and axis; with the rotational template on,
+// its D, K per body and the hand's inertia too) and posture gains, reached linearly over
+// ramp_s from the values of the tick it is taken (0: at once). Plain arrays: requests cross
+// a lock-free ring by value. `set` says which are given; the rest keep their current values.
 struct TuningRequest {
-  enum Part : std::uint8_t { base_mass, base_damping, base_stiffness, ee_mass, ee_damping, ee_stiffness, kParts };
+  enum Part : std::uint8_t {
+    base_mass, base_damping, base_stiffness, ee_mass, ee_damping, ee_stiffness,  // translational
+    rot_base_damping, rot_base_stiffness, rot_ee_inertia, rot_ee_damping, rot_ee_stiffness,
+    kParts
+  };
+  static constexpr int kTranslationalParts = rot_base_damping;
   std::array<std::array<double, 3>, kParts> value{};
   std::array<bool, kParts> set{};
   double posture_kp_per_s2 = 0.0;
@@ -83,8 +88,10 @@ struct TuningRange {
   double lo, hi;
 };
 inline constexpr std::array<TuningRange, TuningRequest::kParts> kTemplateRanges{{
-    {1e-6, 1e5}, {0.0, 1e6}, {1e-6, 1e7},   // base mass, damping, stiffness
-    {1e-6, 1e4}, {0.0, 1e6}, {1e-6, 1e7}}};  // ee
+    {1e-6, 1e5}, {0.0, 1e6}, {1e-6, 1e7},    // base mass, damping, stiffness
+    {1e-6, 1e4}, {0.0, 1e6}, {1e-6, 1e7},    // ee
+    {0.0, 1e5}, {1e-6, 1e6},                 // rotational: base damping, stiffness
+    {1e-6, 1e3}, {0.0, 1e4}, {1e-6, 1e5}}};  // hand inertia, damping, stiffness
 inline constexpr TuningRange kPostureKpRange{0.0, 1e5}, kPostureKdRange{0.0, 1e4}, kTuningRampRange{0.0, 60.0};
 
 struct ControlParams {
@@ -160,10 +167,11 @@ class WholeBodyControl {
   // kWalkAcceleration_m_s2 / kWalkYawAcceleration_rad_s2; a stand request ramps it to 0.
   // rt: no alloc
   bool request_velocity(const Vec3& velocity) noexcept;
-  // Live tuning, in the control mode: refused (false, nothing changes) with a value outside
-  // kTemplateRanges / the posture ranges or not finite; otherwise the ramp starts at the
-  // next tick from the values then (a ramp under way is replaced from where it is). rt: no alloc
-  bool request_tuning(const TuningRequest& request) noexcept;
+  // Live tuning, in the control mode: refused (why; nothing changes) with a value outside
+  // kTemplateRanges / the posture ranges or not finite, or a rotational part without the
+  // rotational template; otherwise (nullptr) the ramp starts at the next tick from the
+  // values then (a ramp under way is replaced from where it is). rt: no alloc
+  const char* request_tuning(const TuningRequest& request) noexcept;
   bool tuning() const noexcept { return tune_.active; }
   // Hand pose commands (hand_trajectory.hpp): the waypoints the hand's rest pose follows
   // from each engagement on (start-up; "" or why not), and an operator's move of it to an
@@ -227,6 +235,7 @@ class WholeBodyControl {
     bool active = false;
     TuningRequest request;
     wbc::TemplateParams from, to;
+    wbc::RotationalTemplateParams rot_from, rot_to;
     double kp_from = 0.0, kp_to = 0.0, kd_from = 0.0, kd_to = 0.0;
     double elapsed_s = 0.0;
   } tune_;

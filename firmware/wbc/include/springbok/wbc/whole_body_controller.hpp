@@ -248,6 +248,12 @@ class WholeBodyController {
   // the arm's posture gains from the next tick on. The caller checks the values (the
   // config's ranges); I_b stays what set_reference() took. rt: no alloc
   void set_template(const TemplateParams& t) noexcept { params_.template_params = t; }
+  // The rotational template's D, K and hand inertia (I_b stays what set_reference() took).
+  void set_rotational_template(const RotationalTemplateParams& t) noexcept {
+    const Vec3 base_inertia = params_.rotational_template.inertia_base_kgm2;
+    params_.rotational_template = t;
+    params_.rotational_template.inertia_base_kgm2 = base_inertia;
+  }
   void set_posture_gains(double kp_per_s2, double kd_per_s) noexcept {
     params_.posture_kp_per_s2 = kp_per_s2;
     params_.posture_kd_per_s = kd_per_s;
