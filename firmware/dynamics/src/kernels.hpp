@@ -3,9 +3,11 @@
 // Spatial vectors are split into (linear, angular) 3-vectors, linear first.
 #pragma once
 
+#include <array>
 #include <cmath>
 
 #include "springbok/dynamics/dynamics.hpp"
+#include "springbok/dynamics/sincos.hpp"
 
 namespace springbok::dyn::detail {
 
@@ -27,11 +29,13 @@ inline void for_each_support_joint(int body, F&& f) noexcept {
 inline void placements(const Model& model, Data& data, const VecNq& q) noexcept {
   data.body_rotation[0] = Quat(q[6], q[3], q[4], q[5]).normalized().toRotationMatrix();
   data.body_position_m[0].setZero();
+  double cos_q[kNj], sin_q[kNj];
+  sincos_batch<kNj>(q.data() + 7, sin_q, cos_q);  // all joints at once (vectorised)
   for (int i = 0; i < kNj; ++i) {
     const int b = body_of(i), p = parent_body(i);
     const Placement& x = model.joint_placement[i];
     const Mat3 r_joint = data.body_rotation[p] * x.rotation;
-    const double c = std::cos(q[7 + i]), s = std::sin(q[7 + i]);
+    const double c = cos_q[i], s = sin_q[i];
     Mat3& r = data.body_rotation[b];
     r.col(0) = c * r_joint.col(0) + s * r_joint.col(1);
     r.col(1) = c * r_joint.col(1) - s * r_joint.col(0);
@@ -154,23 +158,49 @@ inline void newton_euler_backward(Data& data, const Vec3& minus_g, VecNv& tau) n
   tau.segment<3>(3).noalias() = r0.transpose() * data.force_ang[0];
 }
 
-// Joint-space inertia matrix from the composite inertias. rt: no alloc
+// The (ancestor-or-self j, joint i) pairs of the tree, j <= i: the joint block of M that the
+// tree does not make zero (52 of 361 for the quadruped manipulator), ordered by i then j.
+struct SupportPair {
+  int j, i;
+};
+inline constexpr int kSupportPairs = [] {
+  int n = 0;
+  for (int i = 0; i < kNj; ++i)
+    for (int j = i; j >= 0; j = kParentJoint[j]) ++n;
+  return n;
+}();
+inline constexpr std::array<SupportPair, kSupportPairs> kSupport = [] {
+  std::array<SupportPair, kSupportPairs> pairs{};
+  int n = 0;
+  for (int i = 0; i < kNj; ++i)
+    for (int j = i; j >= 0; j = kParentJoint[j]) pairs[static_cast<std::size_t>(n++)] = {j, i};
+  return pairs;
+}();
+
+// Joint-space inertia matrix from the composite inertias: per joint the composite's
+// momentum F_i = I^C_i S_i, then M_ji = S_j . F_i over the support pairs (one flat loop of
+// 6-term dots, the tree unrolled at compile time) and the trunk rows [R0' f_i; R0' n_i].
+// rt: no alloc
 inline void mass_matrix(Data& data) noexcept {
   MatNv& mm = data.M;
   const Mat3& r0 = data.body_rotation[0];
-  for (int i = kNj - 1; i >= 0; --i) {
+  Eigen::Matrix<double, 6, kNj> motion, momentum;  // S_i = [moment arm; axis], F_i = [f; n]
+  for (int i = 0; i < kNj; ++i) {
+    motion.col(i).head<3>() = data.joint_moment_arm[i];
+    motion.col(i).tail<3>() = data.joint_axis[i];
     Vec3 f, n;
     inertia_times(data.composite[body_of(i)], data.joint_moment_arm[i], data.joint_axis[i], f, n);
-    const int col = kBase + i;
-    for_each_support_joint(body_of(i), [&](int j) {
-      const double mji = data.joint_moment_arm[j].dot(f) + data.joint_axis[j].dot(n);
-      mm(kBase + j, col) = mji;
-      mm(col, kBase + j) = mji;
-    });
-    mm.block<3, 1>(0, col).noalias() = r0.transpose() * f;
-    mm.block<3, 1>(3, col).noalias() = r0.transpose() * n;
-    mm.block<1, 6>(col, 0) = mm.block<6, 1>(0, col).transpose();
+    momentum.col(i).head<3>() = f;
+    momentum.col(i).tail<3>() = n;
   }
+  for (const SupportPair& p : kSupport) {
+    const double mji = motion.col(p.j).dot(momentum.col(p.i));
+    mm(kBase + p.j, kBase + p.i) = mji;
+    mm(kBase + p.i, kBase + p.j) = mji;
+  }
+  mm.block<3, kNj>(0, kBase).noalias() = r0.transpose() * momentum.topRows<3>();
+  mm.block<3, kNj>(3, kBase).noalias() = r0.transpose() * momentum.bottomRows<3>();
+  mm.block<kNj, 6>(kBase, 0) = mm.block<6, kNj>(0, kBase).transpose();
   // Trunk block: the whole robot's inertia about the trunk origin, trunk axes.
   const SpatialInertia& all = data.composite[0];
   const Vec3 h = r0.transpose() * all.first_moment_kgm;
