@@ -31,6 +31,7 @@ inline void placements(const Model& model, Data& data, const VecNq& q) noexcept 
   data.body_position_m[0].setZero();
   double cos_q[kNj], sin_q[kNj];
   sincos_batch<kNj>(q.data() + 7, sin_q, cos_q);  // all joints at once (vectorised)
+#pragma GCC unroll 32  // the tree's indices constant: a chain's rotation stays in registers
   for (int i = 0; i < kNj; ++i) {
     const int b = body_of(i), p = parent_body(i);
     const Placement& x = model.joint_placement[i];
@@ -63,6 +64,7 @@ inline void velocities(Data& data, const VecNv& v) noexcept {
   const Mat3& r0 = data.body_rotation[0];
   data.vel_lin[0] = r0 * v.segment<3>(0);
   data.vel_ang[0] = r0 * v.segment<3>(3);
+  #pragma GCC unroll 64
   for (int i = 0; i < kNj; ++i) {
     const int b = body_of(i), p = parent_body(i);
     const double qd = v[kBase + i];
@@ -117,6 +119,9 @@ inline void body_inertias(const Model& model, Data& data) noexcept {
 // mass and first moment when `rotational` is false. rt: no alloc
 inline void composite_inertias(Data& data, bool rotational) noexcept {
   for (int b = 0; b < kNb; ++b) data.composite[b] = data.inertia[b];
+  // Unrolled, the tree's indices are constants: the compiler keeps a chain's running sum in
+  // registers instead of storing and reloading it at every joint.
+#pragma GCC unroll 32
   for (int i = kNj - 1; i >= 0; --i) {
     SpatialInertia& parent = data.composite[parent_body(i)];
     const SpatialInertia& child = data.composite[body_of(i)];
@@ -137,6 +142,7 @@ inline void inertia_times(const SpatialInertia& in, const Vec3& v, const Vec3& w
 // accelerations()), then the generalized forces S^T F into tau. `minus_g` is
 // the uniform acceleration of the gravity trick (-g, or 0). rt: no alloc
 inline void newton_euler_backward(Data& data, const Vec3& minus_g, VecNv& tau) noexcept {
+  #pragma GCC unroll 64
   for (int b = 0; b < kNb; ++b) {
     Vec3 f, n, mom_lin, mom_ang;
     inertia_times(data.inertia[b], data.acc_lin[b] + minus_g, data.acc_ang[b], f, n);
@@ -146,6 +152,7 @@ inline void newton_euler_backward(Data& data, const Vec3& minus_g, VecNv& tau) n
     data.force_lin[b] = f + w.cross(mom_lin);
     data.force_ang[b] = n + vl.cross(mom_lin) + w.cross(mom_ang);
   }
+  #pragma GCC unroll 64
   for (int i = kNj - 1; i >= 0; --i) {
     const int b = body_of(i), p = parent_body(i);
     tau[kBase + i] = data.joint_moment_arm[i].dot(data.force_lin[b]) +
