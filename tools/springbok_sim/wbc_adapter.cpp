@@ -6,6 +6,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <sys/resource.h>
+
 #include <Eigen/Dense>
 #include <fmt/format.h>
 
@@ -150,6 +152,7 @@ WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
   samples_.reserve(ticks);
   trunk_velocity_h_.reserve(ticks);
   tick_us_all_.reserve(ticks);
+  qp_iterations_all_.reserve(ticks);
 }
 
 WbcAdapter::~WbcAdapter() = default;
@@ -184,9 +187,16 @@ void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth,
            truth.time_s + 0.5 * dt_s_ >= velocity_schedule_[next_velocity_change_].at_s) {
       (void)control_->request_velocity(velocity_schedule_[next_velocity_change_++].velocity);  // checked when read
     }
+    // The thread's page faults and context switches across the tick (read outside the timed
+    // span): what made a slow tick slow, told apart from a slow solve.
+    rusage before{}, after{};
+    getrusage(RUSAGE_THREAD, &before);
     const auto t0 = std::chrono::steady_clock::now();
     status_ = control_->tick(m, dt_s_, out, use_estimator_ ? nullptr : &base);
     tick_us_ = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
+    getrusage(RUSAGE_THREAD, &after);
+    tick_faults_ = static_cast<int>((after.ru_minflt - before.ru_minflt) + (after.ru_majflt - before.ru_majflt));
+    tick_switches_ = static_cast<int>((after.ru_nvcsw - before.ru_nvcsw) + (after.ru_nivcsw - before.ru_nivcsw));
     report.ok = status_ == control::TickStatus::ok;
     estimator_ok_ = estimator_ok_ && control_->estimate().status == est::EstimateStatus::ok;
     ticked_ = control_->engaged();
@@ -214,7 +224,7 @@ std::string WbcAdapter::csv_columns() const {
   for (const char* f : kFootNames) {
     for (const char* a : {"x", "y", "z"}) h += fmt::format(",{}_f{}_n", f, a);
   }
-  h += ",qp_status,qp_iterations,tick_failed,manipulability,tick_us";
+  h += ",qp_status,qp_iterations,tick_failed,manipulability,tick_us,tick_page_faults,tick_context_switches";
   for (const char* b : {"base", "ee"}) {
     for (const char* a : {"x", "y", "z"}) h += fmt::format(",{}_r{}_rad", b, a);
   }
@@ -237,7 +247,7 @@ std::string WbcAdapter::csv_columns() const {
 void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   if (!ticked_) {
     row += ",0";
-    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5 + 6 + 12 + 3 * kFeet + 3 + 6 + 3 + 3; ++i) row += ",0";
+    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5 + 2 + 6 + 12 + 3 * kFeet + 3 + 6 + 3 + 3; ++i) row += ",0";
     return;
   }
   const wbc::WbcOutput& o = control_->output();
@@ -286,6 +296,10 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
     ++estimator_samples_;
   }
   tick_us_all_.push_back(tick_us_);
+  if (tick_us_ > slowest_.tick_us) {
+    slowest_ = {tick_us_, truth.time_s, tick_faults_, tick_switches_, o.qp_iterations, o.qp_from_hint};
+  }
+  qp_iterations_all_.push_back(o.qp_iterations);
   const bool failed = status_ != control::TickStatus::ok;
   if (failed) ++failed_ticks_;
   if (o.qp_from_hint) ++qp_from_hint_ticks_;
@@ -325,6 +339,8 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   row += failed ? ",1" : ",0";
   put(row, o.manipulability);
   put(row, tick_us_);
+  put(row, tick_faults_);
+  put(row, tick_switches_);
   for (int a = 6; a < 12; ++a) put(row, s.measured[a]);
   for (double v : o.base_wrench_desired) put(row, v);
   for (double v : o.base_wrench_applied) put(row, v);
@@ -486,8 +502,19 @@ std::string WbcAdapter::summary_fields() const {
   } else {
     j += "  \"estimator\": null,\n";
   }
-  j += fmt::format("  \"tick_us\": {{\"median\": {:.3f}, \"p99\": {:.3f}, \"max\": {:.3f}}},\n",
-                   percentile(tick_us_all_, 0.5), percentile(tick_us_all_, 0.99), percentile(tick_us_all_, 1.0));
+  // The slowest tick and what it met: a page fault or a context switch during it (the OS),
+  // else a solve of more QP iterations than the run's p99 (the QP's worst case), else neither.
+  const double iterations_p99 = percentile(qp_iterations_all_, 0.99);
+  const char* cause = slowest_.faults > 0                          ? "page_fault"
+                      : slowest_.switches > 0                      ? "context_switch"
+                      : slowest_.qp_iterations > iterations_p99 ? "qp_solve"
+                                                                   : "unattributed";
+  j += fmt::format("  \"tick_us\": {{\"median\": {:.3f}, \"p99\": {:.3f}, \"max\": {:.3f}, \"max_at_s\": {:.3f}, "
+                   "\"max_cause\": \"{}\", \"max_page_faults\": {}, \"max_context_switches\": {}, "
+                   "\"max_qp_iterations\": {}, \"max_qp_from_hint\": {}}},\n",
+                   percentile(tick_us_all_, 0.5), percentile(tick_us_all_, 0.99), percentile(tick_us_all_, 1.0),
+                   slowest_.time_s, cause, slowest_.faults, slowest_.switches, slowest_.qp_iterations,
+                   slowest_.qp_from_hint ? "true" : "false");
   return j;
 }
 

@@ -111,6 +111,17 @@ class WbcAdapter final : public Controller {
   double tick_us_ = 0.0;
   std::vector<Sample> samples_;
   std::vector<double> tick_us_all_;
+  std::vector<double> qp_iterations_all_;
+  int tick_faults_ = 0;    // page faults (minor + major) of the thread during this tick
+  int tick_switches_ = 0;  // its context switches (voluntary + involuntary) during it
+  struct SlowTick {
+    double tick_us = 0.0;
+    double time_s = 0.0;
+    int faults = 0;
+    int switches = 0;
+    int qp_iterations = 0;
+    bool qp_from_hint = false;
+  } slowest_;
   double max_torque_ratio_ = 0.0;
   std::array<std::uint64_t, kNj> torque_limit_ticks_{};   // |tau| >= kAtLimit of the limit, per joint
   std::uint64_t any_torque_limit_ticks_ = 0;              // ticks with some joint there
