@@ -23,11 +23,6 @@ constexpr const char* kFootNames[kFeet] = {"lf", "rf", "lh", "rh"};
 // A joint is "at its torque limit" from this fraction of it on.
 constexpr double kAtLimit = 0.99;
 
-// The rotation vector of r (angle times axis).
-Vec3 rotation_vector(const Mat3& r) {
-  const Eigen::AngleAxisd aa(r);
-  return aa.angle() * aa.axis();
-}
 // An axis is scored only if the template's peak-to-peak there exceeds this
 // fraction of the largest peak-to-peak over the six axes (else `null`).
 constexpr double kMovingAxisFraction = 0.05;
@@ -269,8 +264,8 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
     // From the rest pose's orientations: the base's (it turns when walking) and the hand's (it
     // turns with it, and with a hand pose command).
     const Mat3 rot = Quat(truth.q[6], truth.q[3], truth.q[4], truth.q[5]).normalized().toRotationMatrix();
-    const Vec3 rb = rotation_vector(rot * ref.base_rotation.transpose());
-    const Vec3 re = rotation_vector(data_->frames[kEeFrame].rotation * ref.ee_rotation.transpose());
+    const Vec3 rb = wbc::so3_log(rot * ref.base_rotation.transpose());
+    const Vec3 re = wbc::so3_log(data_->frames[kEeFrame].rotation * ref.ee_rotation.transpose());
     const Vec3 tb_r = rotational_template_ ? rotational_template_->base_m() : Vec3::Zero();
     const Vec3 te_r = rotational_template_ ? rotational_template_->ee_m() : Vec3::Zero();
     for (int a = 0; a < 3; ++a) {
@@ -353,7 +348,7 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   for (int a = 6; a < 12; ++a) put(row, s.reference[a]);
   for (int a = 0; a < 3; ++a) put(row, s.torque_world_nm[a]);
   // The hand's rest orientation from the engaged one (world; it turns with a hand pose command).
-  const Vec3 rest_r = rotation_vector(ref.ee_rotation * control_->wbc().engaged_reference().ee_rotation.transpose());
+  const Vec3 rest_r = wbc::so3_log(ref.ee_rotation * control_->wbc().engaged_reference().ee_rotation.transpose());
   for (int a = 0; a < 3; ++a) put(row, rest_r[a]);
 }
 

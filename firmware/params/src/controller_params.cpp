@@ -16,20 +16,36 @@ constexpr double kTiny = 1e-6;
 // A number or [x, y, z].
 bool triple(const Field& f, Vec3& out, double lo, double hi) { return f.vector<3>(out, lo, hi, true); }
 
-void read_template(const Field& f, wbc::TemplateParams& t) {
+// A template part, a number or [x, y, z], within the range live tuning also checks.
+bool template_part(const Field& f, Vec3& out, control::TuningRequest::Part part) {
+  const control::TuningRange& range = control::kTemplateRanges[part];
+  return triple(f, out, range.lo, range.hi);
+}
+
+// A template's two bodies, `base: {..}` and `ee: {..}`, each with exactly `keys`, all required.
+struct TwoBodies {
+  Field base, ee;
+};
+TwoBodies two_bodies(const Field& f, const std::array<std::string_view, 3>& keys) {
   f.allow_only({"base", "ee"});
-  const Field base = f["base"], ee = f["ee"];
-  for (const Field* part : {&base, &ee}) {
+  TwoBodies parts{f["base"], f["ee"]};
+  for (const Field* part : {&parts.base, &parts.ee}) {
     if (!part->require()) continue;
-    part->allow_only({"mass", "damping", "stiffness"});
-    for (const char* key : {"mass", "damping", "stiffness"}) (*part)[key].require();
+    part->allow_only(keys);
+    for (const std::string_view key : keys) (*part)[key].require();
   }
-  triple(base["mass"], t.mass_base_kg, kTiny, 1e5);
-  triple(base["damping"], t.damping_base_ns_per_m, 0.0, 1e6);
-  triple(base["stiffness"], t.stiffness_base_n_per_m, kTiny, 1e7);
-  triple(ee["mass"], t.mass_ee_kg, kTiny, 1e4);
-  triple(ee["damping"], t.damping_ee_ns_per_m, 0.0, 1e6);
-  triple(ee["stiffness"], t.stiffness_ee_n_per_m, kTiny, 1e7);
+  return parts;
+}
+
+void read_template(const Field& f, wbc::TemplateParams& t) {
+  using P = control::TuningRequest;
+  const auto [base, ee] = two_bodies(f, {"mass", "damping", "stiffness"});
+  template_part(base["mass"], t.mass_base_kg, P::base_mass);
+  template_part(base["damping"], t.damping_base_ns_per_m, P::base_damping);
+  template_part(base["stiffness"], t.stiffness_base_n_per_m, P::base_stiffness);
+  template_part(ee["mass"], t.mass_ee_kg, P::ee_mass);
+  template_part(ee["damping"], t.damping_ee_ns_per_m, P::ee_damping);
+  template_part(ee["stiffness"], t.stiffness_ee_n_per_m, P::ee_stiffness);
 }
 
 // `word` (e.g. auto, current) or what `read` takes; true when `read` took a value.
@@ -42,21 +58,17 @@ bool word_or(const Field& f, const char* word, Read&& read) {
 // rotational_template: {base: {inertia: auto | I, damping, stiffness}, ee: {inertia, damping, stiffness}};
 // each a number or [x, y, z] (kg m^2, N m s/rad, N m/rad). Present: the template is on.
 void read_rotational_template(const Field& f, wbc::RotationalTemplateParams& t) {
-  f.allow_only({"base", "ee"});
-  const Field base = f["base"], ee = f["ee"];
-  for (const Field* part : {&base, &ee}) {
-    if (!part->require()) continue;
-    part->allow_only({"inertia", "damping", "stiffness"});
-    for (const char* key : {"inertia", "damping", "stiffness"}) (*part)[key].require();
-  }
+  using P = control::TuningRequest;
+  const auto [base, ee] = two_bodies(f, {"inertia", "damping", "stiffness"});
+  // The base's inertia is not tuned live (the WBC resolves `auto` at engagement).
   if (!word_or(base["inertia"], "auto", [&] { return triple(base["inertia"], t.inertia_base_kgm2, kTiny, 1e4); })) {
     t.inertia_base_kgm2.setZero();  // the composite inertia at the reference pose
   }
-  triple(base["damping"], t.damping_base_nms_per_rad, 0.0, 1e5);
-  triple(base["stiffness"], t.stiffness_base_nm_per_rad, kTiny, 1e6);
-  triple(ee["inertia"], t.inertia_ee_kgm2, kTiny, 1e3);
-  triple(ee["damping"], t.damping_ee_nms_per_rad, 0.0, 1e4);
-  triple(ee["stiffness"], t.stiffness_ee_nm_per_rad, kTiny, 1e5);
+  template_part(base["damping"], t.damping_base_nms_per_rad, P::rot_base_damping);
+  template_part(base["stiffness"], t.stiffness_base_nm_per_rad, P::rot_base_stiffness);
+  template_part(ee["inertia"], t.inertia_ee_kgm2, P::rot_ee_inertia);
+  template_part(ee["damping"], t.damping_ee_nms_per_rad, P::rot_ee_damping);
+  template_part(ee["stiffness"], t.stiffness_ee_nm_per_rad, P::rot_ee_stiffness);
 }
 
 }  // namespace

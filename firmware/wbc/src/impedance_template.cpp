@@ -10,13 +10,10 @@
 
 namespace springbok::wbc {
 
-namespace {
-// The rotation vector of r (log map).
-Eigen::Vector3d log_map(const Eigen::Matrix3d& r) noexcept {
+Eigen::Vector3d so3_log(const Eigen::Matrix3d& r) noexcept {
   const Eigen::AngleAxisd aa(r);
   return aa.angle() * aa.axis();
 }
-}  // namespace
 
 TemplateAxes template_axes(const TemplateParams& p) {
   TemplateAxes axes{};
@@ -42,8 +39,8 @@ RotationalTemplateState rotational_template_state(const Eigen::Matrix3d& r_base,
                                                   const Eigen::Vector3d& w_ee, const Eigen::Vector3d& w_ee_rest) noexcept {
   const Eigen::Matrix3d base_turn = r_base * r_base_rest.transpose();
   RotationalTemplateState s;
-  s.base_rad = log_map(base_turn);
-  s.ee_from_base_rad = log_map(r_ee * (base_turn * r_ee_rest).transpose());
+  s.base_rad = so3_log(base_turn);
+  s.ee_from_base_rad = so3_log(r_ee * (base_turn * r_ee_rest).transpose());
   s.base_rate_rad_s = w_base - w_rest;
   s.ee_from_base_rate_rad_s = (w_ee - w_ee_rest) - (w_base - w_rest);
   return s;
@@ -65,12 +62,17 @@ Eigen::Vector3d so3_left_jacobian_rate(const Eigen::Vector3d& phi, const Eigen::
   //   (d/dt J_l) phi' = (phi . phi') (a'/t  phi x phi' + b'/t  phi x (phi x phi')) + b phi' x (phi x phi').
   const double theta2 = phi.squaredNorm();
   const double theta = std::sqrt(theta2);
-  const double s = std::sin(theta), c = std::cos(theta);
-  const bool small = theta < 1e-2;  // the closed forms cancel below: their series to t^2
-  const double b = theta < 1e-4 ? 1.0 / 6.0 - theta2 / 120.0 : (theta - s) / (theta2 * theta);
-  const double da = small ? -1.0 / 12.0 + theta2 / 180.0 : (theta * s - 2.0 * (1.0 - c)) / (theta2 * theta2);
-  const double db = small ? -1.0 / 60.0 + theta2 / 1260.0
-                          : (theta * (1.0 - c) - 3.0 * (theta - s)) / (theta2 * theta2 * theta);
+  // Below 1e-2 the closed forms cancel: their series to t^2 (and no sin, cos: a hand that does
+  // not turn, phi = 0, costs no transcendental call).
+  double b = 1.0 / 6.0 - theta2 / 120.0, da = -1.0 / 12.0 + theta2 / 180.0, db = -1.0 / 60.0 + theta2 / 1260.0;
+  if (theta >= 1e-4) {
+    const double s = std::sin(theta), c = std::cos(theta);
+    b = (theta - s) / (theta2 * theta);
+    if (theta >= 1e-2) {
+      da = (theta * s - 2.0 * (1.0 - c)) / (theta2 * theta2);
+      db = (theta * (1.0 - c) - 3.0 * (theta - s)) / (theta2 * theta2 * theta);
+    }
+  }
   const Eigen::Vector3d cross = phi.cross(phi_rate);
   return phi.dot(phi_rate) * (da * cross + db * phi.cross(cross)) + b * phi_rate.cross(cross);
 }

@@ -14,12 +14,6 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// The rotation vector of R (log map), robust near 0 and pi.
-Vec3 log_so3(const Mat3& r) noexcept {
-  const Eigen::AngleAxisd aa(r);
-  return aa.angle() * aa.axis();
-}
-
 int foot_var(int foot) noexcept { return kNv + kFootVars * foot; }
 
 using HessianFactor = std::array<double, static_cast<std::size_t>(kQpVars) * kQpVars>;
@@ -148,7 +142,7 @@ void WholeBodyController::base_task(const WbcInput& in, const dyn::Data& d, Vec6
     out_.ee_angular_acceleration_desired = ee_angular_acc + reference_.ee_angular_acceleration_rad_s2;
   } else {
     // Eq. 5: a rotational PD towards the rest orientation.
-    const Vec3 e_r = log_so3(reference_.base_rotation * rot.transpose());
+    const Vec3 e_r = so3_log(reference_.base_rotation * rot.transpose());
     torque = params_.kr_nm_per_rad.cwiseProduct(e_r) -
              params_.dr_nms_per_rad.cwiseProduct(omega_world - reference_.base_angular_velocity_rad_s);
   }

@@ -83,7 +83,8 @@ struct TuningRequest {
   bool set_posture_kd = false;
   double ramp_s = 1.0;
 };
-// The ranges the config's reader takes (springbok::params), for the tuning's check.
+// The template's ranges, one table for the config's reader (springbok::params) and the
+// tuning's check.
 struct TuningRange {
   double lo, hi;
 };

@@ -41,6 +41,7 @@
 #pragma once
 
 #include "springbok/config/reader.hpp"
+#include "springbok/control/whole_body_control.hpp"  // kTemplateRanges: the template's ranges, one table
 #include "springbok/estimation/base_estimator.hpp"
 #include "springbok/gait/trot.hpp"
 #include "springbok/wbc/whole_body_controller.hpp"

@@ -112,6 +112,9 @@ RotationalTemplateState rotational_template_state(const Eigen::Matrix3d& r_base,
                                                   const Eigen::Matrix3d& r_ee, const Eigen::Matrix3d& r_ee_rest,
                                                   const Eigen::Vector3d& w_base, const Eigen::Vector3d& w_rest,
                                                   const Eigen::Vector3d& w_ee, const Eigen::Vector3d& w_ee_rest) noexcept;
+// The rotation vector of r (the log map of SO(3), robust near 0 and pi). rt: no alloc
+Eigen::Vector3d so3_log(const Eigen::Matrix3d& r) noexcept;
+
 // The left Jacobian of SO(3): the angular velocity of exp(phi), in the axes phi is in, is
 // J_l(phi) d phi / dt. rt: no alloc
 Eigen::Matrix3d so3_left_jacobian(const Eigen::Vector3d& phi) noexcept;
