@@ -51,7 +51,9 @@ WholeBodyController::WholeBodyController(const WbcParams& params)
       solver_(std::make_unique<WbcSolver>()),
       problem_(std::make_unique<WbcSolver::ProblemType>()),
       result_(std::make_unique<WbcSolver::ResultType>()),
-      warm_start_(std::make_unique<qp::ActiveSet<kQpIn>>()) {}
+      warm_start_(std::make_unique<qp::ActiveSet<kQpIn>>()),
+      switch_hint_(std::make_unique<qp::ActiveSet<kQpIn>>()),
+      mode_sets_(std::make_unique<std::array<qp::ActiveSet<kQpIn>, 1 << kFeet>>()) {}
 
 WholeBodyController::~WholeBodyController() = default;
 
@@ -72,6 +74,7 @@ void WholeBodyController::set_reference(const VecNq& q, dyn::Data& data) noexcep
   const Mat3 inertia_trunk = reference_.base_rotation.transpose() * inertia_world * reference_.base_rotation;
   for (int i = 0; i < 3; ++i) base_inertia_diag_[i] = given[i] > 0.0 ? given[i] : inertia_trunk(i, i);
   have_warm_start_ = false;
+  have_mode_set_.fill(false);
 }
 
 void WholeBodyController::move_reference(const PlanarMotion& m) noexcept {
@@ -258,12 +261,28 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
   beq.head<6>() = -d.nle.head<6>() + d.J_ee.leftCols<6>().transpose() * wrench_ee_world_;
   int row = 6;
   for (int f = 0; f < kFeet; ++f) {
-    if (!in.state.stance[f]) continue;
-    const RollingContact& c = contact_[f];
-    aeq.block<6, 3>(0, foot_var(f)) = -c.jacobian.leftCols<6>().transpose();
-    // Stance feet roll without slipping: J_c udot + bias = 0.
-    aeq.block<3, kNv>(row, 0) = c.jacobian;
-    beq.segment<3>(row) = -c.bias_m_s2;
+    if (in.state.stance[f]) {
+      const RollingContact& c = contact_[f];
+      aeq.block<6, 3>(0, foot_var(f)) = -c.jacobian.leftCols<6>().transpose();
+      // Stance feet roll without slipping: J_c udot + bias = 0.
+      aeq.block<3, kNv>(row, 0) = c.jacobian;
+      beq.segment<3>(row) = -c.bias_m_s2;
+      row += 3;
+      continue;
+    }
+    // Swing: the foot relative to the trunk, rho = R^T (p_f - p_b), follows a PD; the slack s
+    // takes what the other tasks leave of it, J_rho qdd_leg + bias - s = rho''^d, and costs
+    // reg_slack |s|^2: the task in the cost, as a soft equality. (As -s <= e <= s, the same
+    // optimum, one row of each pair was active and flipped side with the sign of the foot's
+    // error: the QP's active set changed on most swing ticks.)
+    const SwingKinematics& k = swing_[f];
+    const SwingTarget& target = in.swing[f];
+    const Vec3 rho_ddot_des = target.acceleration_m_s2 +
+                              params_.swing_kp_per_s2.cwiseProduct(target.position_m - k.position_m) +
+                              params_.swing_kd_per_s.cwiseProduct(target.velocity_m_s - k.velocity_m_s);
+    aeq.block<3, kLegJoints>(row, 6 + leg_first_joint(f)) = k.jacobian;
+    aeq.block<3, 3>(row, foot_var(f)) = -Mat3::Identity();
+    beq.segment<3>(row) = rho_ddot_des - k.bias_m_s2;
     row += 3;
   }
   const int meq = row;
@@ -305,50 +324,25 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
   }
   const double mu = params_.friction_mu / std::sqrt(2.0);  // pyramid inscribed in the cone
   for (int f = 0; f < kFeet; ++f) {
+    if (!in.state.stance[f]) continue;
     const int c = foot_var(f);
-    if (in.state.stance[f]) {
-      for (int t = 0; t < 2; ++t) {  // |f_t| <= mu f_n as two rows each
-        ain(row, c + t) = 1.0;
-        ain(row, c + 2) = -mu;
-        lb[row] = -kInf;
-        ub[row] = 0.0;
-        ++row;
-        ain(row, c + t) = 1.0;
-        ain(row, c + 2) = mu;
-        lb[row] = 0.0;
-        ub[row] = kInf;
-        ++row;
-      }
-      ain(row, c + 2) = 1.0;
-      lb[row] = params_.normal_force_min_n;
-      const double cap = in.normal_force_cap_n[f];
-      ub[row] = std::max(params_.normal_force_min_n, cap < params_.normal_force_max_n ? cap : params_.normal_force_max_n);
-      ++row;
-      continue;
-    }
-    // Swing: the foot relative to the trunk, rho = R^T (p_f - p_b), follows a PD with slack:
-    //   -s <= J_rho qdd_leg + bias - rho''^d <= s.
-    const int leg_col = 6 + leg_first_joint(f);
-    const SwingKinematics& k = swing_[f];
-    const SwingTarget& target = in.swing[f];
-    const Vec3 rho_ddot_des = target.acceleration_m_s2 +
-                              params_.swing_kp_per_s2.cwiseProduct(target.position_m - k.position_m) +
-                              params_.swing_kd_per_s.cwiseProduct(target.velocity_m_s - k.velocity_m_s);
-    const Mat3Leg& j_rel = k.jacobian;
-    const Vec3& bias = k.bias_m_s2;
-    for (int k = 0; k < 3; ++k) {
-      const double rhs = rho_ddot_des[k] - bias[k];
-      ain.block<1, kLegJoints>(row, leg_col) = j_rel.row(k);
-      ain(row, c + k) = -1.0;
+    for (int t = 0; t < 2; ++t) {  // |f_t| <= mu f_n as two rows each
+      ain(row, c + t) = 1.0;
+      ain(row, c + 2) = -mu;
       lb[row] = -kInf;
-      ub[row] = rhs;
+      ub[row] = 0.0;
       ++row;
-      ain.block<1, kLegJoints>(row, leg_col) = j_rel.row(k);
-      ain(row, c + k) = 1.0;
-      lb[row] = rhs;
+      ain(row, c + t) = 1.0;
+      ain(row, c + 2) = mu;
+      lb[row] = 0.0;
       ub[row] = kInf;
       ++row;
     }
+    ain(row, c + 2) = 1.0;
+    lb[row] = params_.normal_force_min_n;
+    const double cap = in.normal_force_cap_n[f];
+    ub[row] = std::max(params_.normal_force_min_n, cap < params_.normal_force_max_n ? cap : params_.normal_force_max_n);
+    ++row;
   }
   p.resize(kQpVars, meq, row);
 }
@@ -379,6 +373,63 @@ void WholeBodyController::torques_from_solution(const WbcInput& in, const dyn::D
   }
 }
 
+namespace {
+
+// The inequality rows' layout (build_qp): the joints' acceleration and torque rows, then each
+// stance foot's 5 (friction pyramid, normal force); a swing foot has none.
+constexpr int kJointRows = 2 * kNj;
+constexpr int foot_rows(bool stance) noexcept { return stance ? 5 : 0; }
+int first_foot_row(const Stance& stance, int foot) noexcept {
+  int row = kJointRows;
+  for (int f = 0; f < foot; ++f) row += foot_rows(stance[f]);
+  return row;
+}
+int foot_of_row(const Stance& stance, int row) noexcept {
+  for (int f = 0; f < kFeet; ++f) {
+    row -= foot_rows(stance[f]);
+    if (row < kJointRows) return f;
+  }
+  return -1;
+}
+unsigned stance_mask(const Stance& stance) noexcept {
+  unsigned mask = 0;
+  for (int f = 0; f < kFeet; ++f) mask |= stance[f] ? 1u << f : 0u;
+  return mask;
+}
+
+}  // namespace
+
+// At a contact switch the last tick's active set no longer fits the rows: the joints' rows keep
+// their places, a foot that kept its state keeps its rows (moved by the switched feet's row
+// counts before it), and a switched foot takes its rows from the set last solved with this
+// stance (a trot's diagonals return every cycle). Only a hint: the solver checks it.
+void WholeBodyController::switch_hint(const Stance& stance) noexcept {
+  const unsigned last = stance_mask(last_stance_), now = stance_mask(stance);
+  (*mode_sets_)[last] = *warm_start_;
+  have_mode_set_[last] = true;
+  qp::ActiveSet<kQpIn>& hint = *switch_hint_;
+  hint.clear();
+  for (int e = 0; e < warm_start_->size; ++e) {
+    const int row = warm_start_->row[static_cast<std::size_t>(e)];
+    const qp::Side side = warm_start_->side[static_cast<std::size_t>(e)];
+    if (row < kJointRows) {
+      hint.push(row, side);
+      continue;
+    }
+    const int f = foot_of_row(last_stance_, row);
+    if (f < 0 || stance[f] != last_stance_[f]) continue;
+    hint.push(first_foot_row(stance, f) + row - first_foot_row(last_stance_, f), side);
+  }
+  if (!have_mode_set_[now]) return;
+  const qp::ActiveSet<kQpIn>& seen = (*mode_sets_)[now];
+  for (int e = 0; e < seen.size; ++e) {
+    const int row = seen.row[static_cast<std::size_t>(e)];
+    if (row < kJointRows) continue;
+    const int f = foot_of_row(stance, row);
+    if (f >= 0 && stance[f] != last_stance_[f]) hint.push(row, seen.side[static_cast<std::size_t>(e)]);
+  }
+}
+
 const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& d) noexcept {
   for (int f = 0; f < kFeet; ++f) {
     if (in.state.stance[f]) {
@@ -404,7 +455,12 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& 
   // (the per-foot rows keep their places); the solver checks it and falls back cold.
   // The Hessian's factor is cheap from its structure: the solver skips its Cholesky.
   WbcSolver::Hint hint;
-  if (have_warm_start_ && in.state.stance == last_stance_) hint.active_set = warm_start_.get();
+  if (have_warm_start_ && in.state.stance == last_stance_) {
+    hint.active_set = warm_start_.get();
+  } else if (have_warm_start_) {
+    switch_hint(in.state.stance);
+    hint.active_set = switch_hint_.get();
+  }
   HessianFactor hessian_factor;
   if (factor_qp_hessian(*problem_, hessian_factor)) hint.cholesky_lower = hessian_factor.data();
   qp::Status status = solver_->solve(*problem_, *result_, hint);

@@ -15,10 +15,12 @@
 //  4. one QP (eq. 6) over xi = [udot (25); 3 per foot] where a foot's three
 //     variables are its ground force when in stance and its swing-task slack
 //     when in swing, so the sizes never change, only which rows are live:
-//       equalities   floating-base dynamics (6), stance feet do not accelerate (3 each)
-//       inequalities swing task with slack (6 per swing foot), friction pyramid and
-//                    normal-force bounds (5 per stance foot), joint-acceleration
-//                    bounds (eq. 17, 19, and the joints' velocity limits), torque limits (19);
+//       equalities   floating-base dynamics (6), stance feet do not accelerate (3 each),
+//                    swing feet's task with its slack (3 each: J qdd + b - s = rho''^d,
+//                    s penalised: the task in the cost, s = the task's error)
+//       inequalities joint-acceleration bounds (eq. 17, 19, and the joints' velocity
+//                    limits), torque limits (19), friction pyramid and normal-force bounds
+//                    (5 per stance foot);
 //  5. torques by eq. 19. If the QP fails the tick says so (`failed`), counts it
 //     and leaves the torques of the last solved tick: the safety supervisor alone
 //     decides what a failed tick commands.
@@ -50,7 +52,7 @@ inline constexpr int kArmCol = 6 + kFirstArmJoint;       // first arm column of 
 inline constexpr int kFootVars = 3;                      // force (stance) or slack (swing)
 inline constexpr int kQpVars = kNv + kFootVars * kFeet;  // 37
 inline constexpr int kQpEq = 6 + 3 * kFeet;              // 18
-inline constexpr int kQpIn = 6 * kFeet + 2 * kNj;        // 62 (all feet in swing)
+inline constexpr int kQpIn = 2 * kNj + 5 * kFeet;        // 58 (all feet in stance)
 using WbcSolver = qp::Solver<kQpVars, kQpEq, kQpIn>;
 using VecArm = Vec<kArmDofs>;
 
@@ -283,7 +285,14 @@ class WholeBodyController {
   std::unique_ptr<WbcSolver> solver_;
   std::unique_ptr<WbcSolver::ProblemType> problem_;
   std::unique_ptr<WbcSolver::ResultType> result_;
+  // The warm start: the last tick's active set; at a contact switch its rows translated to
+  // the new layout (feet that kept their state), the switched feet's rows from the set last
+  // seen with the new stance (mode_sets_, by stance mask).
+  void switch_hint(const Stance& stance) noexcept;
   std::unique_ptr<qp::ActiveSet<kQpIn>> warm_start_;
+  std::unique_ptr<qp::ActiveSet<kQpIn>> switch_hint_;
+  std::unique_ptr<std::array<qp::ActiveSet<kQpIn>, 1 << kFeet>> mode_sets_;
+  std::array<bool, 1 << kFeet> have_mode_set_{};
   Stance last_stance_ = kAllFeet;
   bool have_warm_start_ = false;
   std::array<RollingContact, kFeet> contact_{};  // this tick's stance feet
