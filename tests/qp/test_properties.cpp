@@ -467,6 +467,61 @@ TEST_F(QpProperties, RandomBadInputsNeverCrash) {
   }
 }
 
+// A hint one row off is repaired in the shortcut (solver.hpp: kShortcutRepairs): a missing
+// active row is added, a row whose multiplier has the wrong sign is dropped, and the answer is
+// the cold one; a hint further off goes to the full method, with the same answer.
+// min 1/2 |x|^2 - 2 (x0 + x1 + x2)  s.t.  x0 <= 1, x1 <= 1, x2 <= 5, x0 + x1 + x2 >= -10:
+// x* = (1, 1, 2), the first two rows active with multipliers 1.
+TEST(QpHint, AHintOneRowOffIsRepairedInTheShortcut) {
+  using Small = springbok::qp::Solver<3, 0, 4>;
+  auto solver = std::make_unique<Small>();
+  auto problem = std::make_unique<Small::ProblemType>();
+  auto result = std::make_unique<Small::ResultType>();
+  problem->resize(3, 0, 4);
+  for (int i = 0; i < 3; ++i) problem->H()(i, i) = 1.0;
+  problem->g() << -2.0, -2.0, -2.0;
+  problem->Ain() << 1.0, 0.0, 0.0,  //
+      0.0, 1.0, 0.0,                //
+      0.0, 0.0, 1.0,                //
+      1.0, 1.0, 1.0;
+  const double inf = springbok::qp::kInfiniteBound;
+  problem->lb() << -inf, -inf, -inf, -10.0;
+  problem->ub() << 1.0, 1.0, 5.0, inf;
+  const auto expect_optimum = [&](const char* what) {
+    EXPECT_NEAR(result->x[0], 1.0, 1e-12) << what;
+    EXPECT_NEAR(result->x[1], 1.0, 1e-12) << what;
+    EXPECT_NEAR(result->x[2], 2.0, 1e-12) << what;
+    EXPECT_NEAR(std::abs(result->lambda_in[0]), 1.0, 1e-12) << what;
+    EXPECT_NEAR(std::abs(result->lambda_in[1]), 1.0, 1e-12) << what;
+    EXPECT_EQ(result->lambda_in[2], 0.0) << what;
+    EXPECT_EQ(result->lambda_in[3], 0.0) << what;
+  };
+  ASSERT_EQ(solver->solve(*problem, *result), Status::optimal);
+  expect_optimum("cold");
+  springbok::qp::ActiveSet<4> set;
+  Small::Hint hint;
+  hint.active_set = &set;
+
+  set.push(0, Side::upper);  // row 1 missing: added
+  ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal);
+  EXPECT_TRUE(result->from_hint);
+  EXPECT_EQ(result->iterations, 1);
+  expect_optimum("row 1 added");
+
+  set.push(1, Side::upper);
+  set.push(2, Side::upper);  // x2 <= 5 held active pulls x2 up: its multiplier's sign is wrong
+  ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal);
+  EXPECT_TRUE(result->from_hint);
+  EXPECT_EQ(result->iterations, 1);
+  expect_optimum("row 2 dropped");
+
+  set.clear();
+  set.push(2, Side::upper);  // three repairs away (drop 2, add 0, add 1): the full method
+  ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal);
+  EXPECT_FALSE(result->from_hint);
+  expect_optimum("full method");
+}
+
 // A hint that repeats a row (here as often as the hint holds entries) on a solver whose
 // equality block has no room for more rows than ME + MI: the shortcut must see the
 // dependence (or the lack of room) and leave it to the full method, which skips repeats.

@@ -763,17 +763,64 @@ class Solver {
   // squares B's conditioning), a wrong sign, a violated row - falls back to the full
   // method (which starts from the same hint). On a tick whose active set did not
   // change this skips the QR of the equality block and the GI machinery.
+  //
+  // A hint that is one or two rows off (a row that became active since the last tick, or one
+  // that left: a wrong sign) is repaired here, up to kShortcutRepairs times: the most violated
+  // row joins the set on its violated side, or the hinted row with the most negative signed
+  // multiplier leaves it, and the set is solved again. A repaired set's answer passes the same
+  // checks (and so is the QP's unique minimiser); result.iterations counts the repairs.
   enum class Shortcut : std::uint8_t { solved, fallback };
+  static constexpr int kShortcutRepairs = 2;
   Shortcut solve_on_hinted_set(const ActiveSet<MI>& hint, ResultType& result, Status& status) noexcept {
-    const ProblemType& p = *p_;
-    load_equalities();
-    if (me_ > n_) return Shortcut::fallback;
-    int cols = me_;
+    int size = 0;
     const int count = std::min(hint.size, MI);
     for (int e = 0; e < count; ++e) {
       const int row = hint.row[static_cast<std::size_t>(e)];
       const int sigma = hinted_sigma(row, hint.side[static_cast<std::size_t>(e)]);
       if (sigma == 0) continue;
+      if (size >= N) return Shortcut::fallback;  // more active rows than variables are dependent
+      set_row_[size] = row;
+      set_sigma_[size] = static_cast<std::int8_t>(sigma);
+      ++size;
+    }
+    for (int repair = 0;; ++repair) {
+      SetRepair fix;
+      if (solve_on_set(size, result, status, fix) == Shortcut::solved) return Shortcut::solved;
+      if (fix.kind == SetRepair::Kind::none || repair == kShortcutRepairs) return Shortcut::fallback;
+      if (fix.kind == SetRepair::Kind::add) {
+        if (size >= N) return Shortcut::fallback;
+        set_row_[size] = fix.row;
+        set_sigma_[size] = fix.sigma;
+        ++size;
+      } else {  // drop the set's entry fix.row
+        for (int k = fix.row; k + 1 < size; ++k) {
+          set_row_[k] = set_row_[k + 1];
+          set_sigma_[k] = set_sigma_[k + 1];
+        }
+        --size;
+      }
+      ++iterations_;
+    }
+  }
+
+  // What would make a failed set fit: a row to add (on side sigma) or the set's entry `row`
+  // to drop; none: fall back to the full method.
+  struct SetRepair {
+    enum class Kind : std::uint8_t { none, add, drop } kind = Kind::none;
+    int row = -1;
+    std::int8_t sigma = 0;
+  };
+
+  // The set_row_ / set_sigma_ rows (their first `size`) and the equalities taken as active.
+  Shortcut solve_on_set(int size, ResultType& result, Status& status, SetRepair& fix) noexcept {
+    const ProblemType& p = *p_;
+    g_reduced_at_ = -1;  // until this attempt's L^-1 [E' A_h' g] is in place
+    load_equalities();
+    if (me_ > n_) return Shortcut::fallback;
+    int cols = me_;
+    for (int e = 0; e < size; ++e) {
+      const int row = set_row_[e];
+      const int sigma = set_sigma_[e];
       // More active rows than variables are dependent; a hint that repeats rows could
       // also outgrow the block's columns (kMaxEqRows, g after them).
       if (cols >= n_ || cols >= kMaxEqRows) return Shortcut::fallback;
@@ -822,8 +869,22 @@ class Solver {
       step_[j] = -step_[j];
     }
     dense::gemv_sub_chunks(bcol(0), kLd, np_, cols, step_.data(), v);
-    for (int j = me_; j < cols; ++j)
-      if (static_cast<double>(hinted_side_[j]) * lam_[j] < 0.0) return Shortcut::fallback;
+    {
+      int worst = -1;
+      double worst_lam = 0.0;
+      for (int j = me_; j < cols; ++j) {
+        const double signed_lam = static_cast<double>(hinted_side_[j]) * lam_[j];
+        if (signed_lam < worst_lam) {
+          worst_lam = signed_lam;
+          worst = j;
+        }
+      }
+      if (worst >= 0) {
+        fix.kind = SetRepair::Kind::drop;
+        fix.row = worst - me_;  // the set's entries fill columns me_ .. cols-1 in order
+        return Shortcut::fallback;
+      }
+    }
     // x = L^-T v (permuted back).
     double* y = xp_.data();
     std::copy_n(v, np_, y);
@@ -848,14 +909,29 @@ class Solver {
       }
     }
     const double tol = options_.feasibility_tol;
+    double worst_ratio = 0.0;
     for (int i = 0; i < mi_; ++i) {
       bool lower_side = false;
       double bound = 0.0;
       const double viol = side_violation(i, lower_side, bound);
       if (viol <= tol * bound) continue;
       const double norm = rows_checked_ || hinted_row(i, cols) ? row_norm_[i] : ain_row_norm(i);
-      if (!(viol <= tol * std::max(norm * x_norm_, bound))) return Shortcut::fallback;
+      const double scale = std::max(norm * x_norm_, bound);
+      if (viol <= tol * scale) continue;
+      // Violated: a repair adds the worst one (relative to its scale), if it can be active.
+      const double ratio = scale > 0.0 ? viol / scale : kInf;
+      if (std::isnan(ratio)) {
+        fix.kind = SetRepair::Kind::none;
+        return Shortcut::fallback;
+      }
+      if (!(ratio > worst_ratio)) continue;
+      worst_ratio = ratio;
+      const int sigma = hinted_sigma(i, lower_side ? Side::lower : Side::upper);
+      fix.kind = sigma != 0 && !hinted_row(i, cols) ? SetRepair::Kind::add : SetRepair::Kind::none;
+      fix.row = i;
+      fix.sigma = static_cast<std::int8_t>(sigma);
     }
+    if (worst_ratio > 0.0) return Shortcut::fallback;
     dense::gemv(p.aeq.data(), ME, meq_, n_, x_.data(), eq_ax_.data());
     for (int k = 0; k < cols; ++k) {
       double scale = 0.0;
@@ -1254,6 +1330,8 @@ class Solver {
   Buf<double, N> gram_min_pivot_{};                 // 1e-8 S_jj
   alignas(64) Buf<double, kLd> lam_{}, step_{}, hinted_v_{};
   Buf<std::int8_t, N> hinted_side_{};  // side of column k >= me_ of b_ (+1 lower, -1 upper)
+  Buf<int, N> set_row_{};               // the set solve_on_set takes: the hint's valid rows, repaired
+  Buf<std::int8_t, N> set_sigma_{};
 };
 
 }  // namespace springbok::qp
