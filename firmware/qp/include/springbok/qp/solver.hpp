@@ -155,6 +155,7 @@ class Solver {
   double* rcol(int j) noexcept { return r_.data() + idx(0, j, kLd); }
   double* tvec(int row) noexcept { return t_.data() + idx(0, row, kLd); }
   double* gcol(int j) noexcept { return gram_.data() + idx(0, j, kLd); }
+  double* scol(int j) noexcept { return gram_s_.data() + idx(0, j, kLd); }
 
   // ---- step 1: Cholesky ----------------------------------------------------
   // The lower triangle of H equals the one last factored with reuse_factor set.
@@ -772,78 +773,115 @@ class Solver {
   enum class Shortcut : std::uint8_t { solved, fallback };
   static constexpr int kShortcutRepairs = 2;
   Shortcut solve_on_hinted_set(const ActiveSet<MI>& hint, ResultType& result, Status& status) noexcept {
-    int size = 0;
+    const ProblemType& p = *p_;
+    load_equalities();
+    if (me_ > n_) return Shortcut::fallback;
+    int cols = me_;
     const int count = std::min(hint.size, MI);
     for (int e = 0; e < count; ++e) {
       const int row = hint.row[static_cast<std::size_t>(e)];
       const int sigma = hinted_sigma(row, hint.side[static_cast<std::size_t>(e)]);
       if (sigma == 0) continue;
-      if (size >= N) return Shortcut::fallback;  // more active rows than variables are dependent
-      set_row_[size] = row;
-      set_sigma_[size] = static_cast<std::int8_t>(sigma);
-      ++size;
+      // More active rows than variables are dependent; a hint that repeats rows could
+      // also outgrow the block's columns (kMaxEqRows, g after them).
+      if (cols >= n_ || cols >= kMaxEqRows) return Shortcut::fallback;
+      load_set_row(cols++, row, sigma);
+    }
+    gather(p.gradient.data(), bcol(cols));  // g rides along: c = L^-1 g
+    solve_lower(bcol(0), kLd, cols + 1);
+    g_reduced_at_ = cols;  // a fallback's equality block starts from these columns
+    // S = B'B's lower triangle (kept: a repair changes one row and column of it).
+    const int cp = dense::padded(cols);
+    for (int j = 0; j < cols; ++j) {
+      double* sj = scol(j);
+      dense::gemv_t_chunks(bcol(j), kLd, np_, cols - j, bcol(j), sj + j);
+      std::fill(sj + cols, sj + cp, 0.0);
     }
     for (int repair = 0;; ++repair) {
       SetRepair fix;
-      if (solve_on_set(size, result, status, fix) == Shortcut::solved) return Shortcut::solved;
+      if (solve_on_set(cols, result, status, fix) == Shortcut::solved) return Shortcut::solved;
       if (fix.kind == SetRepair::Kind::none || repair == kShortcutRepairs) return Shortcut::fallback;
       if (fix.kind == SetRepair::Kind::add) {
-        if (size >= N) return Shortcut::fallback;
-        set_row_[size] = fix.row;
-        set_sigma_[size] = fix.sigma;
-        ++size;
-      } else {  // drop the set's entry fix.row
-        for (int k = fix.row; k + 1 < size; ++k) {
-          set_row_[k] = set_row_[k + 1];
-          set_sigma_[k] = set_sigma_[k + 1];
-        }
-        --size;
+        if (!add_set_column(cols, fix.row, fix.sigma)) return Shortcut::fallback;
+      } else {
+        drop_set_column(cols, fix.row);
       }
       ++iterations_;
     }
   }
 
-  // What would make a failed set fit: a row to add (on side sigma) or the set's entry `row`
-  // to drop; none: fall back to the full method.
+  // What would make a failed set fit: Ain's row to add (on side sigma), or the block's
+  // column `row` (>= me_) to drop; none: fall back to the full method.
   struct SetRepair {
     enum class Kind : std::uint8_t { none, add, drop } kind = Kind::none;
     int row = -1;
     std::int8_t sigma = 0;
   };
 
-  // The set_row_ / set_sigma_ rows (their first `size`) and the equalities taken as active.
-  Shortcut solve_on_set(int size, ResultType& result, Status& status, SetRepair& fix) noexcept {
-    const ProblemType& p = *p_;
-    g_reduced_at_ = -1;  // until this attempt's L^-1 [E' A_h' g] is in place
-    load_equalities();
-    if (me_ > n_) return Shortcut::fallback;
-    int cols = me_;
-    for (int e = 0; e < size; ++e) {
-      const int row = set_row_[e];
-      const int sigma = set_sigma_[e];
-      // More active rows than variables are dependent; a hint that repeats rows could
-      // also outgrow the block's columns (kMaxEqRows, g after them).
-      if (cols >= n_ || cols >= kMaxEqRows) return Shortcut::fallback;
-      gather_ain_row(row, bcol(cols));
-      eq_row_norm_[cols] = row_norm_[row] = std::sqrt(dense::dot_chunks(bcol(cols), bcol(cols), np_));
-      eq_rhs_[cols] = sigma > 0 ? p.lower[row] : p.upper[row];
-      eq_src_[cols] = -1 - row;
-      hinted_side_[cols] = static_cast<std::int8_t>(sigma);
-      ++cols;
+  // Ain's row `row`, active on side sigma, into the block's column k (permuted, not yet
+  // reduced by L), with its norm, right-hand side and source.
+  void load_set_row(int k, int row, int sigma) noexcept {
+    gather_ain_row(row, bcol(k));
+    eq_row_norm_[k] = row_norm_[row] = std::sqrt(dense::dot_chunks(bcol(k), bcol(k), np_));
+    eq_rhs_[k] = sigma > 0 ? p_->lower[row] : p_->upper[row];
+    eq_src_[k] = -1 - row;
+    hinted_side_[k] = static_cast<std::int8_t>(sigma);
+  }
+
+  // A repair's added row: L^-1 a into column `cols` (c moves one column right), S's new row.
+  bool add_set_column(int& cols, int row, std::int8_t sigma) noexcept {
+    if (cols >= n_ || cols >= kMaxEqRows) return false;
+    std::copy_n(bcol(cols), np_, bcol(cols + 1));
+    load_set_row(cols, row, sigma);
+    solve_lower(bcol(cols), kLd, 1);
+    const int cp = dense::padded(cols + 1);
+    for (int j = 0; j <= cols; ++j) {
+      double* sj = scol(j);
+      sj[cols] = dense::dot_chunks(bcol(j), bcol(cols), np_);
+      std::fill(sj + cols + 1, sj + cp, 0.0);
     }
-    double* c = bcol(cols);  // g rides along: c = L^-1 g
-    gather(p.gradient.data(), c);
-    solve_lower(bcol(0), kLd, cols + 1);
-    g_reduced_at_ = cols;  // a fallback's equality block starts from these columns
+    ++cols;
+    g_reduced_at_ = cols;
+    return true;
+  }
+
+  // A repair's dropped column k (me_ <= k < cols): the columns right of it and c move one
+  // left, and S loses row and column k.
+  void drop_set_column(int& cols, int k) noexcept {
+    for (int j = k; j < cols; ++j) std::copy_n(bcol(j + 1), np_, bcol(j));
+    for (int j = k; j + 1 < cols; ++j) {
+      eq_row_norm_[j] = eq_row_norm_[j + 1];
+      eq_rhs_[j] = eq_rhs_[j + 1];
+      eq_src_[j] = eq_src_[j + 1];
+      hinted_side_[j] = hinted_side_[j + 1];
+    }
+    for (int j = 0; j < k; ++j) {
+      double* sj = scol(j);
+      for (int i = k; i + 1 < cols; ++i) sj[i] = sj[i + 1];
+      sj[cols - 1] = 0.0;
+    }
+    for (int j = k; j + 1 < cols; ++j) {
+      double* dst = scol(j);
+      const double* src = scol(j + 1);
+      for (int i = j; i + 1 < cols; ++i) dst[i] = src[i + 1];
+      dst[cols - 1] = 0.0;
+    }
+    --cols;
+    g_reduced_at_ = cols;
+  }
+
+  // The block's columns 0 .. cols-1 (the equalities, then the set's rows) taken as active,
+  // L^-1 g in column cols, S in gram_s_.
+  Shortcut solve_on_set(int cols, ResultType& result, Status& status, SetRepair& fix) noexcept {
+    const ProblemType& p = *p_;
+    const double* c = bcol(cols);
     // S's lower triangle into gram_ and its Cholesky factor in the layout of H's: a
     // pivot is the part of a column's squared norm left after the columns before it,
     // and one below 1e-8 of that squared norm means dependent rows.
     const int cp = dense::padded(cols);
     for (int j = 0; j < cols; ++j) {
-      double* sj = gcol(j);
-      dense::gemv_t_chunks(bcol(j), kLd, np_, cols - j, bcol(j), sj + j);
-      std::fill(sj + cols, sj + cp, 0.0);
-      gram_min_pivot_[j] = 1e-8 * sj[j];
+      std::copy(scol(j) + j, scol(j) + cp, gcol(j) + j);
+      gram_min_pivot_[j] = 1e-8 * scol(j)[j];
     }
     if (!dense::cholesky_lower(gram_.data(), kLd, cols, 0.0, gram_inv_diag_.data(), gram_min_pivot_.data()))
       return Shortcut::fallback;
@@ -881,7 +919,7 @@ class Solver {
       }
       if (worst >= 0) {
         fix.kind = SetRepair::Kind::drop;
-        fix.row = worst - me_;  // the set's entries fill columns me_ .. cols-1 in order
+        fix.row = worst;
         return Shortcut::fallback;
       }
     }
@@ -1330,8 +1368,7 @@ class Solver {
   Buf<double, N> gram_min_pivot_{};                 // 1e-8 S_jj
   alignas(64) Buf<double, kLd> lam_{}, step_{}, hinted_v_{};
   Buf<std::int8_t, N> hinted_side_{};  // side of column k >= me_ of b_ (+1 lower, -1 upper)
-  Buf<int, N> set_row_{};               // the set solve_on_set takes: the hint's valid rows, repaired
-  Buf<std::int8_t, N> set_sigma_{};
+  alignas(64) Buf<double, kLd * N> gram_s_{};  // S = B'B itself (lower triangle), kept across repairs
 };
 
 }  // namespace springbok::qp
