@@ -29,7 +29,9 @@ void expect_no_allocation(const std::string& file) {
   hint.active_set = warm.get();
   Status cold = Status::bad_input, warm_status = Status::bad_input, short_status = Status::bad_input;
   int active = 0;
-  bool warm_direct = false, short_direct = true;
+  Status empty_status = Status::bad_input;
+  bool warm_direct = false, empty_direct = true;
+  int short_repairs = 0;
   springbok::qp::Side first_side = springbok::qp::Side::equal;
   {
     springbok::test::AllocationTrap trap;
@@ -38,14 +40,19 @@ void expect_no_allocation(const std::string& file) {
     active = warm->size;
     warm_status = solver->solve(*problem, *result, hint);  // the hinted set holds: solved on it directly
     warm_direct = result->from_hint;
-    // The hint short of its first row (an inequality row: those come first): that row
-    // is violated on the rest, the full method runs.
+    // The hint short of its first row (an inequality row: those come first): that row is
+    // violated on the rest; the shortcut's repairs run (and here and there the full method).
     first_side = warm->side[0];
     std::copy(warm->row.begin() + 1, warm->row.begin() + warm->size, warm->row.begin());
     std::copy(warm->side.begin() + 1, warm->side.begin() + warm->size, warm->side.begin());
     --warm->size;
     short_status = solver->solve(*problem, *result, hint);
-    short_direct = result->from_hint;
+    short_repairs = result->iterations;
+    // No hinted row at all: more rows to add than the shortcut repairs, the full method runs
+    // from the (empty) warm set.
+    warm->clear();
+    empty_status = solver->solve(*problem, *result, hint);
+    empty_direct = result->from_hint;
     EXPECT_EQ(trap.disarm(), 0u);
   }
   EXPECT_EQ(cold, Status::optimal);
@@ -53,8 +60,10 @@ void expect_no_allocation(const std::string& file) {
   EXPECT_TRUE(warm_direct);
   EXPECT_NE(first_side, springbok::qp::Side::equal);
   EXPECT_EQ(short_status, Status::optimal);
-  EXPECT_FALSE(short_direct);
-  EXPECT_GT(active, 0) << "pick an instance with active rows";
+  EXPECT_GE(short_repairs, 1);
+  EXPECT_EQ(empty_status, Status::optimal);
+  EXPECT_FALSE(empty_direct);
+  EXPECT_GT(active, S::kShortcutRepairs) << "pick an instance with more active rows than the shortcut repairs";
 }
 
 TEST(QpAllocation, FirmwareSizeColdAndWarm) { expect_no_allocation<64, 32, 160>("wbc_stance4_19.qp"); }

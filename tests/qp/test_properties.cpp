@@ -516,10 +516,38 @@ TEST(QpHint, AHintOneRowOffIsRepairedInTheShortcut) {
   expect_optimum("row 2 dropped");
 
   set.clear();
-  set.push(2, Side::upper);  // three repairs away (drop 2, add 0, add 1): the full method
+  set.push(2, Side::upper);  // three repairs away: drop 2, add 0, add 1
+  ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal);
+  EXPECT_TRUE(result->from_hint);
+  EXPECT_EQ(result->iterations, 3);
+  expect_optimum("three repairs");
+}
+
+// Further than kShortcutRepairs from the answer: the full method, with the same answer.
+// min 1/2 |x|^2 - 2 sum x  s.t.  x_i <= 1 (i < 6): x* = 1, every row active (multipliers 1).
+TEST(QpHint, AHintFurtherThanTheRepairsGoesToTheFullMethod) {
+  using Six = springbok::qp::Solver<6, 0, 6>;
+  static_assert(Six::kShortcutRepairs < 6, "the empty hint must be more repairs away than the shortcut makes");
+  auto solver = std::make_unique<Six>();
+  auto problem = std::make_unique<Six::ProblemType>();
+  auto result = std::make_unique<Six::ResultType>();
+  problem->resize(6, 0, 6);
+  for (int i = 0; i < 6; ++i) {
+    problem->H()(i, i) = 1.0;
+    problem->g()[i] = -2.0;
+    problem->Ain()(i, i) = 1.0;
+    problem->lb()[i] = -springbok::qp::kInfiniteBound;
+    problem->ub()[i] = 1.0;
+  }
+  springbok::qp::ActiveSet<6> empty;
+  Six::Hint hint;
+  hint.active_set = &empty;
   ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal);
   EXPECT_FALSE(result->from_hint);
-  expect_optimum("full method");
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_NEAR(result->x[static_cast<std::size_t>(i)], 1.0, 1e-12);
+    EXPECT_NEAR(std::abs(result->lambda_in[static_cast<std::size_t>(i)]), 1.0, 1e-12);
+  }
 }
 
 // A hint that repeats a row (here as often as the hint holds entries) on a solver whose
