@@ -69,6 +69,7 @@ class Solver {
     result.iterations = 0;
     result.from_hint = false;
     g_reduced_at_ = -1;
+    repaired_set_.clear();
     result.active.clear();
     result.objective = std::numeric_limits<double>::quiet_NaN();
     iterations_ = 0;
@@ -80,7 +81,9 @@ class Solver {
                           solve_on_hinted_set(*hint.active_set, result, status) == Shortcut::solved;
     if (!shortcut) {
       if (status == Status::optimal) status = eliminate_equalities();
-      status = full_method(unless_ain_bad(status), hint.active_set, result);
+      // After repairs the full method starts from the repaired set (closer than the hint).
+      const ActiveSet<MI>* warm = repaired_set_.size > 0 ? &repaired_set_ : hint.active_set;
+      status = full_method(unless_ain_bad(status), warm, result);
     }
     if (status != Status::optimal && status != Status::maxiter) {
       const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -804,7 +807,12 @@ class Solver {
     for (int repair = 0;; ++repair) {
       SetRepair fix;
       if (solve_on_set(cols, result, status, fix) == Shortcut::solved) return Shortcut::solved;
-      if (fix.kind == SetRepair::Kind::none || repair == kShortcutRepairs) return Shortcut::fallback;
+      if (fix.kind == SetRepair::Kind::none || repair == kShortcutRepairs) {
+        if (repair > 0) {  // the full method starts from where the repairs got
+          for (int k = me_; k < cols; ++k) repaired_set_.push(-1 - eq_src_[k], hinted_side_[k] > 0 ? Side::lower : Side::upper);
+        }
+        return Shortcut::fallback;
+      }
       if (fix.kind == SetRepair::Kind::add) {
         if (!add_set_column(cols, fix.row, fix.sigma)) return Shortcut::fallback;
       } else {  // every wrong-signed row at once (right to left: the columns left stay put)
@@ -1366,6 +1374,7 @@ class Solver {
   alignas(64) Buf<double, kLd> lam_{}, step_{}, hinted_v_{};
   Buf<std::int8_t, N> hinted_side_{};  // side of column k >= me_ of b_ (+1 lower, -1 upper)
   alignas(64) Buf<double, kLd * N> gram_s_{};
+  ActiveSet<MI> repaired_set_{};  // the shortcut's set after its repairs, when they did not fit
   Buf<int, N> drop_col_{};  // S = B'B itself (lower triangle), kept across repairs
 };
 
