@@ -467,9 +467,9 @@ TEST_F(QpProperties, RandomBadInputsNeverCrash) {
   }
 }
 
-// A hint one row off is repaired in the shortcut (solver.hpp: kShortcutRepairs): a missing
+// A hint a few rows off is repaired in the shortcut (solver.hpp: kShortcutRepairs): a missing
 // active row is added, a row whose multiplier has the wrong sign is dropped, and the answer is
-// the cold one; a hint further off goes to the full method, with the same answer.
+// the cold one (a hint further off: the next test).
 // min 1/2 |x|^2 - 2 (x0 + x1 + x2)  s.t.  x0 <= 1, x1 <= 1, x2 <= 5, x0 + x1 + x2 >= -10:
 // x* = (1, 1, 2), the first two rows active with multipliers 1.
 TEST(QpHint, AHintOneRowOffIsRepairedInTheShortcut) {

@@ -378,7 +378,7 @@ namespace {
 // The inequality rows' layout (build_qp): the joints' acceleration and torque rows, then each
 // stance foot's 5 (friction pyramid, normal force); a swing foot has none.
 constexpr int kJointRows = 2 * kNj;
-constexpr int foot_rows(bool stance) noexcept { return stance ? 5 : 0; }
+constexpr int foot_rows(bool stance) noexcept { return stance ? kStanceFootRows : 0; }
 int first_foot_row(const Stance& stance, int foot) noexcept {
   int row = kJointRows;
   for (int f = 0; f < foot; ++f) row += foot_rows(stance[f]);

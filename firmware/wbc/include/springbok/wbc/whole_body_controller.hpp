@@ -52,7 +52,8 @@ inline constexpr int kArmCol = 6 + kFirstArmJoint;       // first arm column of 
 inline constexpr int kFootVars = 3;                      // force (stance) or slack (swing)
 inline constexpr int kQpVars = kNv + kFootVars * kFeet;  // 37
 inline constexpr int kQpEq = 6 + 3 * kFeet;              // 18
-inline constexpr int kQpIn = 2 * kNj + 5 * kFeet;        // 58 (all feet in stance)
+inline constexpr int kStanceFootRows = 5;                // friction pyramid (4), normal force (1)
+inline constexpr int kQpIn = 2 * kNj + kStanceFootRows * kFeet;  // 58 (all feet in stance)
 using WbcSolver = qp::Solver<kQpVars, kQpEq, kQpIn>;
 using VecArm = Vec<kArmDofs>;
 
