@@ -16,15 +16,14 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 int foot_var(int foot) noexcept { return kNv + kFootVars * foot; }
 
-using HessianFactor = std::array<double, static_cast<std::size_t>(kQpVars) * kQpVars>;
-
 // The Cholesky factor of the QP Hessian build_qp assembles: dense in the base block
 // (first 6 variables), diagonal elsewhere, so L is the 6x6 block's factor and the
 // square roots of the other diagonal entries (column-major lower, leading dim
-// kQpVars; only the lower triangle is written, as the solver reads). False (the
-// solver then factors H itself) when H is not of that shape or not positive definite.
+// kQpVars; only the lower triangle's base block and diagonal are written: `lower` holds
+// zeros elsewhere). False (the solver then factors H itself) when H is not of that shape
+// or not positive definite.
 // rt: no alloc
-bool factor_qp_hessian(const WbcSolver::ProblemType& p, HessianFactor& lower) noexcept {
+bool factor_qp_hessian(const WbcSolver::ProblemType& p, std::array<double, static_cast<std::size_t>(kQpVars) * kQpVars>& lower) noexcept {
   constexpr int kBlock = 6;
   const Eigen::Map<const Eigen::Matrix<double, kQpVars, kQpVars>> hess(p.hessian.data());
   Eigen::Map<Eigen::Matrix<double, kQpVars, kQpVars>> factor(lower.data());
@@ -35,7 +34,6 @@ bool factor_qp_hessian(const WbcSolver::ProblemType& p, HessianFactor& lower) no
   }
   const Eigen::LLT<Mat6> block(hess.topLeftCorner<kBlock, kBlock>());
   if (block.info() != Eigen::Success) return false;
-  for (int j = 0; j < kQpVars; ++j) factor.col(j).tail(kQpVars - j).setZero();
   factor.topLeftCorner<kBlock, kBlock>().triangularView<Eigen::Lower>() = block.matrixL();
   for (int j = kBlock; j < kQpVars; ++j) {
     if (!(hess(j, j) > 0.0)) return false;
@@ -53,7 +51,8 @@ WholeBodyController::WholeBodyController(const WbcParams& params)
       result_(std::make_unique<WbcSolver::ResultType>()),
       warm_start_(std::make_unique<qp::ActiveSet<kQpIn>>()),
       switch_hint_(std::make_unique<qp::ActiveSet<kQpIn>>()),
-      mode_sets_(std::make_unique<std::array<qp::ActiveSet<kQpIn>, 1 << kFeet>>()) {}
+      mode_sets_(std::make_unique<std::array<qp::ActiveSet<kQpIn>, 1 << kFeet>>()),
+      hessian_factor_(std::make_unique<HessianFactor>()) {}
 
 WholeBodyController::~WholeBodyController() = default;
 
@@ -228,10 +227,16 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
   Eigen::Map<Vec<kQpEq>> beq(p.beq_values.data());
   Eigen::Map<Eigen::Matrix<double, kQpIn, kQpVars>> ain(p.ain.data());
   Eigen::Map<Vec<kQpIn>> lb(p.lower.data()), ub(p.upper.data());
-  hess.setZero();
+  // Only the entries below are ever written, and which ones depends on the stance alone:
+  // the rest stays zero from the last build with this stance (H's shape never changes).
+  if (!built_ || in.state.stance != built_stance_) {
+    hess.setZero();
+    aeq.setZero();
+    ain.setZero();
+    built_ = true;
+    built_stance_ = in.state.stance;
+  }
   grad.setZero();
-  aeq.setZero();
-  ain.setZero();
 
   const Mat3& rot = in.state.rotation_wb;
 
@@ -246,13 +251,14 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
   w_base << Vec3::Constant(params_.weight_base_force), Vec3::Constant(params_.weight_base_torque);
   hess.topLeftCorner<6, 6>().noalias() = a_base.transpose() * w_base.asDiagonal() * a_base;
   grad.head<6>().noalias() = -a_base.transpose() * w_base.asDiagonal() * b_base;
-  // Arm: || qdd_a - qdd_a^d ||^2.
+  // Arm: || qdd_a - qdd_a^d ||^2; regularisation (the diagonal past the base block is set,
+  // not added to: it is what the last tick left there).
+  hess.diagonal().segment<kNv - 6>(6).setConstant(params_.reg_acceleration);
   hess.block<kArmDofs, kArmDofs>(kArmCol, kArmCol).diagonal().array() += params_.weight_arm;
   grad.segment<kArmDofs>(kArmCol) -= params_.weight_arm * out_.arm_qdd_desired;
-  // Regularisation.
-  hess.diagonal().head<kNv>().array() += params_.reg_acceleration;
+  hess.diagonal().head<6>().array() += params_.reg_acceleration;
   for (int f = 0; f < kFeet; ++f) {
-    hess.diagonal().segment<kFootVars>(foot_var(f)).array() += in.state.stance[f] ? params_.reg_force : params_.reg_slack;
+    hess.diagonal().segment<kFootVars>(foot_var(f)).setConstant(in.state.stance[f] ? params_.reg_force : params_.reg_slack);
   }
 
   // ---- equalities ----------------------------------------------------------------
@@ -461,8 +467,7 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& 
     switch_hint(in.state.stance);
     hint.active_set = switch_hint_.get();
   }
-  HessianFactor hessian_factor;
-  if (factor_qp_hessian(*problem_, hessian_factor)) hint.cholesky_lower = hessian_factor.data();
+  if (factor_qp_hessian(*problem_, *hessian_factor_)) hint.cholesky_lower = hessian_factor_->data();
   qp::Status status = solver_->solve(*problem_, *result_, hint);
   // The joints' speed limits give way to the torque limits and the contacts: a push the arm
   // cannot hold back-drives it faster than its limit (a real arm would too), which with the

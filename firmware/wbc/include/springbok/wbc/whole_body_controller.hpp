@@ -296,6 +296,13 @@ class WholeBodyController {
   std::array<bool, 1 << kFeet> have_mode_set_{};
   Stance last_stance_ = kAllFeet;
   bool have_warm_start_ = false;
+  // build_qp: the stance the problem's zero pattern was last laid out for.
+  Stance built_stance_ = kAllFeet;
+  bool built_ = false;
+  // H's Cholesky factor from its structure (whole_body_controller.cpp): zero but for the
+  // base block's lower triangle and the diagonal, which every tick writes.
+  using HessianFactor = std::array<double, static_cast<std::size_t>(kQpVars) * kQpVars>;
+  std::unique_ptr<HessianFactor> hessian_factor_;
   std::array<RollingContact, kFeet> contact_{};  // this tick's stance feet
   std::array<SwingKinematics, kFeet> swing_{};   // this tick's swing feet
   Vec6 wrench_ee_world_ = Vec6::Zero();
