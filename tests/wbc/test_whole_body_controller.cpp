@@ -288,6 +288,33 @@ TEST_F(Fixture, SteadyTicksAreSolvedOnTheLastActiveSet) {
   EXPECT_LT((out.tau_nm - cold.tau_nm).cwiseAbs().maxCoeff(), 1e-8);
 }
 
+// The problem's zero pattern is laid out once and cleared only where a contact switch changes
+// it: through a sequence of switches (feet lifting, landing, the other diagonal, three feet)
+// every tick's answer is that of a fresh controller built for that tick's stance.
+TEST_F(Fixture, ContactSwitchesLeaveNoStaleEntriesInTheProblem) {
+  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(20.0, 5.0, 0.0);
+  const std::array<Stance, 7> stances = {{{true, true, true, true},
+                                          {true, false, false, true},
+                                          {true, false, false, true},
+                                          {false, true, true, false},
+                                          {true, true, true, true},
+                                          {true, true, false, true},
+                                          {false, true, true, false}}};
+  for (std::size_t k = 0; k < stances.size(); ++k) {
+    in.state.stance = stances[k];
+    const wbc::WbcOutput out = tick();
+    ASSERT_EQ(out.qp_status, qp::Status::optimal) << "tick " << k;
+    auto fresh = std::make_unique<wbc::WholeBodyController>(params);
+    fresh->set_reference(in.state.q, *data);
+    const auto& expected = tick(*fresh);
+    ASSERT_EQ(expected.qp_status, qp::Status::optimal) << "tick " << k;
+    EXPECT_LT((out.udot - expected.udot).cwiseAbs().maxCoeff(), 1e-9) << "tick " << k;
+    EXPECT_LT((out.tau_nm - expected.tau_nm).cwiseAbs().maxCoeff(), 1e-8) << "tick " << k;
+    for (int f = 0; f < kFeet; ++f)
+      EXPECT_LT((out.foot_force_n[f] - expected.foot_force_n[f]).cwiseAbs().maxCoeff(), 1e-8) << "tick " << k;
+  }
+}
+
 TEST_F(Fixture, TicksDoNotAllocate) {
   in.wrist_force_n = Vec3(10.0, -5.0, 3.0);
   EXPECT_EQ(allocations_over_ticks(), 0u);

@@ -228,14 +228,23 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
   Eigen::Map<Eigen::Matrix<double, kQpIn, kQpVars>> ain(p.ain.data());
   Eigen::Map<Vec<kQpIn>> lb(p.lower.data()), ub(p.upper.data());
   // Only the entries below are ever written, and which ones depends on the stance alone:
-  // the rest stays zero from the last build with this stance (H's shape never changes).
-  if (!built_ || in.state.stance != built_stance_) {
+  // the rest stays zero from the last build. H's shape never changes; a contact switch
+  // clears what depends on the stance: the feet's columns (forces or slacks) of the
+  // dynamics' and the torques' rows, and the rows after them (the feet's equalities, the
+  // feet's inequalities).
+  if (!built_) {
     hess.setZero();
     aeq.setZero();
     ain.setZero();
-    built_ = true;
-    built_stance_ = in.state.stance;
+  } else if (in.state.stance != built_stance_) {
+    constexpr int kFeetCols = kQpVars - kNv;
+    aeq.topRightCorner<6, kFeetCols>().setZero();
+    aeq.bottomRows<kQpEq - 6>().setZero();
+    ain.block<kNj, kFeetCols>(kNj, kNv).setZero();
+    ain.bottomRows<kQpIn - 2 * kNj>().setZero();
   }
+  built_ = true;
+  built_stance_ = in.state.stance;
   grad.setZero();
 
   const Mat3& rot = in.state.rotation_wb;
