@@ -39,9 +39,10 @@ struct CliResult {
   std::string err;
 };
 
-inline CliResult run(const std::string& scenario, const fs::path& out) {
+inline CliResult run(const std::string& scenario, const fs::path& out, const std::string& extra_args = "") {
   const fs::path err = out.parent_path() / (out.filename().string() + ".stderr");
-  const std::string cmd = "'" + kBin + "' '" + scenario + "' --out '" + out.string() + "' >/dev/null 2>'" + err.string() + "'";
+  const std::string cmd = "'" + kBin + "' '" + scenario + "' --out '" + out.string() + "' " + extra_args +
+                          " >/dev/null 2>'" + err.string() + "'";
   const int status = std::system(cmd.c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(err)};
 }

@@ -24,6 +24,54 @@ TEST(SimCli, StandHoldsStillAndRunsAreByteIdentical) {
   EXPECT_NEAR(json_number(summary, "feet_fz_over_weight"), 1.0, 1e-3) << summary;
 }
 
+// The column of a log.csv named `name`, as text, one entry per row.
+std::vector<std::string> column(const std::string& log, const std::string& name) {
+  std::istringstream rows(log);
+  std::string line;
+  std::getline(rows, line);
+  std::istringstream header(line);
+  std::string cell;
+  int index = -1;
+  for (int i = 0; std::getline(header, cell, ','); ++i)
+    if (cell == name) index = i;
+  std::vector<std::string> out;
+  if (index < 0) return out;
+  while (std::getline(rows, line)) {
+    std::istringstream cells(line);
+    for (int i = 0; i <= index && std::getline(cells, cell, ','); ++i) {
+    }
+    out.push_back(cell);
+  }
+  return out;
+}
+
+// --lock-memory: the RT recipe's memory steps (mlockall, prefaulted heap and stack). Locked,
+// no tick takes a page fault (unlocked, the first WBC tick takes some); the run is the same
+// but for its timing columns. Without the privilege: said on stderr, and the run goes on.
+TEST(SimCli, LockedMemoryTakesNoPageFaultsAndChangesNothingElse) {
+  const fs::path dir = scratch("lock");
+  const CliResult plain = run(kScenarios + "base_step_mb92.yaml", dir / "plain");
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  const CliResult locked = run(kScenarios + "base_step_mb92.yaml", dir / "locked", "--lock-memory");
+  ASSERT_EQ(locked.exit_code, 0) << locked.err;
+  EXPECT_NE(slurp(dir / "plain" / "summary.json").find("\"memory_locked\": null"), std::string::npos);
+  const std::string summary = slurp(dir / "locked" / "summary.json");
+  const std::string log = slurp(dir / "locked" / "log.csv"), plain_log = slurp(dir / "plain" / "log.csv");
+  for (const char* name : {"time_s", "base_x_m", "tau_lf_kfe_joint", "tau_arm_joint_2", "qp_iterations"})
+    EXPECT_EQ(column(log, name), column(plain_log, name)) << name;
+  if (summary.find("\"memory_locked\": true") != std::string::npos) {
+    EXPECT_NE(locked.err.find("memory locked"), std::string::npos) << locked.err;
+    const std::vector<std::string> faults = column(log, "tick_page_faults");
+    ASSERT_GT(faults.size(), 7000u);
+    int with_faults = 0;
+    for (const std::string& f : faults) with_faults += !f.empty() && f != "0" ? 1 : 0;
+    EXPECT_EQ(with_faults, 0);
+  } else {
+    EXPECT_NE(summary.find("\"memory_locked\": false"), std::string::npos) << summary;
+    EXPECT_NE(locked.err.find("mlockall failed"), std::string::npos) << locked.err;
+  }
+}
+
 TEST(SimCli, DropLandsAndRestsOnItsWeight) {
   const fs::path dir = scratch("drop");
   const CliResult r = run(kScenarios + "drop.yaml", dir / "out");

@@ -62,14 +62,16 @@ TEST(SimWbc, StepRendersTheTemplate) {
   // Axes the template does not move along are not scored.
   EXPECT_NE(json.find("\"base_y\": null"), std::string::npos);
   EXPECT_GT(member(json, "tick_us", "median"), 0.0);
-  // The slowest tick, with what it met (one of the four causes) and when.
+  // The slowest tick, with what it met (one of the five causes) and when.
   EXPECT_GE(member(json, "tick_us", "max"), member(json, "tick_us", "p99"));
   EXPECT_GE(member(json, "tick_us", "max_at_s"), 0.2);
   EXPECT_GE(member(json, "tick_us", "max_page_faults"), 0.0);
   const auto cause = json.find("\"max_cause\": \"");
   ASSERT_NE(cause, std::string::npos);
   const std::string word = json.substr(cause + 14, json.find('"', cause + 14) - cause - 14);
-  EXPECT_TRUE(word == "page_fault" || word == "context_switch" || word == "qp_solve" || word == "unattributed") << word;
+  EXPECT_TRUE(word == "page_fault" || word == "context_switch" || word == "first_tick" || word == "qp_solve" ||
+              word == "unattributed")
+      << word;
   // The log carries the WBC's columns.
   const std::string log = slurp(out / "log.csv");
   for (const char* column : {",base_dx_m,", ",template_ee_x_m,", ",fe_x_n,", ",lf_fx_n,", ",qp_status,", ",tick_us,", ",tick_page_faults,", ",tick_context_switches"}) {

@@ -18,6 +18,7 @@
 #include "controller.hpp"
 #include "scenario.hpp"
 #include "wbc_adapter.hpp"
+#include "springbok/rt/realtime.hpp"
 #include "springbok/sim_hal/bullet_robot.hpp"
 #include "springbok/wbc/stand_controller.hpp"
 
@@ -133,7 +134,7 @@ void append_row(std::string& out, const sim::GroundTruth& t) {
   for (int j = 0; j < kNj; ++j) put(out, t.q[7 + j]);
 }
 
-int run(const std::string& scenario_path, const std::filesystem::path& out_dir) {
+int run(const std::string& scenario_path, const std::filesystem::path& out_dir, const char* memory_locked) {
   simtool::Scenario s = simtool::load_scenario(scenario_path);
   std::unique_ptr<Controller> controller = make_controller(s, scenario_path);
 
@@ -208,6 +209,7 @@ int run(const std::string& scenario_path, const std::filesystem::path& out_dir) 
   json += fmt::format("  \"feet_fz_over_weight\": {},\n", ratio(feet_fz_sum_n));
   json += fmt::format("  \"final_base_position_m\": [{:.9g}, {:.9g}, {:.9g}],\n", q[0], q[1], q[2]);
   json += controller->summary_fields();
+  json += fmt::format("  \"memory_locked\": {},\n", memory_locked);
   json += fmt::format("  \"write_errors\": {}\n", write_errors);
   json += "}\n";
   std::FILE* summary = std::fopen((out_dir / "summary.json").c_str(), "wb");
@@ -226,9 +228,28 @@ int main(int argc, char** argv) {
   std::string out;
   app.add_option("SCENARIO", scenario, "scenario YAML (schema: tools/scenarios/README.md)")->required();
   app.add_option("--out", out, "output directory (log.csv, summary.json)")->required();
+  bool lock_memory = false;
+  app.add_flag("--lock-memory", lock_memory,
+               "lock and prefault memory as the deployed binary does (RT.md: mlockall, heap and stack), so that "
+               "tick_us carries no page faults of first use; without the privilege a warning, and the run goes on");
   CLI11_PARSE(app, argc, argv);
+  // Only the memory steps of the RT recipe: no SCHED_FIFO, no kernel check (a desktop tool).
+  rt::RtReport rt_report;
+  std::unique_ptr<rt::RtProcess> rt_process;
+  if (lock_memory) {
+    rt::RtConfig rt_config;
+    rt_config.hold_cpu_dma_latency = false;
+    rt_process = std::make_unique<rt::RtProcess>(rt_config, rt_report);
+    rt::prefault_stack();
+    if (rt_report.memory_locked) {
+      std::fprintf(stderr, "springbok-sim: memory locked and prefaulted\n");
+    } else {
+      for (const std::string& w : rt_report.warnings)
+        if (w.find("mlockall") != std::string::npos) std::fprintf(stderr, "springbok-sim: --lock-memory: %s\n", w.c_str());
+    }
+  }
   try {
-    return run(scenario, out);
+    return run(scenario, out, lock_memory ? (rt_report.memory_locked ? "true" : "false") : "null");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "springbok-sim: %s\n", e.what());
     return 2;

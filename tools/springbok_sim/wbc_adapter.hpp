@@ -121,6 +121,7 @@ class WbcAdapter final : public Controller {
     int switches = 0;
     int qp_iterations = 0;
     bool qp_from_hint = false;
+    bool first = false;  // the WBC's first tick
   } slowest_;
   double max_torque_ratio_ = 0.0;
   std::array<std::uint64_t, kNj> torque_limit_ticks_{};   // |tau| >= kAtLimit of the limit, per joint

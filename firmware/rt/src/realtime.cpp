@@ -16,13 +16,12 @@ namespace {
 
 std::string errno_text(int err) { return std::string(std::strerror(err)); }
 
-// Touch the stack the tick's deepest call chain may use, so it never faults.
+}  // namespace
+
 void prefault_stack() {
   volatile unsigned char buffer[256 * 1024];
   for (std::size_t i = 0; i < sizeof buffer; i += 4096) buffer[i] = 0;
 }
-
-}  // namespace
 
 bool preempt_rt_kernel() {
   std::ifstream in("/sys/kernel/realtime");

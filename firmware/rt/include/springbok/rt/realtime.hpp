@@ -42,6 +42,10 @@ struct RtReport {
 // True on a PREEMPT_RT kernel (/sys/kernel/realtime reads 1).
 bool preempt_rt_kernel();
 
+// Touches the calling thread's stack as deep as a tick's call chain may go (256 KiB), so
+// that it never faults there (RtThread does it for the control thread).
+void prefault_stack();
+
 // Prints the notes, and the warnings under a loud banner.
 void print_report(const RtReport& report, std::FILE* out);
 
