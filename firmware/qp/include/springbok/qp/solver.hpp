@@ -797,6 +797,7 @@ class Solver {
     gather(p.gradient.data(), bcol(cols));  // g rides along: c = L^-1 g
     solve_lower(bcol(0), kLd, cols + 1);
     g_reduced_at_ = cols;  // a fallback's equality block starts from these columns
+    gram_cols_ = 0;        // S is new: no factor of it yet
     // S = B'B's lower triangle (kept: a repair changes one row and column of it).
     const int cp = dense::padded(cols);
     for (int j = 0; j < cols; ++j) {
@@ -817,6 +818,7 @@ class Solver {
         if (!add_set_column(cols, fix.row, fix.sigma)) return Shortcut::fallback;
       } else {  // every wrong-signed row at once (right to left: the columns left stay put)
         for (int k = fix.drops - 1; k >= 0; --k) drop_set_column(cols, drop_col_[k]);
+        gram_cols_ = 0;  // S lost rows inside: factored afresh
       }
       ++iterations_;
     }
@@ -883,6 +885,30 @@ class Solver {
     g_reduced_at_ = cols;
   }
 
+  // S gained a last row and column j = cols - 1 (a repair's added row): the factor's columns
+  // stay, its new row is U_j = (U^-1 s)' D^-2 with s = S's row j left of the diagonal, and
+  // the new pivot S_jj - s' U^-T D^-2 U^-1 s (below 1e-8 S_jj: dependent rows, false).
+  bool append_gram_row(int cols) noexcept {
+    const int j = cols - 1, jp = dense::padded(j), cp = dense::padded(cols);
+    double* y = gram_row_.data();
+    for (int l = 0; l < j; ++l) y[l] = scol(l)[j];
+    std::fill(y + j, y + jp, 0.0);
+    dense::unit_forward_solve_each(gram_.data(), kLd, j, 1, [y](int) noexcept { return y; });
+    double pivot = scol(j)[j];
+    for (int l = 0; l < j; ++l) {
+      const double u = y[l] * gram_inv_diag_[l];
+      gcol(l)[j] = u;
+      pivot -= y[l] * u;
+      std::fill(gcol(l) + cols, gcol(l) + cp, 0.0);  // padding rows (new when cols passed a chunk)
+    }
+    gram_min_pivot_[j] = 1e-8 * scol(j)[j];
+    if (!(pivot > gram_min_pivot_[j])) return false;
+    std::fill(gcol(j) + dense::chunk_start(j), gcol(j) + cp, 0.0);
+    gram_inv_diag_[j] = 1.0 / pivot;
+    std::fill(gram_inv_diag_.begin() + cols, gram_inv_diag_.begin() + cp, 0.0);
+    return true;
+  }
+
   // The block's columns 0 .. cols-1 (the equalities, then the set's rows) taken as active,
   // L^-1 g in column cols, S in gram_s_.
   Shortcut solve_on_set(int cols, ResultType& result, Status& status, SetRepair& fix) noexcept {
@@ -890,16 +916,23 @@ class Solver {
     const double* c = bcol(cols);
     // S's lower triangle into gram_ and its Cholesky factor in the layout of H's: a
     // pivot is the part of a column's squared norm left after the columns before it,
-    // and one below 1e-8 of that squared norm means dependent rows.
+    // and one below 1e-8 of that squared norm means dependent rows. After a repair that
+    // added a row (S's new last row and column) only the factor's new last row is computed.
     const int cp = dense::padded(cols);
-    for (int j = 0; j < cols; ++j) {
-      std::copy(scol(j) + j, scol(j) + cp, gcol(j) + j);
-      gram_min_pivot_[j] = 1e-8 * scol(j)[j];
+    if (gram_cols_ == cols - 1 && gram_cols_ > 0) {
+      if (!append_gram_row(cols)) return Shortcut::fallback;
+    } else {
+      for (int j = 0; j < cols; ++j) {
+        std::copy(scol(j) + j, scol(j) + cp, gcol(j) + j);
+        gram_min_pivot_[j] = 1e-8 * scol(j)[j];
+      }
+      gram_cols_ = 0;
+      if (!dense::cholesky_lower(gram_.data(), kLd, cols, 0.0, gram_inv_diag_.data(), gram_min_pivot_.data()))
+        return Shortcut::fallback;
+      for (int j = 0; j < cols; ++j) gram_inv_diag_[j] *= gram_inv_diag_[j];
+      std::fill(gram_inv_diag_.begin() + cols, gram_inv_diag_.begin() + cp, 0.0);
     }
-    if (!dense::cholesky_lower(gram_.data(), kLd, cols, 0.0, gram_inv_diag_.data(), gram_min_pivot_.data()))
-      return Shortcut::fallback;
-    for (int j = 0; j < cols; ++j) gram_inv_diag_[j] *= gram_inv_diag_[j];
-    std::fill(gram_inv_diag_.begin() + cols, gram_inv_diag_.begin() + cp, 0.0);
+    gram_cols_ = cols;
     dense::gemv_t_chunks(bcol(0), kLd, np_, cols, c, lam_.data());
     for (int j = 0; j < cols; ++j) lam_[j] += eq_rhs_[j];
     solve_gram(lam_.data(), cols);
@@ -1371,6 +1404,8 @@ class Solver {
   alignas(64) Buf<double, kLd * N> gram_{};  // factor of S = B'B = U D^2 U'
   alignas(64) Buf<double, kLd> gram_inv_diag_{};  // D^-2 (zero-padded)
   Buf<double, N> gram_min_pivot_{};                 // 1e-8 S_jj
+  alignas(64) Buf<double, kLd> gram_row_{};         // append_gram_row's U^-1 s
+  int gram_cols_ = 0;                               // columns of S that gram_ holds the factor of
   alignas(64) Buf<double, kLd> lam_{}, step_{}, hinted_v_{};
   Buf<std::int8_t, N> hinted_side_{};  // side of column k >= me_ of b_ (+1 lower, -1 upper)
   alignas(64) Buf<double, kLd * N> gram_s_{};
