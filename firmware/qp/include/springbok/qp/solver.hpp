@@ -818,7 +818,7 @@ class Solver {
         if (!add_set_column(cols, fix.row, fix.sigma)) return Shortcut::fallback;
       } else {  // every wrong-signed row at once (right to left: the columns left stay put)
         for (int k = fix.drops - 1; k >= 0; --k) drop_set_column(cols, drop_col_[k]);
-        gram_cols_ = 0;  // S lost rows inside: factored afresh
+        gram_cols_ = std::min(gram_cols_, drop_col_[0]);  // the factor's rows before the first drop stay
       }
       ++iterations_;
     }
@@ -885,9 +885,10 @@ class Solver {
     g_reduced_at_ = cols;
   }
 
-  // S gained a last row and column j = cols - 1 (a repair's added row): the factor's columns
-  // stay, its new row is U_j = (U^-1 s)' D^-2 with s = S's row j left of the diagonal, and
-  // the new pivot S_jj - s' U^-T D^-2 U^-1 s (below 1e-8 S_jj: dependent rows, false).
+  // The factor of S's leading (cols - 1) x (cols - 1) block extended to cols: its columns
+  // stay, its new row j = cols - 1 is U_j = (U^-1 s)' D^-2 with s = S's row j left of the
+  // diagonal, and the new pivot S_jj - s' U^-T D^-2 U^-1 s (below 1e-8 S_jj: dependent
+  // rows, false).
   bool append_gram_row(int cols) noexcept {
     const int j = cols - 1, jp = dense::padded(j), cp = dense::padded(cols);
     double* y = gram_row_.data();
@@ -916,11 +917,16 @@ class Solver {
     const double* c = bcol(cols);
     // S's lower triangle into gram_ and its Cholesky factor in the layout of H's: a
     // pivot is the part of a column's squared norm left after the columns before it,
-    // and one below 1e-8 of that squared norm means dependent rows. After a repair that
-    // added a row (S's new last row and column) only the factor's new last row is computed.
+    // and one below 1e-8 of that squared norm means dependent rows. After a repair only
+    // the rows past the columns it kept are computed (S's leading block, and so the
+    // factor's, did not change): the added row, or the rows from the first dropped one on.
     const int cp = dense::padded(cols);
-    if (gram_cols_ == cols - 1 && gram_cols_ > 0) {
-      if (!append_gram_row(cols)) return Shortcut::fallback;
+    if (gram_cols_ > 0 && gram_cols_ == cols) {  // only trailing rows dropped: clear their rows
+      for (int l = 0; l < cols; ++l) std::fill(gcol(l) + cols, gcol(l) + cp, 0.0);
+      std::fill(gram_inv_diag_.begin() + cols, gram_inv_diag_.begin() + cp, 0.0);
+    } else if (gram_cols_ > 0 && gram_cols_ < cols) {
+      for (int rows = gram_cols_ + 1; rows <= cols; ++rows)
+        if (!append_gram_row(rows)) return Shortcut::fallback;
     } else {
       for (int j = 0; j < cols; ++j) {
         std::copy(scol(j) + j, scol(j) + cp, gcol(j) + j);
