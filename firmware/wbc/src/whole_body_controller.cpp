@@ -5,8 +5,9 @@
 #include <cmath>
 #include <limits>
 
-#include <Eigen/Cholesky>
 #include <Eigen/LU>
+
+#include "springbok/wbc/small_cholesky.hpp"
 
 
 namespace springbok::wbc {
@@ -32,9 +33,9 @@ bool factor_qp_hessian(const WbcSolver::ProblemType& p, std::array<double, stati
     for (int i = zero_from; i < kQpVars; ++i)
       if (hess(i, j) != 0.0) return false;
   }
-  const Eigen::LLT<Mat6> block(hess.topLeftCorner<kBlock, kBlock>());
-  if (block.info() != Eigen::Success) return false;
-  factor.topLeftCorner<kBlock, kBlock>().triangularView<Eigen::Lower>() = block.matrixL();
+  const SmallCholesky<kBlock> block(hess.topLeftCorner<kBlock, kBlock>());
+  if (!block.ok()) return false;
+  factor.topLeftCorner<kBlock, kBlock>().triangularView<Eigen::Lower>() = block.matrix_l();
   for (int j = kBlock; j < kQpVars; ++j) {
     if (!(hess(j, j) > 0.0)) return false;
     factor(j, j) = std::sqrt(hess(j, j));
@@ -190,8 +191,8 @@ void WholeBodyController::arm_task_rows(const WbcInput& in, const dyn::Data& d, 
   using VecTask = Eigen::Matrix<double, kTask, 1>;
   const Eigen::Matrix<double, kTask, kArmDofs> jac = d.J_ee.block<kTask, kArmDofs>(0, kArmCol);
   const Eigen::Matrix<double, kArmDofs, kArmDofs> m_arm = d.M.block<kArmDofs, kArmDofs>(kArmCol, kArmCol);
-  const Eigen::LLT<Eigen::Matrix<double, kArmDofs, kArmDofs>> llt(m_arm);
-  const Eigen::Matrix<double, kArmDofs, kTask> minv_jt = llt.solve(jac.transpose());
+  const SmallCholesky<kArmDofs> llt(m_arm);
+  const Eigen::Matrix<double, kArmDofs, kTask> minv_jt = llt.solve<kTask>(jac.transpose());
 
   const MatTask jjt = jac * jac.transpose();
   const double w = std::sqrt(std::max(0.0, jjt.determinant()));
