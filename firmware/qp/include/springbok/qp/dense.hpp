@@ -34,31 +34,6 @@ inline double dot(const double* __restrict a, const double* __restrict b, int n)
 inline double squared_norm(const double* a, int n) noexcept { return dot(a, a, n); }
 
 
-// all_finite over the lower triangle (diagonal included) of a column-major n x n
-// matrix with leading dimension ld; coupled[j] = 1 when column j has a non-zero
-// entry below the diagonal or row j one left of it.
-inline bool scan_lower_triangle(const double* a, int ld, int n, std::uint64_t* __restrict row_bits,
-                                std::uint8_t* __restrict coupled) noexcept {
-  std::uint64_t bad = 0;
-  for (int i = 0; i < n; ++i) row_bits[i] = 0;
-  for (int j = 0; j < n; ++j) {
-    const double* __restrict col = a + static_cast<std::ptrdiff_t>(j) * ld;
-    std::uint64_t bits;
-    std::memcpy(&bits, col + j, sizeof bits);
-    bad |= (((bits >> 52) & 0x7ffu) + 1u) >> 11;
-    std::uint64_t col_bits = 0;
-    for (int i = j + 1; i < n; ++i) {
-      std::memcpy(&bits, col + i, sizeof bits);
-      bad |= (((bits >> 52) & 0x7ffu) + 1u) >> 11;
-      const std::uint64_t magnitude = bits << 1;
-      row_bits[i] |= magnitude;
-      col_bits |= magnitude;
-    }
-    coupled[j] = (row_bits[j] | col_bits) != 0 ? 1 : 0;
-  }
-  return bad == 0;
-}
-
 // y += alpha x
 inline void axpy(double alpha, const double* __restrict x, double* __restrict y, int n) noexcept {
   for (int i = 0; i < n; ++i) y[i] += alpha * x[i];
@@ -156,6 +131,55 @@ inline void classify_bounds(const double* lower, const double* upper, int m, dou
 inline void magnitude_bits(const Chunk& c, ChunkBits& out) noexcept {
   std::memcpy(&out, &c, sizeof out);
   out <<= 1;
+}
+
+// all_finite over the lower triangle (diagonal included) of a column-major n x n
+// matrix with leading dimension ld; coupled[j] = 1 when column j has a non-zero
+// entry below the diagonal or row j one left of it. Rows in whole chunks of four
+// (the same row indices in every column, so a chunk of row_bits is stored and
+// reloaded whole), the diagonal's chunk masked; the rows past the last whole chunk
+// one by one (nothing is read past row n - 1 of a column).
+inline bool scan_lower_triangle(const double* a, int ld, int n, std::uint64_t* __restrict row_bits,
+                                std::uint8_t* __restrict coupled) noexcept {
+  using Bits = ChunkBits;
+  constexpr std::uint64_t ones = ~std::uint64_t{0};
+  // Lanes of the diagonal's chunk at or below it (finiteness), strictly below (couplings).
+  const Bits from_diagonal[4] = {Bits{ones, ones, ones, ones}, Bits{0, ones, ones, ones}, Bits{0, 0, ones, ones},
+                                 Bits{0, 0, 0, ones}};
+  const Bits below_diagonal[4] = {Bits{0, ones, ones, ones}, Bits{0, 0, ones, ones}, Bits{0, 0, 0, ones},
+                                  Bits{0, 0, 0, 0}};
+  const Bits all = {ones, ones, ones, ones};
+  const int whole = n & ~3;
+  for (int i = 0; i < whole; i += 4) std::memset(row_bits + i, 0, 4 * sizeof(std::uint64_t));
+  for (int i = whole; i < n; ++i) row_bits[i] = 0;
+  Bits bad = {0, 0, 0, 0};
+  std::uint64_t bad_tail = 0;
+  for (int j = 0; j < n; ++j) {
+    const double* col = a + static_cast<std::ptrdiff_t>(j) * ld;
+    Bits col_bits = {0, 0, 0, 0};
+    for (int i = chunk_start(j); i < whole; i += 4) {
+      Bits v, b;
+      std::memcpy(&v, col + i, sizeof v);
+      const bool diagonal = i == chunk_start(j);
+      bad |= ((((v >> 52) & 0x7ffu) + 1u) >> 11) & (diagonal ? from_diagonal[j & 3] : all);
+      const Bits m = (v << 1) & (diagonal ? below_diagonal[j & 3] : all);
+      std::memcpy(&b, row_bits + i, sizeof b);
+      b |= m;
+      std::memcpy(row_bits + i, &b, sizeof b);
+      col_bits |= m;
+    }
+    std::uint64_t col_any = (col_bits[0] | col_bits[1]) | (col_bits[2] | col_bits[3]);
+    for (int i = j > whole ? j : whole; i < n; ++i) {
+      std::uint64_t bits;
+      std::memcpy(&bits, col + i, sizeof bits);
+      bad_tail |= (((bits >> 52) & 0x7ffu) + 1u) >> 11;
+      if (i == j) continue;
+      row_bits[i] |= bits << 1;
+      col_any |= bits << 1;
+    }
+    coupled[j] = (row_bits[j] | col_any) != 0 ? 1 : 0;  // row j's left part: columns before j, all done
+  }
+  return ((bad[0] | bad[1]) | (bad[2] | bad[3]) | bad_tail) == 0;
 }
 
 // y[0..3] = {a, b, c, d} as one chunk store.
