@@ -327,12 +327,12 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
   // Torque limits through the actuated rows of eq. 1 (c_j qd_j: the compensated friction):
   //   tau = M_j udot + h_j + c_j qd_j - J_st,j^T F_g - J_e,j^T W_e  in [-tau_max, tau_max].
   const VecNj external_j = d.J_ee.rightCols<kNj>().transpose() * wrench_ee_world_;
+  ain.block<kNj, kNv>(row, 0) = d.M.bottomRows<kNj>();  // column by column: both column-major
+  for (int f = 0; f < kFeet; ++f) {
+    if (in.state.stance[f]) ain.block<kNj, 3>(row, foot_var(f)) = -contact_[f].jacobian.rightCols<kNj>().transpose();
+  }
   for (int j = 0; j < kNj; ++j) {
     const double tau_max = params_.torque_limit_scale * robot::kJoints[j].limits.effort_nm;
-    ain.block<1, kNv>(row, 0) = d.M.row(6 + j);
-    for (int f = 0; f < kFeet; ++f) {
-      if (in.state.stance[f]) ain.block<1, 3>(row, foot_var(f)) = -contact_[f].jacobian.col(6 + j).transpose();
-    }
     const double known_nm = d.nle[6 + j] + joint_friction_nm_[j] - external_j[j];
     lb[row] = -tau_max - known_nm;
     ub[row] = tau_max - known_nm;
