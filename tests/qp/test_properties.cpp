@@ -677,6 +677,25 @@ TEST_F(QpProperties, CallerFactorGivesTheSameAnswer) {
   Solver::Hint hint;
   hint.cholesky_lower = broken.data();
   EXPECT_EQ(solver->solve(*problem, *result, hint), Status::bad_input);
+  // A factor of another matrix, told by its couplings: H's diagonal alone (positive,
+  // finite, but H couples its variables), and H's factor on an H that gained an entry.
+  const Generated gen = make_optimal(rng);
+  load(gen.qp, *problem);
+  const int n = gen.qp.n;
+  ASSERT_GE(n, 2);
+  std::array<double, kN * kN> diagonal{};
+  for (int i = 0; i < n; ++i) diagonal[static_cast<std::size_t>(i * kN + i)] = std::sqrt(gen.qp.H[static_cast<std::size_t>(i * n + i)]);
+  hint.cholesky_lower = diagonal.data();
+  EXPECT_EQ(solver->solve(*problem, *result, hint), Status::bad_input);
+  DenseQp separable = gen.qp;  // a diagonal H, factored by hand; then H gains a coupling
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      if (i != j) separable.H[static_cast<std::size_t>(i * n + j)] = 0.0;
+  load(separable, *problem);
+  ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal);
+  separable.H[static_cast<std::size_t>(0 * n + 1)] = separable.H[static_cast<std::size_t>(1 * n + 0)] = 1e-3;
+  load(separable, *problem);
+  EXPECT_EQ(solver->solve(*problem, *result, hint), Status::bad_input);
 }
 
 }  // namespace

@@ -192,9 +192,18 @@ class Solver {
     const double* given_lower = hint.cholesky_lower;
     if (given_lower == nullptr && hint.reuse_factor && same_factored_hessian()) return Status::optimal;
     have_factored_h_ = false;
+    if (given_lower != nullptr) {
+      // The factor couples exactly the variables H couples (classify() found those): a
+      // variable whose row and column of L are zero off the diagonal has them zero in
+      // L L' too, and one with a zero L entry where H has none got it from L's other
+      // entries in that row. So a factor of another matrix (a caller whose H gained an
+      // entry its factor's structure lacks) shows here, and is bad input.
+      std::copy_n(coupled_.begin(), n_, h_coupled_.begin());
+      if (!dense::scan_lower_triangle(given_lower, N, n_, row_bits_.data(), coupled_.data()) ||
+          !std::equal(coupled_.begin(), coupled_.begin() + n_, h_coupled_.begin()))
+        return Status::bad_input;
+    }
     const double* source = given_lower != nullptr ? given_lower : p.hessian.data();
-    if (given_lower != nullptr && !dense::scan_lower_triangle(given_lower, N, n_, row_bits_.data(), coupled_.data()))
-      return Status::bad_input;
     order_variables();
     const int ncp = dense::padded(nc_);
     double max_diag = 0.0;
@@ -1370,6 +1379,7 @@ class Solver {
   Buf<std::size_t, N> ain_offset_{};  // offset of Ain's column perm_[k]
   Buf<int, N> perm_{};               // variable order: original index of position k
   Buf<std::uint8_t, N> coupled_{};   // H couples variable j to another one
+  Buf<std::uint8_t, N> h_coupled_{};  // factor(): coupled_ from H, against a given factor's
   int nc_ = 0;                       // coupled variables (the first nc_ positions)
   bool have_factored_h_ = false;
   // equality block: Householder QR of L^-1 E' (column-major, leading dim kLd)
