@@ -233,7 +233,8 @@ int main(int argc, char** argv) {
                "lock and prefault memory as the deployed binary does (RT.md: mlockall, heap and stack), so that "
                "tick_us carries no page faults of first use; without the privilege a warning, and the run goes on");
   CLI11_PARSE(app, argc, argv);
-  // Only the memory steps of the RT recipe: no SCHED_FIFO, no kernel check (a desktop tool).
+  // The RT recipe's process steps without /dev/cpu_dma_latency, and of its report only the
+  // memory lock's outcome: no SCHED_FIFO thread, no PREEMPT_RT banner (a desktop tool).
   rt::RtReport rt_report;
   std::unique_ptr<rt::RtProcess> rt_process;
   if (lock_memory) {
