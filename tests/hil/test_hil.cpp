@@ -835,12 +835,12 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
               kStreakAt, damped_at, stale_ticks);
   RecordProperty("nrmse_base_pct", std::to_string(100 * nrmse_b));
   RecordProperty("nrmse_ee_pct", std::to_string(100 * nrmse_e));
-  // The bounds: NRMSE hand <= 5 %, base <= 10 %, steady state within 2 % of F/K;
-  // the base's steady state here within 3 %: over four VM runs it ended 29.8, 29.7, 29.3 mm
-  // (F/K 30; the VM's timing is not deterministic), the twin (deterministic) holds 2 %.
+  // The bounds: NRMSE hand <= 5 %, base <= 10 %, steady state within 2 % of F/K.
+  // (Before the estimator's position-aided tilt the base ended 29.3-30.1 mm, F/K 30: the
+  // trunk's pitch, in the IMU's q_w that CAN does not carry, drifted 0.3-0.5 mrad unseen.)
   EXPECT_LE(nrmse_b, 0.10);
   EXPECT_LE(nrmse_e, 0.05);
-  EXPECT_NEAR(end_b, fk_b, 0.03 * fk_b);
+  EXPECT_NEAR(end_b, fk_b, 0.02 * fk_b);
   EXPECT_NEAR(end_e, fk_e, 0.02 * fk_e);
   for (int f = 0; f < kFeet; ++f) EXPECT_TRUE(lifted[f]) << "foot " << f;
   EXPECT_EQ(non_foot, 0) << "only the feet touch the ground";

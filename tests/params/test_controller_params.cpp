@@ -219,6 +219,14 @@ TEST(EstimatorConfig, ErrorsNameTheFieldAndGoodValuesLoad) {
       params::read_estimator_params(Field(YAML::Load("{velocity_gain: 20, position_gain: 0}"), "estimator", errors));
   EXPECT_EQ(p.velocity_gain_per_s, 20.0);
   EXPECT_EQ(p.position_gain_per_s, 0.0);
+  EXPECT_EQ(p.tilt_gain_per_s, 0.0);  // off unless asked for
+  EXPECT_NE(error_of("{tilt_gain: -0.5}").find("estimator.tilt_gain: must be in"), std::string::npos);
+  EXPECT_NE(error_of("{tilt_window: 2}").find("estimator.tilt_window: must be in"), std::string::npos);  // the ring holds 1.2 s
+  const springbok::est::EstimatorParams tilt =
+      params::read_estimator_params(Field(YAML::Load("{tilt_gain: 0.5, tilt_window: 0.4}"), "estimator", errors));
+  EXPECT_TRUE(errors.empty()) << errors.joined();
+  EXPECT_EQ(tilt.tilt_gain_per_s, 0.5);
+  EXPECT_EQ(tilt.tilt_window_s, 0.4);
 }
 
 }  // namespace

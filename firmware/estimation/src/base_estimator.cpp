@@ -1,5 +1,6 @@
 #include "springbok/estimation/base_estimator.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace springbok::est {
@@ -101,6 +102,10 @@ EstimateStatus BaseEstimator::reset(const hal::Measurements& m, const Stance& st
   }
   stance_prev_ = stance;
   reset_ = true;
+  tilt_correction_.setIdentity();
+  force_once_.setZero();
+  force_twice_.setZero();
+  restart_tilt_window();
   write_state(m, rot, trunk_angular_rate(m.imu.angular_rate_rad_s));
   out_.status = EstimateStatus::ok;
   return out_.status;
@@ -114,9 +119,10 @@ const BaseEstimate& BaseEstimator::update(const hal::Measurements& m, const Stan
   }
   if (!measurement_ok(m) || !(dt_s > 0.0 && dt_s < 1.0)) {
     out_.status = EstimateStatus::bad_input;  // hold the last estimate
+    restart_tilt_window();
     return out_;
   }
-  const Mat3 rot = trunk_rotation(m.imu.orientation);
+  const Mat3 rot = tilt_correction_ * trunk_rotation(m.imu.orientation);
   const Vec3 omega_b = trunk_angular_rate(m.imu.angular_rate_rad_s);
   kinematics(m.q_rad);
 
@@ -148,6 +154,7 @@ const BaseEstimate& BaseEstimator::update(const hal::Measurements& m, const Stan
     ++feet;
   }
   stance_prev_ = stance;
+  if (params_.tilt_gain_per_s > 0.0) aid_tilt(m, rot, feet, feet > 0 ? Vec3(anchored_w / feet) : anchored_w, dt_s);
   if (feet > 0) {
     odometry_w /= feet;
     anchored_w /= feet;
@@ -166,6 +173,40 @@ const BaseEstimate& BaseEstimator::update(const hal::Measurements& m, const Stan
   }
   write_state(m, rot, omega_b);
   return out_;
+}
+
+// rt: no alloc, no block
+void BaseEstimator::aid_tilt(const hal::Measurements& m, const Mat3& rot, int feet, const Vec3& anchored_w,
+                             double dt_s) noexcept {
+  const dyn::Placement& imu = model_.frame_placement[kImuFrame];
+  const Eigen::Vector2d force_w = (rot * (imu.rotation * m.imu.linear_accel_m_s2)).head<2>();  // g has no x, y
+  force_twice_ += dt_s * (force_once_ + 0.5 * dt_s * force_w);  // exact for a force constant over the tick
+  force_once_ += dt_s * force_w;
+  if (++tilt_ticks_ == kTiltBlockTicks) {
+    tilt_ticks_ = 0;
+    if (feet == 0) {
+      restart_tilt_window();
+    } else {
+      tilt_head_ = (tilt_head_ + 1) % kTiltRing;
+      ring_position_[tilt_head_] = (anchored_w + rot * imu.translation).head<2>();  // the IMU's, from the feet
+      ring_force_twice_[tilt_head_] = force_twice_;
+      tilt_entries_ = std::min(tilt_entries_ + 1, kTiltRing);
+      const double block_s = kTiltBlockTicks * dt_s;
+      const int lag = std::clamp(static_cast<int>(std::lround(params_.tilt_window_s / block_s)), 1, (kTiltRing - 1) / 2);
+      if (tilt_entries_ > 2 * lag) {
+        const int mid = (tilt_head_ - lag + kTiltRing) % kTiltRing, old = (tilt_head_ - 2 * lag + 2 * kTiltRing) % kTiltRing;
+        const Eigen::Vector2d moved = ring_position_[tilt_head_] - 2.0 * ring_position_[mid] + ring_position_[old];
+        const Eigen::Vector2d forced = ring_force_twice_[tilt_head_] - 2.0 * ring_force_twice_[mid] + ring_force_twice_[old];
+        const double window_s = lag * block_s;
+        const Eigen::Vector2d diff = (moved - forced) / (kGravity_m_s2 * window_s * window_s);
+        tilt_error_ = Vec3(diff.y(), -diff.x(), 0.0);
+      }
+    }
+  }
+  if (tilt_entries_ == 0) return;
+  const Vec3 step = -std::min(1.0, params_.tilt_gain_per_s * dt_s) * tilt_error_;
+  const double angle = step.norm();
+  if (angle > 0.0) tilt_correction_ = Eigen::AngleAxisd(angle, step / angle).toRotationMatrix() * tilt_correction_;
 }
 
 }  // namespace springbok::est

@@ -152,13 +152,16 @@ wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
 }
 
 est::EstimatorParams read_estimator_params(const Field& f) {
-  f.allow_only({"velocity_gain", "position_gain", "foot_radius", "ground_height", "use_accelerometer"});
+  f.allow_only({"velocity_gain", "position_gain", "foot_radius", "ground_height", "use_accelerometer", "tilt_gain",
+                "tilt_window"});
   est::EstimatorParams p;
   f["velocity_gain"].number(p.velocity_gain_per_s, 1e-3, 1e3);
   f["position_gain"].number(p.position_gain_per_s, 0.0, 1e3);
   f["foot_radius"].number(p.foot_radius_m, 0.0, 0.5);
   f["ground_height"].number(p.ground_height_m, -1e3, 1e3);
   f["use_accelerometer"].boolean(p.use_accelerometer);
+  f["tilt_gain"].number(p.tilt_gain_per_s, 0.0, 10.0);
+  f["tilt_window"].number(p.tilt_window_s, 0.05, est::kMaxTiltWindow_s);
   return p;
 }
 

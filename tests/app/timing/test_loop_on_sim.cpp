@@ -409,8 +409,11 @@ class MitWire final : public hal::Hardware {
 // before it); with WbcParams' old attitude gains the trot falls within a cycle; without the
 // joints' friction compensated (control.wbc.joint_friction) the hand 8.2 %, base 7.4 % (as
 // in HIL: 7.3 %, 6.0 %; engaged 0.3 s later, with the arm settled, the twin had read 2.5 %);
-// with the IMU's q_w tracked by the gyro alone the base ends 4 % past F/K. Now: NRMSE base
-// 0.73 %, hand 1.80 %, end displacement 30.0 mm (F/K 30), 89.9 mm (90); HIL 0.71 %, 1.76 %.
+// with the IMU's q_w tracked by the gyro alone the base ends 4 % past F/K; without the
+// estimator's position-aided tilt (control.estimator.tilt_gain 0) the base ends 29.2-30.1 mm
+// for pushes starting 3.0-5.0 s (up to 2.7 % off), with it 29.7-30.3 mm. Now: NRMSE base
+// 1.06 %, hand 0.54 %, end displacement 30.0 mm (F/K 30), 89.8 mm (90); HIL 1.26 %, 0.49 %,
+// 30.2 mm, 90.2 mm.
 TEST(LoopOnSim, TheHilConfigRendersAPushThenTrotsWithTheCanPathsDelays) {
   sim::SimConfig sim_config = crouched_sim_config(1000);
   sim_config.latency = sim::Latency{1, 0, 1};

@@ -16,6 +16,21 @@
 //     towards the one the stance feet's anchors imply (each foot's ground
 //     contact point in world, set when it touches down and then moved as the
 //     sphere rolls without slipping: d/dt anchor = w_shin x r z).
+//  5. optional (tilt_gain > 0), for an IMU whose orientation drifts in tilt (the CAN
+//     IMU mounted upside down: the trunk's pitch lies in q_w, which CAN.md 6.1 does
+//     not send, so the gyro's 1 mrad/s counts carry it): the trunk's tilt is aided
+//     by position. Over a window 2T the IMU's position moves by a triangle-weighted
+//     integral of its acceleration: p(t) - 2 p(t-T) + p(t-2T) = int w(s) a(s) ds,
+//     w peaking at T; the same weighted integral of the specific force rotated to
+//     world (+ g) differs from it by T^2 g x (the tilt error) (to first order), so
+//        tilt error ~ [m_y, -m_x] / (g T^2),  m = (second difference of the stance
+//        feet's position) - (second difference of the doubly integrated specific
+//        force), world axes,
+//     and the orientation is rotated towards it at tilt_gain [1/s] (every 10 ticks
+//     a new m). The base's acceleration cancels (a push, a trot), a jump of the
+//     kinematic position (a slip, a new anchor) integrates to zero over 2T, and a
+//     stretch without stance or with a bad measurement restarts the window. Yaw is
+//     untouched. Off by default: a simulated IMU reports its orientation exactly.
 // Without a stance foot the filter predicts from the IMU alone and says so.
 // A non-finite or invalid measurement holds the last estimate and reports it.
 //
@@ -39,7 +54,10 @@ struct EstimatorParams {
   double foot_radius_m = kFootRadius_m;
   double ground_height_m = 0.0;       // world z of the ground under the feet at reset
   bool use_accelerometer = true;      // false: velocity = leg odometry alone
+  double tilt_gain_per_s = 0.0;       // 5.: position-aided tilt, 0 = off (the IMU's tilt as reported)
+  double tilt_window_s = 0.5;         // 5.: T, at most kMaxTiltWindow_s
 };
+inline constexpr double kMaxTiltWindow_s = 1.2;  // the ring below holds 2 T at 10 ms per entry
 
 enum class EstimateStatus : std::uint8_t {
   ok,
@@ -88,6 +106,10 @@ class BaseEstimator {
 
  private:
   bool measurement_ok(const hal::Measurements& m) const noexcept;
+  // Step 5: one tick of the tilt aid (rot: the corrected orientation of this tick; anchored_w:
+  // the mean over the `feet` stance feet of their anchors' trunk position). rt: no alloc
+  void aid_tilt(const hal::Measurements& m, const Mat3& rot, int feet, const Vec3& anchored_w, double dt_s) noexcept;
+  void restart_tilt_window() noexcept { tilt_entries_ = 0; tilt_ticks_ = 0; tilt_error_.setZero(); }
   void write_state(const hal::Measurements& m, const Mat3& rot_wb, const Vec3& omega_b) noexcept;
 
   EstimatorParams params_;
@@ -98,6 +120,15 @@ class BaseEstimator {
   Vec3 velocity_w_ = Vec3::Zero();  // of the trunk origin
   Stance stance_prev_{};
   bool reset_ = false;
+  // Step 5. The correction rotates the IMU's trunk orientation (world axes, tilt only).
+  static constexpr int kTiltBlockTicks = 10;
+  static constexpr int kTiltRing = 256;  // > 2 kMaxTiltWindow_s / 10 ms
+  Mat3 tilt_correction_ = Mat3::Identity();
+  Eigen::Vector2d force_once_ = Eigen::Vector2d::Zero();   // x, y of the integral of R f + g
+  Eigen::Vector2d force_twice_ = Eigen::Vector2d::Zero();  // and of that integral
+  std::array<Eigen::Vector2d, kTiltRing> ring_position_{}, ring_force_twice_{};  // every 10 ticks
+  int tilt_entries_ = 0, tilt_head_ = 0, tilt_ticks_ = 0;
+  Vec3 tilt_error_ = Vec3::Zero();  // the newest window's, world axes (z 0)
   BaseEstimate out_;
 };
 
