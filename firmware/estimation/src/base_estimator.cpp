@@ -204,7 +204,17 @@ void BaseEstimator::aid_tilt(const hal::Measurements& m, const Mat3& rot, int fe
     }
   }
   if (tilt_entries_ == 0) return;
-  const Vec3 step = -std::min(1.0, params_.tilt_gain_per_s * dt_s) * tilt_error_;
+  // The correction turns about the axis of the IMU's quaternion (world axes; the sign of q
+  // flips the axis and the angle together): a turn d about a unit axis u tilts the trunk by
+  // d u_h, so the error's angle is (e . u_h) / |u_h|^2.
+  const Vec3 axis = m.imu.orientation.vec();
+  const double axis_norm = axis.norm();
+  if (!(axis_norm > 1e-3)) return;
+  const Vec3 u = axis / axis_norm;
+  const double horizontal2 = u.x() * u.x() + u.y() * u.y();
+  if (horizontal2 < 0.75) return;  // an axis over 30 degrees from horizontal: the tilt says little about that angle
+  const double angle_error = (tilt_error_.x() * u.x() + tilt_error_.y() * u.y()) / horizontal2;
+  const Vec3 step = -std::min(1.0, params_.tilt_gain_per_s * dt_s) * angle_error * u;
   const double angle = step.norm();
   if (angle > 0.0) tilt_correction_ = Eigen::AngleAxisd(angle, step / angle).toRotationMatrix() * tilt_correction_;
 }

@@ -411,9 +411,8 @@ class MitWire final : public hal::Hardware {
 // in HIL: 7.3 %, 6.0 %; engaged 0.3 s later, with the arm settled, the twin had read 2.5 %);
 // with the IMU's q_w tracked by the gyro alone the base ends 4 % past F/K; without the
 // estimator's position-aided tilt (control.estimator.tilt_gain 0) the base ends 29.2-30.1 mm
-// for pushes starting 3.0-5.0 s (up to 2.7 % off), with it 29.7-30.3 mm. Now: NRMSE base
-// 1.06 %, hand 0.54 %, end displacement 30.0 mm (F/K 30), 89.8 mm (90); HIL 1.26 %, 0.49 %,
-// 30.2 mm, 90.2 mm.
+// for pushes starting 3.0-5.0 s (up to 2.7 % off), with it 29.5-30.3 mm. Now: NRMSE base
+// 1.13 %, hand 0.57 %, end displacement 29.8 mm (F/K 30), 89.6 mm (90).
 TEST(LoopOnSim, TheHilConfigRendersAPushThenTrotsWithTheCanPathsDelays) {
   sim::SimConfig sim_config = crouched_sim_config(1000);
   sim_config.latency = sim::Latency{1, 0, 1};

@@ -26,11 +26,14 @@
 //        tilt error ~ [m_y, -m_x] / (g T^2),  m = (second difference of the stance
 //        feet's position) - (second difference of the doubly integrated specific
 //        force), world axes,
-//     and the orientation is rotated towards it at tilt_gain [1/s] (every 10 ticks
-//     a new m). The base's acceleration cancels (a push, a trot), a jump of the
-//     kinematic position (a slip, a new anchor) integrates to zero over 2T, and a
-//     stretch without stance or with a bad measurement restarts the window. Yaw is
-//     untouched. Off by default: a simulated IMU reports its orientation exactly.
+//     (every 10 ticks a new m). Only the angle about the IMU quaternion's own axis
+//     is corrected, at tilt_gain [1/s]: that angle is what q_w carries (q_xyz on the
+//     wire fix the axis), so the tilt about the other horizontal axis stays the
+//     sensor's (an accelerometer's bias would otherwise pull it too); an axis more
+//     than 30 degrees from horizontal gets no aid. The base's acceleration cancels (a push, a
+//     trot), a jump of the kinematic position (a slip, a new anchor) integrates to
+//     zero over 2T, and a stretch without stance or with a bad measurement restarts
+//     the window. Off by default: a simulated IMU reports its orientation exactly.
 // Without a stance foot the filter predicts from the IMU alone and says so.
 // A non-finite or invalid measurement holds the last estimate and reports it.
 //
@@ -129,6 +132,7 @@ class BaseEstimator {
   std::array<Eigen::Vector2d, kTiltRing> ring_position_{}, ring_force_twice_{};  // every 10 ticks
   int tilt_entries_ = 0, tilt_head_ = 0, tilt_ticks_ = 0;
   Vec3 tilt_error_ = Vec3::Zero();  // the newest window's, world axes (z 0)
+
   BaseEstimate out_;
 };
 
