@@ -61,7 +61,7 @@ TEST(AppConfig, TheShippedFileLoads) {
   EXPECT_EQ(c.control_mode, ControlModeKind::wbc);
   EXPECT_EQ(c.wbc.template_params.mass_base_kg.x(), 92.0);
   EXPECT_EQ(c.estimator.velocity_gain_per_s, 30.0);
-  EXPECT_EQ(c.estimator.tilt_gain_per_s, 0.5);  // the CAN IMU's pitch is not on the wire: aided
+  EXPECT_EQ(c.estimator.tilt_gain_per_s, 1.0);  // the CAN IMU's pitch is not on the wire: aided
 }
 
 TEST(AppConfig, ControlSectionErrorsNameTheField) {

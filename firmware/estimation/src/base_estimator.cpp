@@ -105,6 +105,8 @@ EstimateStatus BaseEstimator::reset(const hal::Measurements& m, const Stance& st
   tilt_correction_.setIdentity();
   force_once_.setZero();
   force_twice_.setZero();
+  turned_rad_ = turned_once_ = turned_twice_ = 0.0;
+  turn_axis_.setZero();
   restart_tilt_window();
   write_state(m, rot, trunk_angular_rate(m.imu.angular_rate_rad_s));
   out_.status = EstimateStatus::ok;
@@ -182,6 +184,8 @@ void BaseEstimator::aid_tilt(const hal::Measurements& m, const Mat3& rot, int fe
   const Eigen::Vector2d force_w = (rot * (imu.rotation * m.imu.linear_accel_m_s2)).head<2>();  // g has no x, y
   force_twice_ += dt_s * (force_once_ + 0.5 * dt_s * force_w);  // exact for a force constant over the tick
   force_once_ += dt_s * force_w;
+  turned_twice_ += dt_s * (turned_once_ + 0.5 * dt_s * turned_rad_);
+  turned_once_ += dt_s * turned_rad_;
   if (++tilt_ticks_ == kTiltBlockTicks) {
     tilt_ticks_ = 0;
     if (feet == 0) {
@@ -190,6 +194,7 @@ void BaseEstimator::aid_tilt(const hal::Measurements& m, const Mat3& rot, int fe
       tilt_head_ = (tilt_head_ + 1) % kTiltRing;
       ring_position_[tilt_head_] = (anchored_w + rot * imu.translation).head<2>();  // the IMU's, from the feet
       ring_force_twice_[tilt_head_] = force_twice_;
+      ring_turned_twice_[tilt_head_] = turned_twice_;
       tilt_entries_ = std::min(tilt_entries_ + 1, kTiltRing);
       const double block_s = kTiltBlockTicks * dt_s;
       const int lag = std::clamp(static_cast<int>(std::lround(params_.tilt_window_s / block_s)), 1, (kTiltRing - 1) / 2);
@@ -200,6 +205,9 @@ void BaseEstimator::aid_tilt(const hal::Measurements& m, const Mat3& rot, int fe
         const double window_s = lag * block_s;
         const Eigen::Vector2d diff = (moved - forced) / (kGravity_m_s2 * window_s * window_s);
         tilt_error_ = Vec3(diff.y(), -diff.x(), 0.0);
+        const double turned_mean_rad =
+            (ring_turned_twice_[tilt_head_] - 2.0 * ring_turned_twice_[mid] + ring_turned_twice_[old]) / (window_s * window_s);
+        turned_since_rad_ = turned_rad_ - turned_mean_rad;
       }
     }
   }
@@ -210,11 +218,16 @@ void BaseEstimator::aid_tilt(const hal::Measurements& m, const Mat3& rot, int fe
   const Vec3 axis = m.imu.orientation.vec();
   const double axis_norm = axis.norm();
   if (!(axis_norm > 1e-3)) return;
-  const Vec3 u = axis / axis_norm;
+  Vec3 u = axis / axis_norm;
+  if (u.dot(turn_axis_) < 0.0) u = -u;  // the angles turned so far are about this sign of the axis
+  turn_axis_ = u;
   const double horizontal2 = u.x() * u.x() + u.y() * u.y();
   if (horizontal2 < 0.75) return;  // an axis over 30 degrees from horizontal: the tilt says little about that angle
-  const double angle_error = (tilt_error_.x() * u.x() + tilt_error_.y() * u.y()) / horizontal2;
-  const Vec3 step = -std::min(1.0, params_.tilt_gain_per_s * dt_s) * angle_error * u;
+  const double angle_error = (tilt_error_.x() * u.x() + tilt_error_.y() * u.y()) / horizontal2 + turned_since_rad_;
+  const double turn_rad = -std::min(1.0, params_.tilt_gain_per_s * dt_s) * angle_error;
+  turned_rad_ += turn_rad;
+  turned_since_rad_ += turn_rad;
+  const Vec3 step = turn_rad * u;
   const double angle = step.norm();
   if (angle > 0.0) tilt_correction_ = Eigen::AngleAxisd(angle, step / angle).toRotationMatrix() * tilt_correction_;
 }

@@ -411,8 +411,8 @@ class MitWire final : public hal::Hardware {
 // in HIL: 7.3 %, 6.0 %; engaged 0.3 s later, with the arm settled, the twin had read 2.5 %);
 // with the IMU's q_w tracked by the gyro alone the base ends 4 % past F/K; without the
 // estimator's position-aided tilt (control.estimator.tilt_gain 0) the base ends 29.2-30.1 mm
-// for pushes starting 3.0-5.0 s (up to 2.7 % off), with it 29.5-30.3 mm. Now: NRMSE base
-// 1.13 %, hand 0.57 %, end displacement 29.8 mm (F/K 30), 89.6 mm (90).
+// for pushes starting 3.0-5.0 s (up to 2.7 % off), with it 29.8-30.2 mm. Now: NRMSE base
+// 0.72 %, end displacement 30.0 mm (F/K 30).
 void render_push_then_trot(double push_start_s) {
   sim::SimConfig sim_config = crouched_sim_config(1000);
   sim_config.latency = sim::Latency{1, 0, 1};
@@ -520,7 +520,7 @@ void render_push_then_trot(double push_start_s) {
 TEST(LoopOnSim, TheHilConfigRendersAPushThenTrotsWithTheCanPathsDelays) { render_push_then_trot(3.0); }
 
 // The same 0.5 s later: the steady state must not depend on when the push comes (the
-// estimated pitch's drift did that: 29.2 mm here without the tilt aid, 2.7 % off; now 29.9 mm).
+// estimated pitch's drift did that: 29.2 mm here without the tilt aid, 2.7 % off; now 29.8 mm).
 TEST(LoopOnSim, TheHilConfigHoldsTheSteadyStateForALaterPush) { render_push_then_trot(3.5); }
 
 TEST(LoopOnSim, TheJointPdControlModeRefusesControllerRequests) {

@@ -26,7 +26,11 @@
 //        tilt error ~ [m_y, -m_x] / (g T^2),  m = (second difference of the stance
 //        feet's position) - (second difference of the doubly integrated specific
 //        force), world axes,
-//     (every 10 ticks a new m). Only the angle about the IMU quaternion's own axis
+//     (every 10 ticks a new m). m is the window's weighted mean of the error, centred T
+//     ago: the correction applied since (its value now less its weighted mean over the
+//     same window) is added to it, so the loop does not wait for its own effect (a Smith
+//     predictor; in the twin it took the base's end position, pushes from 3 to 5 s, from
+//     29.7-30.4 mm to 29.8-30.2). Only the angle about the IMU quaternion's own axis
 //     is corrected, at tilt_gain [1/s]: that angle is what q_w carries (q_xyz on the
 //     wire fix the axis), so the tilt about the other horizontal axis stays the
 //     sensor's (an accelerometer's bias would otherwise pull it too); an axis more
@@ -58,7 +62,7 @@ struct EstimatorParams {
   double ground_height_m = 0.0;       // world z of the ground under the feet at reset
   bool use_accelerometer = true;      // false: velocity = leg odometry alone
   double tilt_gain_per_s = 0.0;       // 5.: position-aided tilt, 0 = off (the IMU's tilt as reported)
-  double tilt_window_s = 0.5;         // 5.: T, at most kMaxTiltWindow_s
+  double tilt_window_s = 0.3;         // 5.: T, at most kMaxTiltWindow_s
 };
 inline constexpr double kMaxTiltWindow_s = 1.2;  // the ring below holds 2 T at 10 ms per entry
 
@@ -112,7 +116,12 @@ class BaseEstimator {
   // Step 5: one tick of the tilt aid (rot: the corrected orientation of this tick; anchored_w:
   // the mean over the `feet` stance feet of their anchors' trunk position). rt: no alloc
   void aid_tilt(const hal::Measurements& m, const Mat3& rot, int feet, const Vec3& anchored_w, double dt_s) noexcept;
-  void restart_tilt_window() noexcept { tilt_entries_ = 0; tilt_ticks_ = 0; tilt_error_.setZero(); }
+  void restart_tilt_window() noexcept {
+    tilt_entries_ = 0;
+    tilt_ticks_ = 0;
+    tilt_error_.setZero();
+    turned_since_rad_ = 0.0;
+  }
   void write_state(const hal::Measurements& m, const Mat3& rot_wb, const Vec3& omega_b) noexcept;
 
   EstimatorParams params_;
@@ -130,6 +139,12 @@ class BaseEstimator {
   Eigen::Vector2d force_once_ = Eigen::Vector2d::Zero();   // x, y of the integral of R f + g
   Eigen::Vector2d force_twice_ = Eigen::Vector2d::Zero();  // and of that integral
   std::array<Eigen::Vector2d, kTiltRing> ring_position_{}, ring_force_twice_{};  // every 10 ticks
+  // The correction's angle about the quaternion's axis so far, its single and double
+  // integrals (the window's weighted mean of it, as of the force), and the part of it
+  // applied since the newest measurement's window (the predictor's term).
+  double turned_rad_ = 0.0, turned_once_ = 0.0, turned_twice_ = 0.0, turned_since_rad_ = 0.0;
+  std::array<double, kTiltRing> ring_turned_twice_{};
+  Vec3 turn_axis_ = Vec3::Zero();  // the last tick's, its sign kept (q and -q are one orientation)
   int tilt_entries_ = 0, tilt_head_ = 0, tilt_ticks_ = 0;
   Vec3 tilt_error_ = Vec3::Zero();  // the newest window's, world axes (z 0)
 
