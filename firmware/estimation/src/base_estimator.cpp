@@ -130,9 +130,10 @@ const BaseEstimate& BaseEstimator::update(const hal::Measurements& m, const Stan
 
   // Prediction: the IMU's acceleration, moved from the IMU to the trunk origin
   // (centripetal term; the angular-acceleration term is left to the correction).
+  const dyn::Placement& imu = model_.frame_placement[kImuFrame];
+  const Vec3 specific_force_w = rot * (imu.rotation * m.imu.linear_accel_m_s2);  // also step 5's
   if (params_.use_accelerometer) {
-    const dyn::Placement& imu = model_.frame_placement[kImuFrame];
-    const Vec3 accel_imu_w = rot * (imu.rotation * m.imu.linear_accel_m_s2) + model_.gravity_world_m_s2;
+    const Vec3 accel_imu_w = specific_force_w + model_.gravity_world_m_s2;
     const Vec3 centripetal_w = rot * omega_b.cross(omega_b.cross(imu.translation));
     velocity_w_ += dt_s * (accel_imu_w - centripetal_w);
   }
@@ -156,7 +157,6 @@ const BaseEstimate& BaseEstimator::update(const hal::Measurements& m, const Stan
     ++feet;
   }
   stance_prev_ = stance;
-  if (params_.tilt_gain_per_s > 0.0) aid_tilt(m, rot, feet, feet > 0 ? Vec3(anchored_w / feet) : anchored_w, dt_s);
   if (feet > 0) {
     odometry_w /= feet;
     anchored_w /= feet;
@@ -173,15 +173,16 @@ const BaseEstimate& BaseEstimator::update(const hal::Measurements& m, const Stan
     position_w_ += dt_s * velocity_w_;
     out_.status = EstimateStatus::no_stance;
   }
+  if (params_.tilt_gain_per_s > 0.0) aid_tilt(m, rot, specific_force_w, feet, anchored_w, dt_s);
   write_state(m, rot, omega_b);
   return out_;
 }
 
 // rt: no alloc, no block
-void BaseEstimator::aid_tilt(const hal::Measurements& m, const Mat3& rot, int feet, const Vec3& anchored_w,
-                             double dt_s) noexcept {
+void BaseEstimator::aid_tilt(const hal::Measurements& m, const Mat3& rot, const Vec3& specific_force_w, int feet,
+                             const Vec3& anchored_w, double dt_s) noexcept {
   const dyn::Placement& imu = model_.frame_placement[kImuFrame];
-  const Eigen::Vector2d force_w = (rot * (imu.rotation * m.imu.linear_accel_m_s2)).head<2>();  // g has no x, y
+  const Eigen::Vector2d force_w = specific_force_w.head<2>();  // + g: g has no x, y
   force_twice_ += dt_s * (force_once_ + 0.5 * dt_s * force_w);  // exact for a force constant over the tick
   force_once_ += dt_s * force_w;
   turned_twice_ += dt_s * (turned_once_ + 0.5 * dt_s * turned_rad_);

@@ -113,9 +113,12 @@ class BaseEstimator {
 
  private:
   bool measurement_ok(const hal::Measurements& m) const noexcept;
-  // Step 5: one tick of the tilt aid (rot: the corrected orientation of this tick; anchored_w:
-  // the mean over the `feet` stance feet of their anchors' trunk position). rt: no alloc
-  void aid_tilt(const hal::Measurements& m, const Mat3& rot, int feet, const Vec3& anchored_w, double dt_s) noexcept;
+  // Step 5: one tick of the tilt aid (rot: the corrected orientation of this tick;
+  // specific_force_w: the IMU's specific force in world axes through it; anchored_w: the mean
+  // over the `feet` stance feet of their anchors' trunk position, unused without one).
+  // rt: no alloc
+  void aid_tilt(const hal::Measurements& m, const Mat3& rot, const Vec3& specific_force_w, int feet,
+                const Vec3& anchored_w, double dt_s) noexcept;
   void restart_tilt_window() noexcept {
     tilt_entries_ = 0;
     tilt_ticks_ = 0;
@@ -132,7 +135,8 @@ class BaseEstimator {
   Vec3 velocity_w_ = Vec3::Zero();  // of the trunk origin
   Stance stance_prev_{};
   bool reset_ = false;
-  // Step 5. The correction rotates the IMU's trunk orientation (world axes, tilt only).
+  // Step 5. The correction rotates the IMU's trunk orientation (world axes, about the
+  // IMU quaternion's axis).
   static constexpr int kTiltBlockTicks = 10;
   static constexpr int kTiltRing = 256;  // > 2 kMaxTiltWindow_s / 10 ms
   Mat3 tilt_correction_ = Mat3::Identity();
