@@ -277,9 +277,12 @@ inline void gemv_and_row_squares(const double* a, int ld, int m, int n, const do
 // For a column-major n x n matrix A (leading dimension ld), as row_squares, with
 // bits[i] = the OR over j != i of the magnitude bits of a_ij (sign dropped), so
 // bits[i] == 0 exactly when row i has no non-zero entry off the diagonal (a zero of
-// either sign is zero). Outputs as column_pass (whole_rows(n, ld) entries).
+// either sign is zero), and column[j] = 1 when column j has one. Outputs as column_pass
+// (whole_rows(n, ld) entries), column n entries. A variable whose row and column are
+// both zero off the diagonal is coupled to no other by A's lower triangle, or its upper.
 inline void row_squares_and_offdiagonal_bits(const double* a, int ld, int n, double* __restrict sq,
-                                             std::uint64_t* __restrict bits) noexcept {
+                                             std::uint64_t* __restrict bits,
+                                             std::uint8_t* __restrict column) noexcept {
   using Bits = ChunkBits;
   // keep[l]: every lane but lane l (the diagonal entry of a column in its own chunk).
   constexpr std::uint64_t ones = ~std::uint64_t{0};
@@ -287,13 +290,18 @@ inline void row_squares_and_offdiagonal_bits(const double* a, int ld, int n, dou
                         Bits{ones, ones, ones, 0}};
   const Bits all = {ones, ones, ones, ones};
   const int whole = whole_rows(n, ld);
+  Bits live_last = all;  // the lanes of the chunk [whole - 4, whole) above row n
+  for (int l = 0; l < 4; ++l)
+    if (whole - 4 + l >= n) live_last[l] = 0;
   const std::ptrdiff_t step = ld;
   for (int i = 0; i < whole; i += 4) {
     std::memcpy(sq + i, &kZeroChunk, sizeof kZeroChunk);
     std::memset(bits + i, 0, 4 * sizeof(std::uint64_t));
   }
+  auto any = [](const Bits& v) noexcept { return static_cast<std::uint8_t>(((v[0] | v[1]) | (v[2] | v[3])) != 0); };
   int j = 0;
   for (; j + 4 <= n; j += 4) {
+    Bits d0 = {0, 0, 0, 0}, d1 = d0, d2 = d0, d3 = d0;
     for (int i = 0; i < whole; i += 4) {
       Chunk c0, c1, c2, c3;
       load_four_columns(a + j * step, step, i, c0, c1, c2, c3);
@@ -303,29 +311,41 @@ inline void row_squares_and_offdiagonal_bits(const double* a, int ld, int n, dou
       magnitude_bits(c2, m2);
       magnitude_bits(c3, m3);
       const bool diagonal = i == j;  // the chunk holding the four diagonal entries (j is a chunk start)
-      m0 &= diagonal ? keep[0] : all;
-      m1 &= diagonal ? keep[1] : all;
-      m2 &= diagonal ? keep[2] : all;
-      m3 &= diagonal ? keep[3] : all;
+      const Bits live = i + 4 <= n ? all : live_last;
+      m0 &= (diagonal ? keep[0] : all) & live;
+      m1 &= (diagonal ? keep[1] : all) & live;
+      m2 &= (diagonal ? keep[2] : all) & live;
+      m3 &= (diagonal ? keep[3] : all) & live;
       add_chunk(sq + i, (c0 * c0 + c1 * c1) + (c2 * c2 + c3 * c3));
       std::memcpy(&b, bits + i, sizeof b);
       b |= (m0 | m1) | (m2 | m3);
       std::memcpy(bits + i, &b, sizeof b);
+      d0 |= m0;
+      d1 |= m1;
+      d2 |= m2;
+      d3 |= m3;
     }
+    column[j] = any(d0);
+    column[j + 1] = any(d1);
+    column[j + 2] = any(d2);
+    column[j + 3] = any(d3);
   }
   for (; j < n; ++j) {
     const double* aj = a + j * step;
+    Bits d = {0, 0, 0, 0};
     for (int i = 0; i < whole; i += 4) {
       Chunk c;
       std::memcpy(&c, aj + i, sizeof c);
       Bits m, b;
       magnitude_bits(c, m);
-      m &= i == chunk_start(j) ? keep[j & 3] : all;
+      m &= (i == chunk_start(j) ? keep[j & 3] : all) & (i + 4 <= n ? all : live_last);
       add_chunk(sq + i, c * c);
       std::memcpy(&b, bits + i, sizeof b);
       b |= m;
       std::memcpy(bits + i, &b, sizeof b);
+      d |= m;
     }
+    column[j] = any(d);
   }
   for (int i = whole; i < n; ++i) {  // ld not a multiple of four: the last rows
     double si = 0.0;
@@ -335,7 +355,9 @@ inline void row_squares_and_offdiagonal_bits(const double* a, int ld, int n, dou
       si += v * v;
       std::uint64_t vb;
       std::memcpy(&vb, &v, sizeof vb);
-      if (jj != i) bi |= vb << 1;
+      if (jj == i) continue;
+      bi |= vb << 1;
+      if ((vb << 1) != 0) column[jj] = 1;
     }
     sq[i] = si;
     bits[i] = bi;

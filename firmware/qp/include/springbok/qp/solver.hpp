@@ -123,9 +123,11 @@ class Solver {
     // Sums of squares along the rows of H and Aeq: finite ones prove every entry
     // finite; only a non-finite one (NaN, inf, or overflow of huge entries) needs
     // the entries checked. The same pass over H finds the variables it couples (a
-    // row with an off-diagonal non-zero on either side of the diagonal: for a
-    // symmetric H exactly the coupled ones, otherwise more, never fewer).
-    dense::row_squares_and_offdiagonal_bits(p.hessian.data(), N, n_, h_row_sq_.data(), row_bits_.data());
+    // row or column with an off-diagonal non-zero: for a symmetric H exactly the
+    // coupled ones, otherwise more, never fewer; a solve reads the lower triangle, whose
+    // h_ij couples i by its row and j by its column).
+    dense::row_squares_and_offdiagonal_bits(p.hessian.data(), N, n_, h_row_sq_.data(), row_bits_.data(),
+                                            coupled_.data());
     dense::row_squares(p.aeq.data(), ME, meq_, n_, eq_row_sq_.data());
     if (!dense::all_finite(h_row_sq_.data(), n_) || !dense::all_finite(eq_row_sq_.data(), meq_)) {
       for (int j = 0; j < n_; ++j) {
@@ -133,7 +135,7 @@ class Solver {
         if (!dense::all_finite(p.aeq.data() + idx(0, j, ME), meq_)) return Status::bad_input;
       }
     }
-    for (int j = 0; j < n_; ++j) coupled_[j] = row_bits_[j] != 0 ? 1 : 0;
+    for (int j = 0; j < n_; ++j) coupled_[j] = row_bits_[j] != 0 || coupled_[j] != 0 ? 1 : 0;
 
     // The rows' kinds from their bounds. Ain itself is read first by the first
     // most_violated(), which computes its row norms together with Ain x and settles
