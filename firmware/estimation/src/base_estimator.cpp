@@ -210,6 +210,9 @@ void BaseEstimator::aid_tilt(const hal::Measurements& m, const Mat3& rot, const 
             (ring_turned_twice_[tilt_head_] - 2.0 * ring_turned_twice_[mid] + ring_turned_twice_[old]) / (window_s * window_s);
         turned_since_rad_ = turned_rad_ - turned_mean_rad;
       }
+      // The integrals from zero every tilt_rebase_s (the next second differences unchanged).
+      const double rebase_s = params_.tilt_rebase_s > 0.0 ? params_.tilt_rebase_s : EstimatorParams{}.tilt_rebase_s;
+      if (++tilt_blocks_since_rebase_ >= std::max(1.0, std::round(rebase_s / block_s))) rebase_tilt_integrals(block_s);
     }
   }
   if (tilt_entries_ == 0) return;
@@ -231,6 +234,20 @@ void BaseEstimator::aid_tilt(const hal::Measurements& m, const Mat3& rot, const 
   const Vec3 step = turn_rad * u;
   const double angle = step.norm();
   if (angle > 0.0) tilt_correction_ = Eigen::AngleAxisd(angle, step / angle).toRotationMatrix() * tilt_correction_;
+}
+
+void BaseEstimator::rebase_tilt_integrals(double block_s) noexcept {
+  for (int age = 0; age < tilt_entries_; ++age) {  // the entry `age` blocks old, at t - age block_s
+    const int k = (tilt_head_ - age + kTiltRing) % kTiltRing;
+    const double before_s = age * block_s;
+    ring_force_twice_[k] -= force_twice_ - before_s * force_once_;
+    ring_turned_twice_[k] -= turned_twice_ - before_s * turned_once_;
+  }
+  force_once_.setZero();
+  force_twice_.setZero();
+  turned_once_ = 0.0;
+  turned_twice_ = 0.0;
+  tilt_blocks_since_rebase_ = 0;
 }
 
 }  // namespace springbok::est

@@ -37,7 +37,13 @@
 //     than 30 degrees from horizontal gets no aid. The base's acceleration cancels (a push, a
 //     trot), a jump of the kinematic position (a slip, a new anchor) integrates to
 //     zero over 2T, and a stretch without stance or with a bad measurement restarts
-//     the window. Off by default: a simulated IMU reports its orientation exactly.
+//     the window. The double integrals grow as t^2 (with an accelerometer bias b, as
+//     b t^2 / 2), so every tilt_rebase_s they restart from zero and the window's stored
+//     values lose the same line in time (value and slope now): a second difference over
+//     equally spaced samples does not see a line, so the measurements go on unchanged
+//     while the integrals stay within a minute's growth (rounding would otherwise reach
+//     the measured tilt after some hundred hours). Off by default: a simulated IMU
+//     reports its orientation exactly.
 // Without a stance foot the filter predicts from the IMU alone and says so.
 // A non-finite or invalid measurement holds the last estimate and reports it.
 //
@@ -63,6 +69,7 @@ struct EstimatorParams {
   bool use_accelerometer = true;      // false: velocity = leg odometry alone
   double tilt_gain_per_s = 0.0;       // 5.: position-aided tilt, 0 = off (the IMU's tilt as reported)
   double tilt_window_s = 0.3;         // 5.: T, at most kMaxTiltWindow_s
+  double tilt_rebase_s = 60.0;        // 5.: the integrals restart from zero this often (> 0)
 };
 inline constexpr double kMaxTiltWindow_s = 1.2;  // the ring below holds 2 T at 10 ms per entry
 
@@ -124,7 +131,11 @@ class BaseEstimator {
     tilt_ticks_ = 0;
     tilt_error_.setZero();
     turned_since_rad_ = 0.0;
+    rebase_tilt_integrals(0.0);  // nothing stored depends on them
   }
+  // The integrals from zero; each stored value loses the line through the integrals' value
+  // and slope now (block_s: the entries' spacing).
+  void rebase_tilt_integrals(double block_s) noexcept;
   void write_state(const hal::Measurements& m, const Mat3& rot_wb, const Vec3& omega_b) noexcept;
 
   EstimatorParams params_;
@@ -149,10 +160,14 @@ class BaseEstimator {
   double turned_rad_ = 0.0, turned_once_ = 0.0, turned_twice_ = 0.0, turned_since_rad_ = 0.0;
   std::array<double, kTiltRing> ring_turned_twice_{};
   Vec3 turn_axis_ = Vec3::Zero();  // the last tick's, its sign kept (q and -q are one orientation)
-  int tilt_entries_ = 0, tilt_head_ = 0, tilt_ticks_ = 0;
+  int tilt_entries_ = 0, tilt_head_ = 0, tilt_ticks_ = 0, tilt_blocks_since_rebase_ = 0;
   Vec3 tilt_error_ = Vec3::Zero();  // the newest window's, world axes (z 0)
 
   BaseEstimate out_;
+
+ public:
+  // Diagnostic: |the doubly integrated horizontal specific force| since the last rebase [m].
+  double tilt_force_integral_m() const noexcept { return force_twice_.norm(); }
 };
 
 }  // namespace springbok::est
