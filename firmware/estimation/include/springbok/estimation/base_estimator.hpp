@@ -102,6 +102,9 @@ class BaseEstimator {
   const BaseEstimate& update(const hal::Measurements& m, const Stance& stance, double dt_s) noexcept;
 
   const BaseEstimate& estimate() const noexcept { return out_; }
+  // Diagnostic: |the tilt aid's doubly integrated horizontal specific force| since its last
+  // rebase [m] (step 5).
+  double tilt_force_integral_m() const noexcept { return force_twice_.norm(); }
 
   // The trunk velocity (trunk frame) implied by one stance foot, given the trunk
   // orientation, its angular rate (trunk frame) and the joint state: leg odometry,
@@ -164,10 +167,6 @@ class BaseEstimator {
   Vec3 tilt_error_ = Vec3::Zero();  // the newest window's, world axes (z 0)
 
   BaseEstimate out_;
-
- public:
-  // Diagnostic: |the doubly integrated horizontal specific force| since the last rebase [m].
-  double tilt_force_integral_m() const noexcept { return force_twice_.norm(); }
 };
 
 }  // namespace springbok::est
