@@ -103,11 +103,9 @@ EstimateStatus BaseEstimator::reset(const hal::Measurements& m, const Stance& st
   stance_prev_ = stance;
   reset_ = true;
   tilt_correction_.setIdentity();
-  force_once_.setZero();
-  force_twice_.setZero();
-  turned_rad_ = turned_once_ = turned_twice_ = 0.0;
+  turned_rad_ = 0.0;
   turn_axis_.setZero();
-  restart_tilt_window();
+  restart_tilt_window();  // and the integrals from zero
   write_state(m, rot, trunk_angular_rate(m.imu.angular_rate_rad_s));
   out_.status = EstimateStatus::ok;
   return out_.status;
