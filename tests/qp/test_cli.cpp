@@ -153,6 +153,27 @@ TEST_F(QpCli, BenchAddsMedianAndP99) {
   }
 }
 
+// --warm hints the previous solve's active set only when that solve was optimal, as the
+// WBC does: an infeasible instance is then timed cold each time (its iterations those of
+// a cold solve), not from an empty hinted set (whose repairs and the full method after
+// them took wbc_sat_torque_03 42 iterations against a cold start's 34).
+TEST_F(QpCli, WarmBenchStartsColdAfterANonOptimalSolve) {
+  const CliRun cold = run_cli("--bench 3 " + inst("wbc_sat_torque_03.qp"), work);
+  ASSERT_EQ(cold.exit_code, 0) << cold.err;
+  ASSERT_EQ(cold.lines.size(), 1u);
+  ASSERT_EQ(cold.lines[0].size(), 6u);
+  EXPECT_EQ(cold.lines[0][1], "infeasible");
+  EXPECT_GT(std::stoi(cold.lines[0][3]), 0);
+  for (const std::string flags : {"--bench 3 --warm", "--bench 3 --warm-factor"}) {
+    const CliRun warm = run_cli(flags + " " + inst("wbc_sat_torque_03.qp"), work);
+    ASSERT_EQ(warm.exit_code, 0) << warm.err;
+    ASSERT_EQ(warm.lines.size(), 1u);
+    ASSERT_EQ(warm.lines[0].size(), 6u);
+    EXPECT_EQ(warm.lines[0][1], "infeasible") << flags;
+    EXPECT_EQ(warm.lines[0][3], cold.lines[0][3]) << flags;  // the same iterations: no hinted set
+  }
+}
+
 TEST_F(QpCli, BadArgumentsAreRejected) {
   EXPECT_EQ(run_cli("", work).exit_code, 2);
   EXPECT_EQ(run_cli("--bench zero " + inst("HS21.qp"), work).exit_code, 2);
