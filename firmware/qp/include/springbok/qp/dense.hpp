@@ -672,14 +672,6 @@ inline void sub_outer_chunks(const double* v, int n, int ncols, const double* co
   for (; j < ncols; ++j) axpy_chunks(-coef[j], v, a + static_cast<std::ptrdiff_t>(j) * ld, n);
 }
 
-// y <- (I - tau v v') y for a full padded reflector v (zero above row k, 1 at k).
-inline void apply_reflector(const double* v, double tau, int k, int np, double* y) noexcept {
-  if (tau == 0.0) return;
-  const int start = chunk_start(k);
-  const double w = tau * dot_chunks(v + start, y + start, np - start);
-  axpy_chunks(-w, v + start, y + start, np - start);
-}
-
 // Householder reflector P = I - tau v v' with v = [1; scale * x[1..]] so that
 // P x = [beta; 0], given tail2 = |x[1..]|^2. Only x[0] changes (to beta): the
 // caller writes the scaled tail where it wants it. Returns tau (0: P = I, scale 0).
