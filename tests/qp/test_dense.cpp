@@ -1,6 +1,8 @@
 // qp::dense::scan_lower_triangle (the caller's Cholesky factor: finite, which variables it
 // couples) against the entry-by-entry definition, on random sparsity patterns, sizes and
-// leading dimensions, with non-finite entries on, below and above the diagonal.
+// leading dimensions, with non-finite entries on, below and above the diagonal; the
+// shuffling kernels (a 4 x 4 transposing copy, four dot products summed at once) against
+// their definitions, bit for bit.
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -76,4 +78,40 @@ TEST(DenseScan, LowerTriangleScanMatchesItsDefinition) {
   EXPECT_GT(coupled_cases, 1000);
 }
 
+}  // namespace
+
+namespace {
+using springbok::qp::dense::copy_transposed4;
+using springbok::qp::dense::four_column_dots;
+
+TEST(DenseShuffles, TransposedCopyPutsColumnsIntoRows) {
+  constexpr int kLd = 8;
+  std::vector<double> a(4 * kLd), y(4 * kLd + 3, -7.0);
+  for (std::size_t k = 0; k < a.size(); ++k) a[k] = 1.0 + static_cast<double>(k);
+  // Rows 2..5 of the four columns into rows of y (leading dimension 9: rows not chunk aligned).
+  copy_transposed4(a.data() + 2, a.data() + kLd + 2, a.data() + 2 * kLd + 2, a.data() + 3 * kLd + 2, y.data() + 1, 9);
+  for (int l = 0; l < 4; ++l)
+    for (int c = 0; c < 4; ++c)
+      EXPECT_EQ(y[static_cast<std::size_t>(1 + l * 9 + c)], a[static_cast<std::size_t>(c * kLd + 2 + l)]) << l << " " << c;
+  EXPECT_EQ(y[0], -7.0);  // nothing written outside the four rows
+  EXPECT_EQ(y[5], -7.0);
+}
+
+TEST(DenseShuffles, FourColumnDotsSumEachColumnsLanesInItsOrder) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 200; ++trial) {
+    const int ld = 4 * (1 + trial % 5), to = ld;
+    std::vector<double> a(static_cast<std::size_t>(4 * ld)), x(static_cast<std::size_t>(ld));
+    for (double& v : a) v = u(rng) * std::pow(10.0, static_cast<int>(trial % 7) - 3);
+    for (double& v : x) v = u(rng);
+    double out[4];
+    four_column_dots(a.data(), ld, 0, to, x.data(), out);
+    for (int c = 0; c < 4; ++c) {
+      double lane[4] = {0.0, 0.0, 0.0, 0.0};  // the kernel's four partial sums, then ((0 + 1) + (2 + 3))
+      for (int i = 0; i < to; ++i) lane[i % 4] += a[static_cast<std::size_t>(c * ld + i)] * x[static_cast<std::size_t>(i)];
+      EXPECT_EQ(out[c], (lane[0] + lane[1]) + (lane[2] + lane[3])) << "trial " << trial << " column " << c;
+    }
+  }
+}
 }  // namespace

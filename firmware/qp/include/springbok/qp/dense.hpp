@@ -188,6 +188,27 @@ inline void store4(double* y, double a, double b, double c, double d) noexcept {
   std::memcpy(y, &v, sizeof v);
 }
 
+// y + l * ystep <- {a0[l], a1[l], a2[l], a3[l]} for l = 0..3: a 4 x 4 block of four
+// columns stored as rows (one chunk load per column, one chunk store per row).
+inline void copy_transposed4(const double* a0, const double* a1, const double* a2, const double* a3, double* y,
+                             std::ptrdiff_t ystep) noexcept {
+  Chunk a, b, c, d;
+  std::memcpy(&a, a0, sizeof a);
+  std::memcpy(&b, a1, sizeof b);
+  std::memcpy(&c, a2, sizeof c);
+  std::memcpy(&d, a3, sizeof d);
+  const Chunk ab_even = __builtin_shufflevector(a, b, 0, 4, 2, 6), ab_odd = __builtin_shufflevector(a, b, 1, 5, 3, 7);
+  const Chunk cd_even = __builtin_shufflevector(c, d, 0, 4, 2, 6), cd_odd = __builtin_shufflevector(c, d, 1, 5, 3, 7);
+  const Chunk r0 = __builtin_shufflevector(ab_even, cd_even, 0, 1, 4, 5);
+  const Chunk r1 = __builtin_shufflevector(ab_odd, cd_odd, 0, 1, 4, 5);
+  const Chunk r2 = __builtin_shufflevector(ab_even, cd_even, 2, 3, 6, 7);
+  const Chunk r3 = __builtin_shufflevector(ab_odd, cd_odd, 2, 3, 6, 7);
+  std::memcpy(y, &r0, sizeof r0);
+  std::memcpy(y + ystep, &r1, sizeof r1);
+  std::memcpy(y + 2 * ystep, &r2, sizeof r2);
+  std::memcpy(y + 3 * ystep, &r3, sizeof r3);
+}
+
 // Rows [i, i + 4) of four adjacent columns (the first at a, leading dimension step).
 inline void load_four_columns(const double* a, std::ptrdiff_t step, int i, Chunk& c0, Chunk& c1, Chunk& c2,
                               Chunk& c3) noexcept {
@@ -572,10 +593,12 @@ inline void four_column_dots(const double* a, std::ptrdiff_t ld, int from, int t
     std::memcpy(&c, a3 + i, sizeof c);
     s3 += c * xc;
   }
-  out[0] = (s0[0] + s0[1]) + (s0[2] + s0[3]);
-  out[1] = (s1[0] + s1[1]) + (s1[2] + s1[3]);
-  out[2] = (s2[0] + s2[1]) + (s2[2] + s2[3]);
-  out[3] = (s3[0] + s3[1]) + (s3[2] + s3[3]);
+  // out[c] = (s_c[0] + s_c[1]) + (s_c[2] + s_c[3]) for the four at once: pairs, then
+  // the pairs' sums (the same additions as four horizontal sums, in fewer shuffles).
+  const Chunk p01 = __builtin_shufflevector(s0, s1, 0, 4, 2, 6) + __builtin_shufflevector(s0, s1, 1, 5, 3, 7);
+  const Chunk p23 = __builtin_shufflevector(s2, s3, 0, 4, 2, 6) + __builtin_shufflevector(s2, s3, 1, 5, 3, 7);
+  const Chunk sums = __builtin_shufflevector(p01, p23, 0, 1, 4, 5) + __builtin_shufflevector(p01, p23, 2, 3, 6, 7);
+  std::memcpy(out, &sums, sizeof sums);
 }
 
 // out[j] = a_j . x for the first ncols columns a_j of a column-major matrix (leading

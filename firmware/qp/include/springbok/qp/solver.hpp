@@ -288,7 +288,9 @@ class Solver {
       const double* c1 = p.aeq.data() + idx(0, perm_[k + 1], ME);
       const double* c2 = p.aeq.data() + idx(0, perm_[k + 2], ME);
       const double* c3 = p.aeq.data() + idx(0, perm_[k + 3], ME);
-      for (int r = 0; r < meq_; ++r) dense::store4(bcol(r) + k, c0[r], c1[r], c2[r], c3[r]);
+      int r = 0;
+      for (; r + 4 <= meq_; r += 4) dense::copy_transposed4(c0 + r, c1 + r, c2 + r, c3 + r, bcol(r) + k, kLd);
+      for (; r < meq_; ++r) dense::store4(bcol(r) + k, c0[r], c1[r], c2[r], c3[r]);
     }
     for (; k < n_; ++k) {
       const double* col = p.aeq.data() + idx(0, perm_[k], ME);
