@@ -1434,7 +1434,7 @@ class Solver {
   alignas(64) Buf<double, kLd*(kMaxEqRows + 1)> b_{};  // and L^-1 g in column me_
   alignas(64) Buf<double, kLd * N> v_{};  // Householder vectors, full and padded
   alignas(64) Buf<double, kLd * N> wy_t_{};   // T of Q = I - V T V' (rank_ x rank_, upper)
-  alignas(64) Buf<double, kLd> wy_s_{}, wy_u_{};  // V'y and T V'y (apply_wy)
+  alignas(64) Buf<double, kLd> wy_s_{}, wy_u_{};  // V'y and T V'y (apply_q, build_wy)
   Buf<double, kMaxEqRows> tau_{}, eq_rhs_{}, eq_norm2_{}, eq_left2_{}, eq_res_{}, eq_row_norm_{};
   Buf<int, kMaxEqRows> eq_src_{};
   Buf<double, kMaxEqRows + 1> eq_w_{};  // tau v'c_j of one reflector for the columns right of it
