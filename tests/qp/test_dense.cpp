@@ -14,6 +14,8 @@
 #include "springbok/qp/dense.hpp"
 
 namespace {
+using springbok::qp::dense::copy_transposed4;
+using springbok::qp::dense::four_column_dots;
 using springbok::qp::dense::scan_lower_triangle;
 
 struct Reference {
@@ -78,11 +80,6 @@ TEST(DenseScan, LowerTriangleScanMatchesItsDefinition) {
   EXPECT_GT(coupled_cases, 1000);
 }
 
-}  // namespace
-
-namespace {
-using springbok::qp::dense::copy_transposed4;
-using springbok::qp::dense::four_column_dots;
 
 TEST(DenseShuffles, TransposedCopyPutsColumnsIntoRows) {
   constexpr int kLd = 8;
