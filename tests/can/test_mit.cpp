@@ -143,6 +143,26 @@ TEST(MitCodec, SpecialFrames) {
   EXPECT_EQ(classify(frame_of(5, {0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFB})), Special::none);
 }
 
+// A command with every field at the top of its range and t in its top codes would spell a
+// special frame (FF .. FF FC/FD/FE, CAN.md 1.5: set zero must never go out by accident):
+// the encoder takes the position one code lower.
+TEST(MitCodec, ASaturatedCommandNeverSpellsASpecialFrame) {
+  const Ranges r;
+  const double t_lsb = (r.t_max_nm - r.t_min_nm) / 4095.0;
+  for (int code = 0xFFA; code <= 0xFFF; ++code) {
+    const Command c{.p_rad = r.p_max_rad + 1.0, .v_rad_s = r.v_max_rad_s + 1.0, .kp = r.kp_max, .kd = r.kd_max,
+                    .t_nm = r.t_min_nm + code * t_lsb};
+    Frame f;
+    ASSERT_EQ(encode_command(7, c, r, f), FrameStatus::ok);
+    EXPECT_EQ(classify(f), Special::none) << std::hex << code;
+    Command back;
+    ASSERT_EQ(decode_command(f, r, back), FrameStatus::ok);
+    const double p_lsb = (r.p_max_rad - r.p_min_rad) / 65535.0;
+    EXPECT_LE(r.p_max_rad - back.p_rad, p_lsb + 1e-12) << std::hex << code;  // at most one code below the top
+    EXPECT_NEAR(back.t_nm, c.t_nm, t_lsb / 2 + 1e-12);
+  }
+}
+
 TEST(MitCodec, DecodersRejectBadFrames) {
   Reply rep;
   Command cmd;

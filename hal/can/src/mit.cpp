@@ -64,6 +64,10 @@ FrameStatus encode_command(std::uint8_t drive_id, const Command& c, const Ranges
   out.data[5] = static_cast<std::uint8_t>(kd >> 4);
   out.data[6] = static_cast<std::uint8_t>(((kd & 0xF) << 4) | (t >> 8));
   out.data[7] = static_cast<std::uint8_t>(t & 0xFF);
+  // Every field at the top of its range and t in its top codes spell a special frame
+  // (FF .. FF FC/FD/FE: enter or exit motor mode, or set zero, CAN.md 1.5). Such a
+  // command takes the position one code lower (one 16-bit step, at the range's end).
+  if (classify(out) != Special::none) out.data[1] = 0xFE;
   return FrameStatus::ok;
 }
 
