@@ -66,6 +66,29 @@ TEST(CanConfig, ExplicitBusesWithEveryDriveField) {
   EXPECT_DOUBLE_EQ(r.config.buses[6].drives[1].mit_ranges.t_max_nm, 9.0);
 }
 
+// CAN.md 1.4: the reply id is the drive's CAN_MASTER setting (default 0 on every drive) and
+// the host matches replies on byte 0, so drives may share one, 0 included; an id not used by
+// the bus's drives otherwise is fine even below 128.
+TEST(CanConfig, MitDrivesMayShareAReplyIdTheFactoryDefaultZeroIncluded) {
+  std::string shared = full_config("          reply_id: 0x102\n");  // drive 2's default reply id
+  ConfigResult r = load_can_config_text(shared);
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.config.buses[0].drives[0].mit_reply_id, r.config.buses[0].drives[1].mit_reply_id);
+  std::string zero = full_config("");
+  for (std::size_t at = zero.find("          id: "); at != std::string::npos; at = zero.find("          id: ", at + 1)) {
+    const std::size_t eol = zero.find('\n', at);
+    zero.insert(eol + 1, "          reply_id: 0\n");
+  }
+  r = load_can_config_text(zero);
+  ASSERT_TRUE(r.ok) << r.error;
+  for (const BusConfig& b : r.config.buses) {
+    for (const DriveConfig& d : b.drives) EXPECT_EQ(d.mit_reply_id, 0u) << int{d.drive_id};
+  }
+  // 100 is no drive of bus lf (drives 1..3): allowed.
+  r = load_can_config_text(full_config("          reply_id: 100\n"));
+  EXPECT_TRUE(r.ok) << r.error;
+}
+
 TEST(CanConfig, JointByName) {
   std::string s = full_config("");
   const auto pos = s.find("joint: 0\n");
@@ -83,7 +106,7 @@ struct BadCase {
 TEST(CanConfig, ErrorsNameTheField) {
   const BadCase cases[] = {
       {"          reply_id: 0x800\n", "can.buses[0].drives[0].reply_id"},
-      {"          reply_id: 5\n", "can.buses[0].drives[0].reply_id"},
+      {"          reply_id: 2\n", "can.buses[0].drives[0].reply_id: 2 is the command id of drive 2"},
       {"          vendor_reply: maybe\n", "can.buses[0].drives[0].vendor_reply"},
       {"          mit_ranges: {t: [15, -15]}\n", "can.buses[0].drives[0].mit_ranges.t"},
       {"          mit_ranges: {t: [.nan, 15]}\n", "can.buses[0].drives[0].mit_ranges.t[0]"},
@@ -91,7 +114,6 @@ TEST(CanConfig, ErrorsNameTheField) {
       {"          protocol: canopen\n", "can.buses[0].drives[0].protocol"},
       {"          colour: red\n", "can.buses[0].drives[0].colour: unknown key"},
       {"          mapping: three\n", "can.buses[0].drives[0].mapping"},
-      {"          reply_id: 0x102\n", "can.buses[0].drives[1].reply_id: used twice"},
   };
   for (const BadCase& c : cases) {
     const ConfigResult r = load_can_config_text(full_config(c.extra));

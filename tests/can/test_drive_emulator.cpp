@@ -318,6 +318,16 @@ TEST(DriveEmulatorCli, RejectsABadConfigOrFaultScript) {
   EXPECT_EQ(run("--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml --faults " + bad, out), 2);
   EXPECT_NE(out.find("faults[0].kind"), std::string::npos) << out;
   std::remove(bad.c_str());
+  // The MIT drives' flash settings: a reply length MIT does not have, an id past 11 bits.
+  const std::string config = "--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml --print-layout ";
+  out.clear();
+  EXPECT_NE(run(config + "--mit-reply-dlc 7", out), 0);
+  EXPECT_NE(out.find("--mit-reply-dlc"), std::string::npos) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--mit-master-id 2048", out), 0);
+  EXPECT_NE(out.find("--mit-master-id"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(run(config + "--mit-master-id 0 --mit-reply-dlc 8", out), 0) << out;
 }
 
 }  // namespace

@@ -135,9 +135,13 @@ double stance(int j) {
   return (j / 3 < 2 ? 1.0 : -1.0) * front[j % 3];
 }
 
-void bring_up_all(const std::string& config_name) {
-  const CanConfig cfg = load(config_name);
-  Emulator emu(kConfigDir + config_name, "");
+// `emulator_args`: the drives' own settings where they differ from the config's (e.g. the
+// MIT CAN_MASTER id); `host`: what the host's config then says of them.
+void bring_up_all(const std::string& config_name, const std::vector<std::string>& emulator_args = {},
+                  const std::function<void(CanConfig&)>& host = {}) {
+  CanConfig cfg = load(config_name);
+  if (host) host(cfg);
+  Emulator emu(kConfigDir + config_name, "", emulator_args);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();
@@ -182,11 +186,18 @@ void bring_up_all(const std::string& config_name) {
   const std::string summary = emu.stop();
   // Every drive was disabled at shut-down (MIT exit motor mode / CiA 402 disable operation),
   // and the last position the backend decoded is the emulator's own (its oracle), within quantization.
-  int drives = 0, disabled = 0;
+  int drives = 0, disabled = 0, fd_drives = 0;
   std::istringstream in(summary);
   for (std::string line; std::getline(in, line);) {
     int id = 0;
+    unsigned long long classic = 0;
     double q_emu = 0.0;
+    // On a CAN FD bus every frame to a drive went out as FD (the emulator ignores classic ones).
+    if (std::sscanf(line.c_str(), "fd_bus drive %d classic_frames %llu", &id, &classic) == 2) {
+      ++fd_drives;
+      EXPECT_EQ(classic, 0u) << line;
+      continue;
+    }
     if (std::sscanf(line.c_str(), "drive %d", &id) != 1) continue;
     ++drives;
     disabled += line.find("enabled 0") != std::string::npos ? 1 : 0;
@@ -197,6 +208,9 @@ void bring_up_all(const std::string& config_name) {
   }
   EXPECT_EQ(drives, kNj) << summary;
   EXPECT_EQ(disabled, kNj) << summary;
+  int fd_configured = 0;
+  for (const BusConfig& b : cfg.buses) fd_configured += b.fd ? static_cast<int>(b.drives.size()) : 0;
+  EXPECT_EQ(fd_drives, fd_configured) << summary;
 }
 
 TEST(Hil, BringUpAll19DrivesMit) {
@@ -212,6 +226,21 @@ TEST(Hil, BringUpAll19DrivesCia402) {
 TEST(Hil, BringUpAll19DrivesMitWithCanFdArm) {
   REQUIRE_VCAN(5);
   bring_up_all("mit_fd5.yaml");
+}
+
+// CAN.md 1.4: the drives reply on their CAN_MASTER id (factory default 0, here shared by
+// all), in the CubeMars variant with 8 bytes; the host matches on byte 0 and ignores bytes
+// 6..7 of a drive not configured as a vendor drive.
+TEST(Hil, BringUpAll19DrivesMitReplyingOnMasterIdZeroWithEightBytes) {
+  REQUIRE_VCAN(7);
+  bring_up_all("mit_classic7.yaml", {"--mit-master-id", "0", "--mit-reply-dlc", "8"}, [](CanConfig& cfg) {
+    for (BusConfig& b : cfg.buses) {
+      for (DriveConfig& d : b.drives) {
+        d.mit_reply_id = 0;
+        d.mit_vendor_reply = false;
+      }
+    }
+  });
 }
 
 TEST(Hil, MissingDriveStopsStartUpNamingIt) {
@@ -251,6 +280,34 @@ TEST(Hil, SilentDriveIsLostAfterTheConfiguredTicks) {
   EXPECT_FALSE(others_lost);
   EXPECT_EQ(last_status, hal::IoStatus::partial);
   EXPECT_GE(hw.joint(4).status.missed_in_row, 40u);
+}
+
+// CAN.md 4.1: age > N_stale is lost. With N_stale = 3, three replies missing in a row leave
+// the joint stale (its last value used, flagged) and enabled; four make it lost.
+TEST(Hil, AJointIsLostOnlyWhenItsAgeExceedsNStale) {
+  REQUIRE_VCAN(7);
+  CanConfig cfg = load("mit_classic7.yaml");
+  cfg.timing.missed_replies_lost = 3;
+  Emulator emu(kConfigDir + "mit_classic7.yaml",
+               "faults:\n"
+               "  - {kind: drop, drive: 2, at: 40, count: 3}\n"
+               "  - {kind: drop, drive: 5, at: 40, count: 4}\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  ASSERT_TRUE(hw.configure().ok);
+  ASSERT_TRUE(hw.activate().ok);
+  bool stale_one_lost = false;
+  std::uint32_t most_missed = 0;
+  hal::Measurements last;
+  run_ticks(hw, 100, [&](int, const hal::Measurements& m, hal::IoStatus) {
+    stale_one_lost = stale_one_lost || m.drives[1].state != hal::DriveState::enabled;
+    most_missed = std::max(most_missed, m.drives[1].missed_in_row);
+    last = m;
+  });
+  EXPECT_FALSE(stale_one_lost);
+  EXPECT_EQ(most_missed, 3u);  // the three dropped replies, in a row
+  EXPECT_TRUE(last.drives[1].fresh);
+  EXPECT_EQ(last.drives[4].state, hal::DriveState::lost);
 }
 
 TEST(Hil, EmcyLatchesTheDriveFault) {

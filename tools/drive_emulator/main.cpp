@@ -4,6 +4,7 @@
 // faults injected from a script. Runs until SIGINT/SIGTERM or --duration-s.
 //
 //   drive_emulator --config can.yaml [--faults faults.yaml] [--pose stance|zero]
+//                  [--mit-master-id ID] [--mit-reply-dlc 6|8]   (the MIT drives' flash settings)
 //   drive_emulator --config can.yaml --motion bullet [--truth-log trunk.txt]
 //   drive_emulator --config can.yaml --print-layout      (no CAN needed)
 //
@@ -85,12 +86,19 @@ int main(int argc, char** argv) {
   std::string hand_force_axis = "x";
   double imu_gyro_noise = 0.0, imu_accel_noise = 0.0, imu_gyro_bias = 0.0, imu_accel_bias = 0.0;
   std::uint64_t imu_seed = 1;
+  int mit_master_id = -1, mit_reply_dlc = 0;  // -1 / 0: as the config says
   app.add_option("--config", config_path, "YAML file with the `can:` section (the same the firmware reads)")->required();
   app.add_option("--faults", faults_path, "YAML fault script (`faults:` list)");
   app.add_option("--pose", pose, "initial joint positions")->check(CLI::IsMember({"stance", "zero"}));
   app.add_option("--duration-s", duration_s, "stop after this many seconds (0 = until SIGTERM)")->check(CLI::NonNegativeNumber);
   app.add_option("--can-timeout-ms", can_timeout_ms, "MIT CAN_TIMEOUT: zero the stored command after this silence (0 = off)");
   app.add_option("--ready-file", ready_file, "written once the buses are open and the drives booted");
+  // The MIT drives' own flash settings, where they differ from what the host's config says
+  // of them (CAN.md 1.4: CAN_MASTER, factory default 0; CubeMars' 8-byte replies).
+  app.add_option("--mit-master-id", mit_master_id, "MIT: every drive replies on this CAN id (CAN_MASTER), 0..0x7FF")
+      ->check(CLI::Range(0, 0x7FF));
+  app.add_option("--mit-reply-dlc", mit_reply_dlc, "MIT: every drive replies with this many bytes (6, or 8 as CubeMars)")
+      ->check(CLI::IsMember({6, 8}));
   app.add_option("--motion", motion,
                  "joint: a 1-DoF model per drive; bullet: the joints of the simulated robot (sim_hal), "
                  "stepped once per host tick, the robot spawned crouched on its feet")
@@ -200,7 +208,10 @@ int main(int argc, char** argv) {
       }
       const emu::JointModel model = emu::make_joint_model(d.joint, initial_position(d.joint, pose));
       if (d.protocol == can::Protocol::mit) {
-        buses[b].drives.push_back(std::make_unique<emu::MitDrive>(d, bc.fd, model, mine, can_timeout_ms));
+        can::DriveConfig flash = d;
+        if (mit_master_id >= 0) flash.mit_reply_id = static_cast<std::uint16_t>(mit_master_id);
+        if (mit_reply_dlc > 0) flash.mit_vendor_reply = mit_reply_dlc == 8;
+        buses[b].drives.push_back(std::make_unique<emu::MitDrive>(flash, bc.fd, model, mine, can_timeout_ms));
       } else {
         buses[b].drives.push_back(std::make_unique<emu::Cia402Drive>(d, model, mine, t0));
       }
@@ -351,6 +362,10 @@ int main(int argc, char** argv) {
                   cfg.config.buses[b].name.c_str(), static_cast<unsigned long long>(d->tick()),
                   static_cast<unsigned long long>(d->frames_in()), static_cast<unsigned long long>(d->replies_out()),
                   d->enabled() ? 1 : 0, d->model().q_rad);
+      if (const auto* mit = dynamic_cast<const emu::MitDrive*>(d.get()); mit != nullptr && cfg.config.buses[b].fd) {
+        std::printf("fd_bus drive %d classic_frames %llu\n", d->config().drive_id,
+                    static_cast<unsigned long long>(mit->classic_frames()));
+      }
     }
     std::printf("bus %s tx_failed %llu\n", cfg.config.buses[b].name.c_str(),
                 static_cast<unsigned long long>(buses[b].tx_failed));

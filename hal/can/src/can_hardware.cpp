@@ -124,7 +124,8 @@ void CanHardware::process_mit_reply(int b, const Frame& f) noexcept {
   }
   JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
   mit::Reply r;
-  if (mit::decode_reply(f, jr.cfg.mit_ranges, r) != FrameStatus::ok || (f.len == mit::kReplyLenVendor) != jr.cfg.mit_vendor_reply) {
+  // DLC 6 or 8 whatever the drive type (CAN.md 1.4); bytes 6..7 only for a vendor drive.
+  if (mit::decode_reply(f, jr.cfg.mit_ranges, r) != FrameStatus::ok) {
     ++bus.diag.bad_frames;
     return;
   }
@@ -138,7 +139,7 @@ void CanHardware::process_mit_reply(int b, const Frame& f) noexcept {
   jr.tau_nm = r.t_nm;
   jr.have_state = true;
   jr.last_rx_tick = tick_;
-  if (r.has_vendor_bytes && r.error_code != 0) latch_fault(j, r.error_code);
+  if (jr.cfg.mit_vendor_reply && r.has_vendor_bytes && r.error_code != 0) latch_fault(j, r.error_code);
 }
 
 void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
@@ -354,7 +355,7 @@ void CanHardware::evaluate_joints() noexcept {
       } else {
         ++s.missed_in_row;
         ++s.missed_total;
-        if (s.missed_in_row >= config_.timing.missed_replies_lost && s.state == hal::DriveState::enabled) {
+        if (s.missed_in_row > config_.timing.missed_replies_lost && s.state == hal::DriveState::enabled) {
           s.state = hal::DriveState::lost;
         }
       }
@@ -373,7 +374,16 @@ void CanHardware::evaluate_joints() noexcept {
 
 bool CanHardware::send_now(int b, const Frame& f) noexcept {
   Bus& bus = buses_[static_cast<std::size_t>(b)];
-  switch (bus.socket.send(f)) {
+  // On a CAN FD bus the drives speak MIT-style frames as FD frames with the bit-rate
+  // switch (CAN.md 3.2-3.3): seven classic commands would not fit in a tick.
+  Frame fd_frame;
+  const Frame* out = &f;
+  if (config_.buses[static_cast<std::size_t>(b)].fd && !f.fd && !f.error) {
+    fd_frame = f;
+    fd_frame.fd = true;
+    out = &fd_frame;
+  }
+  switch (bus.socket.send(*out)) {
     case TxStatus::ok: ++bus.diag.frames_sent; return true;
     case TxStatus::queue_full: bus.enobufs_this_tick = true; ++bus.diag.tx_dropped; return false;
     case TxStatus::net_down: fault_bus(b, BusFault::net_down); return false;

@@ -71,9 +71,13 @@ CanConfig fd5_layout(const std::string& prefix) {
   return c;
 }
 
-bool sensor_id_collides(const BusConfig& bus, std::uint32_t id, std::string& why) {
+namespace {
+// Whether `id` is a frame of the bus's drives: their MIT command and reply ids (unless
+// only the CANopen ones are asked for) and their CiA 301 / 402 ids.
+bool bus_id_collides(const BusConfig& bus, std::uint32_t id, std::string& why, bool with_mit) {
   for (const DriveConfig& d : bus.drives) {
     if (d.protocol == Protocol::mit) {
+      if (!with_mit) continue;
       if (id == d.drive_id) {
         why = "the MIT command id of drive " + std::to_string(d.drive_id);
         return true;
@@ -101,6 +105,11 @@ bool sensor_id_collides(const BusConfig& bus, std::uint32_t id, std::string& why
     }
   }
   return false;
+}
+}  // namespace
+
+bool sensor_id_collides(const BusConfig& bus, std::uint32_t id, std::string& why) {
+  return bus_id_collides(bus, id, why, true);
 }
 
 namespace {
@@ -249,10 +258,9 @@ std::string validate(const CanConfig& c) {
         if (!ordered_finite(r.kd_min, r.kd_max)) return dw + ".mit_ranges.kd: need finite min < max";
         if (!ordered_finite(r.t_min_nm, r.t_max_nm)) return dw + ".mit_ranges.t: need finite min < max";
         if (d.mit_reply_id > kStandardIdMask) return dw + ".reply_id: must be an 11-bit id";
-        if (d.mit_reply_id <= cia402::kMaxNode) {
-          return dw + ".reply_id: " + std::to_string(d.mit_reply_id) + " collides with the drive command ids (1..127)";
-        }
-        if (!rx_ids.insert(d.mit_reply_id).second) return dw + ".reply_id: used twice on bus '" + b.name + "'";
+        // Several drives may reply on one id (CAN_MASTER's default is 0 on every drive):
+        // the host matches replies on byte 0 (CAN.md 1.4). The id must not be one the
+        // bus's other frames use (checked below, once every drive of the bus is known).
       } else {
         if (b.fd) return dw + ".protocol: CiA 402 on a CAN FD bus is not supported";
         if (!(std::isfinite(d.counts_per_rad) && d.counts_per_rad > 0.0)) return dw + ".counts_per_rad: must be > 0";
@@ -267,6 +275,24 @@ std::string validate(const CanConfig& c) {
         for (std::uint32_t base : {cia402::cob::tpdo1, cia402::cob::tpdo2}) {
           if (!rx_ids.insert(base + d.drive_id).second) return dw + ".id: its PDO id collides on bus '" + b.name + "'";
         }
+      }
+    }
+    // A reply id must not be a frame the bus's drives take or send otherwise: an MIT
+    // drive's command id (that drive would take the reply as a command), or, on a bus
+    // with CiA 402 nodes, a CANopen id (id 0 is NMT: a reply there commands every node).
+    for (std::size_t di = 0; di < b.drives.size(); ++di) {
+      const DriveConfig& d = b.drives[di];
+      if (d.protocol != Protocol::mit) continue;
+      const std::string dw = where + ".drives[" + std::to_string(di) + "]";
+      for (const DriveConfig& other : b.drives) {
+        if (other.protocol == Protocol::mit && d.mit_reply_id == other.drive_id) {
+          return dw + ".reply_id: " + std::to_string(d.mit_reply_id) + " is the command id of drive " +
+                 std::to_string(other.drive_id) + " on bus '" + b.name + "'";
+        }
+      }
+      std::string why;
+      if (bus_id_collides(b, d.mit_reply_id, why, false)) {
+        return dw + ".reply_id: " + std::to_string(d.mit_reply_id) + " collides with " + why + " on bus '" + b.name + "'";
       }
     }
   }

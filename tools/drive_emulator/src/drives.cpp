@@ -192,6 +192,10 @@ void MitDrive::on_fault_event(const Fault& flt, std::vector<Frame>& out) {
 
 void MitDrive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Frame>& out) {
   if (f.error || f.id != cfg_.drive_id || f.len != can::mit::kCommandLen) return;
+  if (fd_bus_ && !f.fd) {  // an FD bus's drives speak FD (CAN.md 3.3): a classic frame is not a command
+    ++classic_frames_;
+    return;
+  }
   ++frames_in_;
   last_rx_ns_ = now_ns;
   sync_from_motion();

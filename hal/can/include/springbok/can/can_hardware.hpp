@@ -11,8 +11,8 @@
 //            after draining, at the tick's start, keeps the phase fixed whatever
 //            the compute time.
 //   write(c) stores c, encoded, for the next read(). No I/O.
-// A drive whose reply is missing `missed_replies_lost` ticks in a row is
-// DriveState::lost; an EMCY, a fault bit or a vendor error code latches
+// A drive whose reply is missing more than `missed_replies_lost` ticks in a row
+// (age > N_stale, CAN.md 4.1) is DriveState::lost; an EMCY, a fault bit or a vendor error code latches
 // DriveState::fault. Bus-off, ENETDOWN or ENOBUFS on tx_fault_ticks ticks in a
 // row fault the bus: its drives are lost, read() returns IoStatus::error, and
 // nothing resumes by itself: recovery is an operator action (restart the

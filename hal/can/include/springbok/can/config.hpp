@@ -23,8 +23,13 @@ struct DriveConfig {
   std::uint8_t drive_id = 0;       // MIT drive id / CANopen node id, 1..127, unique on the robot
   Protocol protocol = Protocol::mit;
   // MIT mode
-  std::uint16_t mit_reply_id = 0;  // the drive's CAN master id: CAN id of its replies
-  bool mit_vendor_reply = false;   // CubeMars: 8-byte reply, byte 7 = error code (non-zero = fault)
+  // The drive's CAN master id (CAN_MASTER): the CAN id of its replies. Drives may share
+  // one (the factory default is 0): replies are matched on byte 0, the drive id.
+  std::uint16_t mit_reply_id = 0;
+  // CubeMars AK: bytes 6 and 7 of an 8-byte reply are the temperature and an error code
+  // (non-zero = fault). Replies of 6 or 8 bytes are accepted either way; bytes 6..7 are
+  // read only when this is set (CAN.md 1.4).
+  bool mit_vendor_reply = false;
   mit::Ranges mit_ranges;
   // CiA 402
   cia402::Mapping mapping = cia402::Mapping::compact;
@@ -46,7 +51,7 @@ struct BusConfig {
 
 struct Timing {
   std::uint32_t tick_us = 1000;                // control period (bus load is per tick)
-  std::uint32_t missed_replies_lost = 3;       // N ticks in a row without a fresh reply -> lost
+  std::uint32_t missed_replies_lost = 3;       // N_stale: more than N ticks in a row without a fresh reply -> lost
   std::uint32_t rx_deadline_us = 900;          // read() waits this long after the send for missing replies
   std::uint32_t mit_presence_timeout_ms = 50;  // MIT start-up: reply to exit-motor-mode
   std::uint32_t mit_presence_retries = 3;

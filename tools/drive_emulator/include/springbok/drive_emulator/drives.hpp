@@ -160,6 +160,8 @@ class MitDrive final : public Drive {
   void on_time(std::int64_t now_ns, std::vector<can::Frame>& out) override;
   bool cyclic(const can::Frame& f) const noexcept override;
   std::uint64_t zero_frames() const noexcept { return zero_frames_; }
+  // Classic frames to this drive on a CAN FD bus (ignored: that bus speaks FD).
+  std::uint64_t classic_frames() const noexcept { return classic_frames_; }
 
  private:
   void on_fault_event(const Fault& fault, std::vector<can::Frame>& out) override;
@@ -170,6 +172,7 @@ class MitDrive final : public Drive {
   double p_des_ = 0, v_des_ = 0, kp_ = 0, kd_ = 0, t_ff_ = 0;  // the stored command
   std::uint8_t error_code_ = 0;
   std::uint64_t zero_frames_ = 0;
+  std::uint64_t classic_frames_ = 0;
 };
 
 // CiA 402 subset: NMT, heartbeat, SDO (expedited + aborts), PDO mapping by SDO,
