@@ -924,11 +924,13 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
 
 // Case 3: a sensor the controller needs, lost in the control mode: damping within
 // stale_ticks + 2 ticks, latched, logged with its name.
-void expect_sensor_loss_damps(const std::string& fault_yaml, unsigned long long fault_at, const std::string& fault_name) {
+// `detect_ticks`: how many samples the fault takes to be one (0: the sensors' stale_ticks).
+void expect_sensor_loss_damps(const std::string& fault_yaml, unsigned long long fault_at, const std::string& fault_name,
+                              std::uint32_t detect_ticks = 0) {
   const int time_scale = hil_time_scale(20);
   ASSERT_GE(time_scale, 1);
   const double wall_per_sim_s = time_scale * 1.3 + 5.0;
-  const std::uint32_t stale_ticks = wbc_hil_stale_ticks();
+  const std::uint32_t stale_ticks = detect_ticks > 0 ? detect_ticks : wbc_hil_stale_ticks();
   const std::string truth = "/tmp/springbok_hil_wbc_truth_" + std::to_string(::getpid()) + ".txt";
   Emulator emu(kWbcConfig, fault_yaml, {"--motion", "bullet", "--truth-log", truth, "--truth-every", "1", "--settle-s", "0.1"});
   ASSERT_TRUE(emu.ready());
@@ -953,7 +955,7 @@ void expect_sensor_loss_damps(const std::string& fault_yaml, unsigned long long 
     if (t.command == 't') after_control = 0;
     if (damps(t.command) && after_control == 0 && control_steps > 0) after_control = t.step;
   }
-  std::printf("HIL wbc: %s from step %llu: damping at step %llu (stale_ticks %u); %llu torque-controlled steps before\n",
+  std::printf("HIL wbc: %s from step %llu: damping at step %llu (detected after %u samples); %llu torque-controlled steps before\n",
               fault_name.c_str(), fault_at, after_control, stale_ticks, control_steps);
   EXPECT_GT(control_steps, 200u) << "the whole-body controller ran before the fault";
   EXPECT_EQ(samples.front().command, 'd') << "the first actuating step damps (CAN.md 4.2 step 5)";
@@ -1042,6 +1044,15 @@ TEST(Hil, DeployedWholeBodyControllerDampsWhenTheWristFtReportsInvalid) {
   REQUIRE_VCAN(8);
   expect_sensor_loss_damps("faults: [{kind: status_invalid, sensor: wrist_ft, at: 2600, count: 1000000}]\n", 2600,
                            "wrist_ft_lost");
+}
+
+// CAN.md 6.4: clipping samples are used and counted, "a streak is a fault": the wrist F/T
+// at full scale (F_x 512 N) from step 2600; its clip_streak (2 in this config: 512 N on the
+// hand for 10 ms throws the arm into a drive fault) samples in a row latch the fault.
+TEST(Hil, DeployedWholeBodyControllerDampsOnAWristFtClippingStreak) {
+  REQUIRE_VCAN(8);
+  expect_sensor_loss_damps("faults: [{kind: saturate, sensor: wrist_ft, at: 2600, count: 1000000}]\n", 2600,
+                           "wrist_ft_clipping_streak", 2);
 }
 
 TEST(Hil, RoundTripTime) {

@@ -3,8 +3,10 @@
 // damping and clamping against the model's limits.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "alloc_trap.hpp"
 #include "springbok/safety/supervisor.hpp"
@@ -179,14 +181,25 @@ TEST_F(SupervisorTest, EveryModeTransition) {
 // CAN.md 6.4: a sensor the controller needs, lost in the control mode, is a latched
 // fault that names it (damping); lost in another mode only a warning, and it blocks
 // `mode control`.
+// A clipping streak (clipping on clip_streak samples in a row, CAN.md 6.4: "a streak is a
+// fault") is handled the same way, with its own bit.
 TEST_F(SupervisorTest, ANeededSensorLostInControlLatchesElsewhereWarns) {
-  for (const FaultMask which : {fault::kImuLost, fault::kWristFtLost}) {
+  const auto set = [this](FaultMask which) {
+    meas.imu.lost = which == fault::kImuLost;
+    meas.wrist.lost = which == fault::kWristFtLost;
+    meas.imu.clip_streak = which == fault::kImuClipping;
+    meas.wrist.clip_streak = which == fault::kWristFtClipping;
+  };
+  const std::pair<FaultMask, const char*> cases[] = {{fault::kImuLost, "imu_lost"},
+                                                    {fault::kWristFtLost, "wrist_ft_lost"},
+                                                    {fault::kImuClipping, "imu_clipping_streak"},
+                                                    {fault::kWristFtClipping, "wrist_ft_clipping_streak"}};
+  for (const auto& [which, name] : cases) {
     SupervisorConfig c = config;
     c.control_needs_imu = true;
     c.control_needs_wrist_ft = true;
     sup = Supervisor(c);
-    meas.imu.lost = which == fault::kImuLost;
-    meas.wrist.lost = which == fault::kWristFtLost;
+    set(which);
     tick();
     EXPECT_EQ(sup.sensors_lost(), which);  // idle: a warning
     EXPECT_EQ(sup.faults(), 0u);
@@ -195,18 +208,18 @@ TEST_F(SupervisorTest, ANeededSensorLostInControlLatchesElsewhereWarns) {
     ASSERT_EQ(sup.mode(), Mode::stand);
     EXPECT_EQ(sup.faults(), 0u);
     EXPECT_EQ(ask(OperatorCommand::mode_control), Verdict::sensor_lost);  // refused while lost
-    meas.imu.lost = meas.wrist.lost = false;
+    set(0);
     tick();
     EXPECT_EQ(sup.sensors_lost(), 0u);
     ASSERT_EQ(ask(OperatorCommand::mode_control), Verdict::accepted);
     tick();
-    meas.imu.lost = which == fault::kImuLost;
-    meas.wrist.lost = which == fault::kWristFtLost;
+    set(which);
     tick();
     expect_damping();
     EXPECT_EQ(sup.faults(), which);
-    EXPECT_STREQ(fault_name(which == fault::kImuLost ? 8 : 9), which == fault::kImuLost ? "imu_lost" : "wrist_ft_lost");
+    EXPECT_STREQ(fault_name(std::countr_zero(which)), name);
   }
+  set(0);
   // Not needed (joint-PD control mode): never a fault.
   sup = Supervisor(config);
   meas.imu.lost = meas.wrist.lost = true;
@@ -214,6 +227,33 @@ TEST_F(SupervisorTest, ANeededSensorLostInControlLatchesElsewhereWarns) {
   tick();
   EXPECT_EQ(sup.mode(), Mode::control);
   EXPECT_EQ(sup.sensors_lost(), 0u);
+}
+
+// CAN.md 6.1: while the IMU says its orientation has not converged the estimator must not
+// start: `mode control` (the WBC, which needs the IMU) is refused, nothing latches; once it
+// has converged the mode starts. A controller that does not need the IMU ignores the bit.
+TEST_F(SupervisorTest, ControlWaitsForTheImuOrientationToConverge) {
+  SupervisorConfig c = config;
+  c.control_needs_imu = true;
+  sup = Supervisor(c);
+  meas.imu.converged = false;
+  tick();
+  ASSERT_EQ(ask(OperatorCommand::start), Verdict::accepted);
+  tick({true, true});
+  ASSERT_EQ(sup.mode(), Mode::stand);
+  EXPECT_EQ(ask(OperatorCommand::mode_control), Verdict::sensor_not_ready);
+  EXPECT_EQ(sup.mode(), Mode::stand);
+  EXPECT_EQ(sup.faults(), 0u);
+  EXPECT_STREQ(to_string(Verdict::sensor_not_ready), "the imu's orientation has not converged");
+  meas.imu.converged = true;
+  tick();
+  EXPECT_EQ(ask(OperatorCommand::mode_control), Verdict::accepted);
+  EXPECT_EQ(sup.mode(), Mode::control);
+
+  sup = Supervisor(config);  // joint-PD control: the IMU is not needed
+  meas.imu.converged = false;
+  go_to_control();
+  EXPECT_EQ(sup.mode(), Mode::control);
 }
 
 TEST_F(SupervisorTest, StopFromEveryModeGoesToDamping) {

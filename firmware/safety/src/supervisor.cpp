@@ -28,6 +28,8 @@ const char* fault_name(int bit) noexcept {
     case 7: return "hal_watchdog";
     case 8: return "imu_lost";
     case 9: return "wrist_ft_lost";
+    case 10: return "imu_clipping_streak";
+    case 11: return "wrist_ft_clipping_streak";
     default: return "unknown";
   }
 }
@@ -55,7 +57,8 @@ const char* to_string(Verdict verdict) noexcept {
     case Verdict::unsafe_joint_limit: return "not safe: a joint is beyond its limit";
     case Verdict::unsafe_drive: return "not safe: a drive is lost or in fault";
     case Verdict::unsafe_timing: return "not safe: overrun streak in progress";
-    case Verdict::sensor_lost: return "a sensor the controller needs is lost (imu or wrist F/T)";
+    case Verdict::sensor_lost: return "a sensor the controller needs is lost or clipping (imu or wrist F/T)";
+    case Verdict::sensor_not_ready: return "the imu's orientation has not converged";
   }
   return "unknown";
 }
@@ -137,7 +140,10 @@ void Supervisor::observe(const hal::Measurements& meas, hal::IoStatus io, std::u
   }
   if (!last_drives_healthy_) found |= fault::kDriveLost;
   sensors_lost_ = (config_.control_needs_imu && meas.imu.lost ? fault::kImuLost : 0u) |
-                  (config_.control_needs_wrist_ft && meas.wrist.lost ? fault::kWristFtLost : 0u);
+                  (config_.control_needs_wrist_ft && meas.wrist.lost ? fault::kWristFtLost : 0u) |
+                  (config_.control_needs_imu && meas.imu.clip_streak ? fault::kImuClipping : 0u) |
+                  (config_.control_needs_wrist_ft && meas.wrist.clip_streak ? fault::kWristFtClipping : 0u);
+  imu_not_converged_ = config_.control_needs_imu && !meas.imu.converged;
   if (mode_ == Mode::control) found |= sensors_lost_;
   latch(found);
 }
@@ -154,6 +160,7 @@ Verdict Supervisor::request(OperatorCommand command) noexcept {  // rt: no alloc
     case OperatorCommand::mode_control:
       if (mode_ != Mode::stand) return Verdict::not_standing;
       if (sensors_lost_ != 0) return Verdict::sensor_lost;
+      if (imu_not_converged_) return Verdict::sensor_not_ready;
       enter(Mode::control);
       return Verdict::accepted;
     case OperatorCommand::mode_stand:

@@ -301,6 +301,7 @@ void fill_sensor_status(const SensorDiagnostics& d, bool usable, std::int64_t st
   out.valid = usable;
   out.lost = d.lost;
   out.clipping = (d.last_status & sensor_status::clipping) != 0;
+  out.clip_streak = d.clip_streak_fault;
   out.age_ticks = static_cast<std::uint32_t>(std::min<std::uint64_t>(d.age_ticks, 0xFFFFFFFFu));
   out.stamp_ns = stamp_ns;
 }

@@ -41,6 +41,7 @@ struct Imu {
   bool lost = false;          // configured, but no sample within its stale limit (or none yet); valid is false
   bool converged = true;      // false: the sensor says its orientation has not converged (the estimator must not start)
   bool clipping = false;      // a field of the newest sample saturated
+  bool clip_streak = false;   // clipping on the configured number of samples in a row: a sensor fault
   std::uint32_t age_ticks = 0;  // ticks since the newest accepted sample
 };
 
@@ -54,6 +55,7 @@ struct Wrench {
   bool lost = false;          // configured, but no sample within its stale limit (or none yet); valid is false
   bool bias_taken = true;     // false: the sensor says its own bias was not taken
   bool clipping = false;      // a gauge of the newest sample saturated
+  bool clip_streak = false;   // clipping on the configured number of samples in a row: a sensor fault
   std::uint32_t age_ticks = 0;  // ticks since the newest accepted sample
 };
 

@@ -42,7 +42,9 @@ inline constexpr FaultMask kOperatorStop = 1u << 6;    // operator `stop`
 inline constexpr FaultMask kHalWatchdog = 1u << 7;     // no fresh HAL data for N ticks
 inline constexpr FaultMask kImuLost = 1u << 8;         // the trunk IMU lost in a mode that needs it
 inline constexpr FaultMask kWristFtLost = 1u << 9;     // the wrist F/T lost in a mode that needs it
-inline constexpr int kCount = 10;
+inline constexpr FaultMask kImuClipping = 1u << 10;    // the IMU clipped a streak of samples (CAN.md 6.4)
+inline constexpr FaultMask kWristFtClipping = 1u << 11;  // the wrist F/T clipped a streak of samples
+inline constexpr int kCount = 12;
 }  // namespace fault
 // Name of one fault bit (index 0..fault::kCount-1).
 const char* fault_name(int bit) noexcept;
@@ -61,7 +63,8 @@ enum class Verdict : std::uint8_t {
   unsafe_joint_limit,   // reset with a joint beyond its limit + margin
   unsafe_drive,         // reset with a drive lost or in fault
   unsafe_timing,        // reset during an overrun streak
-  sensor_lost,          // mode control while a sensor the controller needs is lost
+  sensor_lost,          // mode control while a sensor the controller needs is lost or clipping
+  sensor_not_ready,     // mode control while the IMU's orientation has not converged (CAN.md 6.1)
 };
 const char* to_string(Verdict verdict) noexcept;
 
@@ -77,9 +80,11 @@ struct SupervisorConfig {
   // D_start: the drives' damping in idle (MIT: kd of the command frame, so it
   // must lie in the drive's kd range; CiA 402: rendered on the host).
   VecNj idle_damping_nms_per_rad = VecNj::Constant(2.0);
-  // The sensors the control mode's controller needs (the WBC: both). Lost in the
-  // control mode (hal::Imu::lost, hal::Wrench::lost): a latched fault; lost in
-  // another mode: a warning (sensors_lost()); `mode control` is refused meanwhile.
+  // The sensors the control mode's controller needs (the WBC: both). Lost or in a
+  // clipping streak in the control mode (hal::Imu::lost / clip_streak, the same of
+  // hal::Wrench): a latched fault; in another mode: a warning (sensors_lost());
+  // `mode control` is refused meanwhile, and while the IMU says its orientation has
+  // not converged (hal::Imu::converged: the estimator must not start, CAN.md 6.1).
   bool control_needs_imu = false;
   bool control_needs_wrist_ft = false;
 };
@@ -112,8 +117,9 @@ class Supervisor {
   // Ticks completed in the current mode (0 in the first tick of a mode).
   std::uint64_t ticks_in_mode() const noexcept { return ticks_in_mode_; }
   std::uint32_t stale_ticks() const noexcept { return stale_ticks_; }
-  // The needed sensors lost at the last observe(), as fault bits (kImuLost,
-  // kWristFtLost), in any mode: the warning outside the control mode.
+  // The needed sensors lost or clipping at the last observe(), as fault bits (kImuLost,
+  // kWristFtLost, kImuClipping, kWristFtClipping), in any mode: the warning outside the
+  // control mode.
   FaultMask sensors_lost() const noexcept { return sensors_lost_; }
   // The joint that latched fault::kJointLimit (-1: none) and its position then.
   int limit_joint() const noexcept { return limit_joint_; }
@@ -154,6 +160,7 @@ class Supervisor {
   bool last_drives_healthy_ = false;
   double last_max_speed_rad_s_ = 0.0;
   FaultMask sensors_lost_ = 0;
+  bool imu_not_converged_ = false;  // the control mode needs the IMU and it says: not converged
   bool have_last_good_ = false;
   hal::JointCommands last_good_;
 };
