@@ -121,6 +121,25 @@ TEST_F(QpCli, SolvesWritesSolutionsAndReportsMalformedFiles) {
   EXPECT_TRUE(infeasible->x.empty());
 }
 
+// Sizes come from the file: `dims` far beyond what its blocks hold is a parse error naming
+// the block (before, H's n * n numbers were allocated first: std::bad_alloc ended the run
+// and the files after it were never solved).
+TEST_F(QpCli, HugeDimsAreAnErrorNotACrash) {
+  std::string text = read_all(inst("HS21.qp"));
+  const std::size_t at = text.find("dims ");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, text.find('\n', at) - at, "dims 1000000 0 0");
+  std::ofstream(work / "huge.qp") << text;
+  const CliRun r = run_cli((work / "huge.qp").string() + " " + inst("HS21.qp"), work);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("huge.qp:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("dims ask for 1000000000000 numbers in H"), std::string::npos) << r.err;
+  ASSERT_EQ(r.lines.size(), 2u);
+  EXPECT_EQ(r.lines[0][1], "error");
+  EXPECT_EQ(r.lines[1][0], "HS21");
+  EXPECT_EQ(r.lines[1][1], "optimal");
+}
+
 TEST_F(QpCli, BenchAddsMedianAndP99) {
   std::string error;
   const auto q = springbok::qpfile::read_instance(inst("wbc_stance4_19.qp"), error);

@@ -76,6 +76,13 @@ class Cursor {
   std::string word(const char* what) { return next(what).text; }
   std::vector<double> numbers(const char* key, std::size_t count_expected) {
     keyword(key);
+    // dims are read before the blocks: a block cannot hold more numbers than the file has
+    // tokens left (checked before allocating: `dims 1000000 0 0` would ask for 8 TB).
+    if (count_expected > tokens_.size() - pos_) {
+      throw ParseFailure(tokens_[pos_ - 1].line, key,
+                         "dims ask for " + std::to_string(count_expected) + " numbers in " + key + ", the file has " +
+                             std::to_string(tokens_.size() - pos_) + " tokens left");
+    }
     std::vector<double> v(count_expected);
     for (auto& x : v) x = number(key);
     return v;
