@@ -141,10 +141,9 @@ DynamicsInput dynamics_input(const StateFile& file) {
   copy_row(file.require("vdot", 1, kNv), in.vdot);
   copy_row(file.require("tau_aba", 1, kNv), in.tau_aba);
   const double norm = in.q.segment<4>(3).norm();
-  if (std::abs(norm - 1.0) > kQuaternionNormTolerance)
+  if (!(norm >= kMinQuaternionNorm))
     fail(file.source, q.header_line + 1,
-         "base quaternion q[3..6] has norm " + std::to_string(norm) + ", expected 1 (within " +
-             std::to_string(kQuaternionNormTolerance) + ")");
+         "base quaternion q[3..6] has norm " + std::to_string(norm) + ": no orientation to normalise");
   return in;
 }
 

@@ -45,10 +45,13 @@ struct DynamicsInput {
   VecNv v, vdot, tau_aba;
 };
 
-// Largest accepted deviation of the base quaternion's norm from 1.
-inline constexpr double kQuaternionNormTolerance = 1e-4;
+// Smallest base-quaternion norm accepted: CONVENTIONS.md takes R_WB from the quaternion
+// "normalise first", so any other norm is normalised (the dynamics do); one this small
+// has no direction to normalise to.
+inline constexpr double kMinQuaternionNorm = 1e-6;
 
-// Extracts and validates q (1x26, unit quaternion), v, vdot, tau_aba (1x25).
+// Extracts and validates q (1x26, a quaternion of norm >= kMinQuaternionNorm), v, vdot,
+// tau_aba (1x25).
 DynamicsInput dynamics_input(const StateFile& file);
 
 // Every block of the format, computed by springbok::dyn, in the format's order.
