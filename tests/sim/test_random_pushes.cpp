@@ -90,5 +90,37 @@ TEST(RandomPushes, BadFieldsAreNamed) {
   EXPECT_NE(error_of("{frames: [trunk], force: 3}").find("random_pushes.force: unknown key"), std::string::npos);
 }
 
+// The WBC settles first (wrist F/T tare, reference pose): a wrench that starts before
+// controller.settle_s would be built into both (a 50 N step from t = 0 with settle_s 0.5 was
+// tared out and the robot fell), so it is refused naming the field; from settle_s on it is fine.
+TEST(ScenarioWrenches, AWrenchBeforeTheWbcSettledIsRefusedNamingTheField) {
+  const fs::path dir = scratch("wrench_before_settle");
+  const auto error_of = [&](const std::string& settle_s, const std::string& wrenches) {
+    std::ofstream(dir / "s.yaml") << "duration_s: 5.0\n"
+                                     "controller: {type: wbc, settle_s: " + settle_s + ", params: {}}\n" + wrenches;
+    try {
+      (void)simtool::load_scenario((dir / "s.yaml").string());
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string step_at_0 =
+      "external_wrenches:\n"
+      "  - {frame: trunk, axis: [0, 1, 0], profile: step, amplitude: 5, start_s: 2.0}\n"
+      "  - {frame: arm_end_effector_link, axis: [1, 0, 0], profile: step, amplitude: 50}\n";
+  EXPECT_NE(error_of("0.5", step_at_0).find("external_wrenches[1].start_s: 0 s is before controller.settle_s (0.5 s)"),
+            std::string::npos)
+      << error_of("0.5", step_at_0);
+  EXPECT_EQ(error_of("0.0", step_at_0), "no error");  // the controller runs from the first tick
+  EXPECT_EQ(error_of("0.5",
+                     "external_wrenches:\n"
+                     "  - {frame: arm_end_effector_link, axis: [1, 0, 0], profile: step, amplitude: 50, start_s: 0.5}\n"),
+            "no error");
+  EXPECT_NE(error_of("4.0", "random_pushes: {seed: 1, start_s: 1.0, end_s: 5.0, every_s: [1, 1], frames: [trunk]}\n")
+                .find("random_pushes.start_s: the first push at 2 s is before controller.settle_s (4 s)"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace springbok::test

@@ -235,7 +235,27 @@ Scenario load_scenario(const std::string& path) {
       if (auto w = read_wrench(list[i])) s.wrenches.push_back(std::move(*w));
     }
   }
+  const std::size_t explicit_wrenches = s.wrenches.size();
   read_random_pushes(top["random_pushes"], s);
+  // The WBC takes the wrist F/T's tare and its reference pose while it settles: a wrench
+  // acting then would be built into both (a 50 N push from t = 0 with settle_s 0.5 is tared
+  // out, and the robot falls), so wrenches start once the controller runs.
+  if (s.controller_type == "wbc" && errors.empty()) {  // (every explicit entry read: indices match)
+    for (std::size_t i = 0; i < s.wrenches.size(); ++i) {
+      const double start_s = s.wrenches[i].wrench.profile.start_s;
+      if (start_s >= s.controller_settle_s) continue;
+      const std::string why = fmt::format(
+          "{} s is before controller.settle_s ({} s): the controller takes the wrist F/T tare and its reference pose "
+          "while it settles, so a wrench then would be built into both; start it at or after settle_s",
+          start_s, s.controller_settle_s);
+      if (i < explicit_wrenches) {
+        top["external_wrenches"][i]["start_s"].fail(why);
+      } else {
+        top["random_pushes"]["start_s"].fail("the first push at " + why);
+      }
+      break;
+    }
+  }
   const Field summary = top["summary"];
   summary.allow_only({"fall_height_m"});
   summary["fall_height_m"].number(s.fall_height_m, 0.0, 10.0);
