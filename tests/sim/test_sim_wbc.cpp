@@ -10,6 +10,7 @@
 #include <vector>
 #include <fstream>
 #include <string>
+#include <tuple>
 
 #include "cli_test_util.hpp"
 
@@ -93,6 +94,28 @@ TEST(SimWbc, StepRendersTheTemplate) {
 // (I_e 0.4 kg m^2), cut to 4 s: trunk and hand orientations follow the template driven by the
 // measured wrist torque (measured 0.05 % NRMSE, steady state within 0.01 % of T/K); the
 // translational axes are not scored (no force), the rotations about x and z not either.
+// The chirp's gain error is scored for any linear sweep the schema allows: falling (here
+// 3 -> 0.25 Hz) and constant-frequency chirps too (before: null, the windows assumed a rise).
+TEST(SimWbc, ChirpGainIsScoredFallingAndAtAConstantFrequency) {
+  const std::string text = slurp(fs::path(SPRINGBOK_SOURCE_DIR) / "tools/scenarios/base_chirp_x_mb92.yaml");
+  for (const auto& [name, sweep, duration] : {std::tuple{"falling", "start_frequency_hz: 3, end_frequency_hz: 0.25", "6.0"},
+                                              std::tuple{"constant", "start_frequency_hz: 1, end_frequency_hz: 1", "3.0"}}) {
+    const fs::path dir = scratch(std::string("wbc_chirp_") + name);
+    std::string t = text;
+    t.replace(t.find("start_frequency_hz: 0, end_frequency_hz: 5"), 42, sweep);
+    t.replace(t.find("duration_s: 10.0"), 16, std::string("duration_s: ") + duration);
+    t.replace(t.find("duration_s: 11.5"), 16, "duration_s: " + std::to_string(std::stod(duration) + 1.2));
+    const CliResult r = run(write_file(dir, "chirp.yaml", t).string(), dir / "out");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const std::string json = slurp(dir / "out" / "summary.json");
+    EXPECT_FALSE(json_true(json, "fell")) << name;
+    const double base_db = member(json, "chirp_gain_db_error", "base_x"), ee_db = member(json, "chirp_gain_db_error", "ee_x");
+    EXPECT_TRUE(std::isfinite(base_db) && std::isfinite(ee_db)) << name << ": " << json;
+    EXPECT_LE(base_db, 2.0) << name;
+    EXPECT_LE(ee_db, 2.0) << name;
+  }
+}
+
 TEST(SimWbc, TorqueStepRendersTheRotationalTemplate) {
   const fs::path dir = scratch("wbc_rot_step");
   std::string text = slurp(fs::path(SPRINGBOK_SOURCE_DIR) / "tools/scenarios/rot_step_y_ie0p4.yaml");

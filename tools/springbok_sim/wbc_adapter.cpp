@@ -402,15 +402,17 @@ std::string WbcAdapter::summary_fields() const {
       if (std::abs(target) > 1e-9) steady[a] = std::abs(measured - target) / std::abs(target);
     }
     if (chirp_) {
-      // Short-time fits at the chirp's own phase: windows one local period long,
-      // centred every half period where the sweep is between 0.25 and 3 Hz.
+      // Short-time fits at the chirp's own phase: windows one local period long, centred
+      // where the sweep passes 0.25, 0.31, ... 3 Hz (rising or falling), or, for a constant
+      // frequency, every period along the chirp.
       const sim::ForceProfile& p = *chirp_;
       const double rate = (p.end_frequency_hz - p.start_frequency_hz) / p.duration_s;
+      const bool constant = std::abs(rate) * p.duration_s < 1e-9;
       double worst_db = 0.0;
       bool any = false;
-      for (double f = 0.25; f <= 3.0 + 1e-9;) {
-        if (rate <= 0.0) break;
-        const double tc = p.start_s + (f - p.start_frequency_hz) / rate;
+      for (double f = constant ? p.start_frequency_hz : 0.25, k = 1.0; constant ? f > 0.0 : f <= 3.0 + 1e-9;) {
+        const double tc = constant ? p.start_s + k / f : p.start_s + (f - p.start_frequency_hz) / rate;
+        if (constant && tc > p.start_s + p.duration_s) break;
         const double half = 0.5 / f;
         std::vector<double> ym, yt, ph;
         for (const auto& s : samples_) {
@@ -426,7 +428,11 @@ std::string WbcAdapter::summary_fields() const {
             any = true;
           }
         }
-        f += 0.5 * f * 0.5;  // next centre a quarter of the local frequency up (overlapping windows)
+        if (constant) {
+          k += 1.0;  // the next period
+        } else {
+          f += 0.5 * f * 0.5;  // next centre a quarter of the local frequency up (overlapping windows)
+        }
       }
       if (any) chirp_db[a] = worst_db;
     }
