@@ -88,6 +88,7 @@ LifecycleResult CanHardware::configure() {
   }
   bus_count_ = static_cast<int>(config_.buses.size());
   joints_ = {};
+  startup_notes_.clear();
   for (int b = 0; b < bus_count_; ++b) {
     Bus& bus = buses_[static_cast<std::size_t>(b)];
     bus.count = 0;
@@ -300,7 +301,7 @@ CanHardware::SdoOutcome CanHardware::sdo(int j, bool write, std::uint16_t index,
 }
 
 LifecycleResult CanHardware::configure_node(int j) {
-  const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
   const auto describe = [&](const SdoOutcome& o, bool write, std::uint16_t index, std::uint8_t sub) {
     std::string what = std::string("SDO ") + (write ? "write " : "read ") + hex(index, 4) + ":" + std::to_string(sub) +
                        " on " + drive_name(j) + ": ";
@@ -338,11 +339,26 @@ LifecycleResult CanHardware::configure_node(int j) {
   if ((value & kSupportedModeCstBit) == 0) {
     return LifecycleResult::failure(drive_name(j) + ": 0x6502 = " + hex(value, 8) + ", cyclic synchronous torque not supported");
   }
+  // The drive's own rated torque scales 0x6071 / 0x6072 / 0x6077 (CAN.md 2.4), so it is read
+  // before 0x6072 is computed and written below. The config's rated_torque_nm only documents
+  // what is expected: a difference is noted, not fatal.
   if (!(err = read(object::rated_torque, 0, value)).empty()) return LifecycleResult::failure(err);
+  const double limit_nm = robot::kJoints[static_cast<std::size_t>(j)].limits.effort_nm;
+  switch (make_torque_scale(value, jr.cfg.gear_ratio, limit_nm, jr.cfg.max_torque_permille, jr.torque_scale)) {
+    case TorqueScaleStatus::ok: break;
+    case TorqueScaleStatus::zero_rating:
+      return LifecycleResult::failure(drive_name(j) + ": motor rated torque 0x6076 reads 0 mNm: no torque scaling");
+    case TorqueScaleStatus::too_coarse:
+      return LifecycleResult::failure(drive_name(j) + ": motor rated torque 0x6076 reads " + std::to_string(value) +
+                                      " mNm: one 0x6071 unit (0.1 %, x gear ratio " + std::to_string(jr.cfg.gear_ratio) +
+                                      ") is coarser than the joint's torque limit " + std::to_string(limit_nm) + " Nm");
+  }
+  jr.rated_torque_mnm = value;
   const double rated_nm = static_cast<double>(value) / 1000.0;
-  if (std::abs(rated_nm - jr.cfg.rated_torque_nm) > 0.005 * jr.cfg.rated_torque_nm) {
-    return LifecycleResult::failure(drive_name(j) + ": motor rated torque 0x6076 = " + std::to_string(value) +
-                                    " mNm, the config says rated_torque_nm = " + std::to_string(jr.cfg.rated_torque_nm));
+  if (jr.cfg.rated_torque_nm > 0.0 && std::abs(rated_nm - jr.cfg.rated_torque_nm) > 0.005 * jr.cfg.rated_torque_nm) {
+    startup_notes_ += "can start-up: " + drive_name(j) + ": motor rated torque 0x6076 = " + std::to_string(value) +
+                      " mNm, the config's rated_torque_nm is " + std::to_string(jr.cfg.rated_torque_nm) +
+                      ": torques are scaled by the drive's value\n";
   }
   std::array<SdoWrite, kMaxMappingWrites> seq{};
   const int n = pdo_mapping_sequence(jr.cfg.drive_id, jr.cfg.mapping, seq);
@@ -352,7 +368,7 @@ LifecycleResult CanHardware::configure_node(int j) {
   if (!(err = write(object::modes_of_operation, 0, static_cast<std::uint8_t>(kModeCst), 1, false)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::interpolation_period, 1, 1, 1, false)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::interpolation_period, 2, static_cast<std::uint8_t>(-3), 1, false)).empty()) return LifecycleResult::failure(err);
-  if (!(err = write(object::max_torque, 0, jr.cfg.max_torque_permille, 2, false)).empty()) return LifecycleResult::failure(err);
+  if (!(err = write(object::max_torque, 0, jr.torque_scale.max_permille, 2, false)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::abort_connection, 0, 3, 2, true)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::error_behaviour, 1, 0, 1, true)).empty()) return LifecycleResult::failure(err);
   if (!(err = read(object::modes_display, 0, value)).empty()) return LifecycleResult::failure(err);
