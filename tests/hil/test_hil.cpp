@@ -332,6 +332,36 @@ TEST(Hil, Cia402TorquesAreScaledByTheDrivesRatedTorque) {
   EXPECT_NEAR(std::stod(line.substr(tau_at + 7)), 3.0, 1e-4) << line;
 }
 
+// CAN.md 2.4 / 4.3 step 2: 0x6061 must read back 10 before enabling; a drive may show the new
+// mode a cycle after the write, so the host polls it (bounded by state_step_timeout_ms).
+TEST(Hil, Cia402StartUpWaitsForTheModeDisplay) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml",
+               "faults: [{kind: mode_display_delay, drive: 8, param: 30}, {kind: mode_display_delay, drive: 17, param: 5}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  const hal::LifecycleResult a = hw.activate();
+  ASSERT_TRUE(a.ok) << a.message;
+  hal::Measurements last;
+  run_ticks(hw, 30, [&](int, const hal::Measurements& m, hal::IoStatus) { last = m; });
+  for (int j = 0; j < kNj; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
+}
+
+TEST(Hil, Cia402ModeDisplayThatNeverFollowsFailsStartUpNamingTheDrive) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: mode_display_delay, drive: 8, param: 60000}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  EXPECT_FALSE(c.ok);
+  EXPECT_NE(c.message.find("drive 8 (joint lh_hfe_joint, cia402) on bus 'lh' (vcan2)"), std::string::npos) << c.message;
+  EXPECT_NE(c.message.find("0x6061 still reads 0"), std::string::npos) << c.message;
+}
+
 TEST(Hil, BusOffFaultsTheBusAndNeedsAnOperatorRecovery) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("mit_classic7.yaml");

@@ -371,10 +371,23 @@ LifecycleResult CanHardware::configure_node(int j) {
   if (!(err = write(object::max_torque, 0, jr.torque_scale.max_permille, 2, false)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::abort_connection, 0, 3, 2, true)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::error_behaviour, 1, 0, 1, true)).empty()) return LifecycleResult::failure(err);
-  if (!(err = read(object::modes_display, 0, value)).empty()) return LifecycleResult::failure(err);
-  if (static_cast<std::int8_t>(value & 0xFF) != kModeCst) {
-    return LifecycleResult::failure(drive_name(j) + ": modes of operation display 0x6061 reads " +
-                                    std::to_string(static_cast<std::int8_t>(value & 0xFF)) + ", expected 10 (CST)");
+  // 0x6061 must read back 10 before enabling (CAN.md 2.4); a drive may switch modes in its own
+  // cycle after the write, so re-read it, one tick apart, until it shows CST or
+  // state_step_timeout_ms (the bound on the drive's other state changes, 4.3 step 4) has passed.
+  const std::int64_t mode_deadline = after_ms(config_.timing.state_step_timeout_ms);
+  int mode_reads = 0;
+  for (;;) {
+    if (!(err = read(object::modes_display, 0, value)).empty()) return LifecycleResult::failure(err);
+    ++mode_reads;
+    if (static_cast<std::int8_t>(value & 0xFF) == kModeCst) break;
+    if (monotonic_ns() >= mode_deadline) {
+      return LifecycleResult::failure(drive_name(j) + ": modes of operation display 0x6061 still reads " +
+                                      std::to_string(static_cast<std::int8_t>(value & 0xFF)) + " after " +
+                                      std::to_string(mode_reads) + " reads over " +
+                                      std::to_string(config_.timing.state_step_timeout_ms) +
+                                      " ms, expected 10 (CST, written to 0x6060)");
+    }
+    sleep_until_ns(std::min<std::int64_t>(mode_deadline, monotonic_ns() + 1000LL * config_.timing.tick_us));
   }
   return LifecycleResult::success();
 }

@@ -60,7 +60,8 @@ struct Timing {
   std::uint32_t boot_timeout_ms = 5000;        // CiA 402: wait for boot-up
   std::uint32_t sdo_timeout_ms = 100;
   std::uint32_t sdo_retries = 2;
-  std::uint32_t state_step_timeout_ms = 100;   // CiA 402 state machine, per step
+  // CiA 402 state machine, per step; also how long 0x6061 may take to show the mode written to 0x6060
+  std::uint32_t state_step_timeout_ms = 100;
   std::uint32_t heartbeat_period_ms = 100;     // 0x1017
   std::uint32_t heartbeat_lost_periods = 3;
   std::uint32_t tx_fault_ticks = 3;            // ENOBUFS on this many ticks in a row -> bus fault
