@@ -362,6 +362,24 @@ TEST(Hil, Cia402ModeDisplayThatNeverFollowsFailsStartUpNamingTheDrive) {
   EXPECT_NE(c.message.find("0x6061 still reads 0"), std::string::npos) << c.message;
 }
 
+// CAN.md 2.2: any EMCY with a non-zero code latches a drive fault, start-up included. Drive 8
+// sends EMCY 0x3210 (and goes to Fault) right after answering its third SDO of the
+// Pre-operational configuration; the state machine walk would otherwise fault-reset it.
+TEST(Hil, Cia402EmcyDuringStartUpFailsItNamingTheDriveAndTheCode) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: emcy, drive: 8, at_sdo: 3, param: 0x3210}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  hal::LifecycleResult r = hw.configure();
+  if (r.ok) r = hw.activate();
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("drive 8 (joint lh_hfe_joint, cia402) on bus 'lh' (vcan2)"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("EMCY 0x3210"), std::string::npos) << r.message;
+  EXPECT_EQ(hw.joint(7).status.state, hal::DriveState::fault);
+  EXPECT_EQ(hw.joint(7).status.fault_code, 0x3210);
+}
+
 TEST(Hil, BusOffFaultsTheBusAndNeedsAnOperatorRecovery) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("mit_classic7.yaml");

@@ -158,7 +158,10 @@ void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
         ++bus.diag.bad_frames;
         return;
       }
-      if (e.error_code != 0) latch_fault(j, e.error_code);
+      if (e.error_code != 0) {
+        if (jr.emcy_code == 0) jr.emcy_code = e.error_code;  // start-up fails on it (can_startup.cpp)
+        latch_fault(j, e.error_code);
+      }
       return;
     }
     case cia402::cob::tpdo1: {

@@ -149,6 +149,8 @@ LifecycleResult CanHardware::enable_bus(int b) {
   damping.kd_nms_per_rad.setConstant(config_.timing.damping_kd_nms_per_rad);
   for (int k = 0; k < bus.count; ++k) {
     JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    // Clears what the walk itself latched (a drive found in Fault, then reset); an EMCY during
+    // start-up never gets here: it failed start-up above (startup_emcy).
     jr.status = hal::DriveStatus{};
     jr.status.state = hal::DriveState::enabled;
     jr.last_rx_tick = tick_;
@@ -392,6 +394,24 @@ LifecycleResult CanHardware::configure_node(int j) {
   return LifecycleResult::success();
 }
 
+// CAN.md 2.2: any EMCY with a non-zero code latches a drive fault. During start-up the state
+// machine walk (4.3 step 4) fault-resets a drive in Fault and would enable it again, silently
+// clearing that latch; so an EMCY seen from the boot wait to Operation enabled fails start-up,
+// naming the drive and the code, and the fault stays latched in its status. Clearing it is an
+// operator action (as after bus-off, 4): fix the cause, then start up again. A drive found in
+// Fault without an EMCY during this start-up (a fault left from before) is reset by the walk.
+LifecycleResult CanHardware::startup_emcy(const std::vector<int>& nodes, const char* during) {
+  for (int j : nodes) {
+    const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+    if (jr.emcy_code != 0) {
+      return LifecycleResult::failure("CiA 402 " + std::string(during) + ": " + drive_name(j) + " sent EMCY " +
+                                      hex(jr.emcy_code, 4) + ": drive fault latched (CAN.md 2.2); clear its cause, "
+                                      "then start up again");
+    }
+  }
+  return LifecycleResult::success();
+}
+
 LifecycleResult CanHardware::start_cia402(int b) {
   const Bus& bus = buses_[static_cast<std::size_t>(b)];
   const BusConfig& bc = config_.buses[static_cast<std::size_t>(b)];
@@ -406,7 +426,10 @@ LifecycleResult CanHardware::start_cia402(int b) {
     return true;
   };
   // 1. Boot-up: a node that is already up (or silent) is reset so that it boots again.
-  for (int j : nodes) joints_[static_cast<std::size_t>(j)].booted = false;
+  for (int j : nodes) {
+    joints_[static_cast<std::size_t>(j)].booted = false;
+    joints_[static_cast<std::size_t>(j)].emcy_code = 0;
+  }
   pump_until(after_ms(std::min<std::uint32_t>(200, config_.timing.boot_timeout_ms)), all_booted);
   for (int j : nodes) {
     JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
@@ -423,12 +446,15 @@ LifecycleResult CanHardware::start_cia402(int b) {
     return LifecycleResult::failure("CiA 402 start-up on bus '" + bc.name + "': no boot-up within " +
                                     std::to_string(config_.timing.boot_timeout_ms) + " ms: " + missing);
   }
+  if (LifecycleResult r = startup_emcy(nodes, "start-up"); !r.ok) return r;
   // 2. Pre-operational configuration by SDO.
   for (int j : nodes) {
     if (LifecycleResult r = configure_node(j); !r.ok) return r;
+    if (LifecycleResult r = startup_emcy(nodes, "start-up"); !r.ok) return r;
     joints_[static_cast<std::size_t>(j)].status.state = hal::DriveState::ready;
   }
-  return LifecycleResult::success();
+  pump_until(monotonic_ns(), [] { return false; });  // what arrived after the last SDO answer
+  return startup_emcy(nodes, "start-up");
 }
 
 LifecycleResult CanHardware::enable_cia402(int b) {
@@ -484,11 +510,12 @@ LifecycleResult CanHardware::enable_cia402(int b) {
       return true;
     };
     pump_until(after_ms(config_.timing.state_step_timeout_ms), all_tpdo);
+    if (LifecycleResult r = startup_emcy(nodes, "enable"); !r.ok) return r;
     next_cycle += 1000LL * config_.timing.tick_us;
     sleep_until_ns(std::max(next_cycle, monotonic_ns()));
   }
   for (int j : nodes) joints_[static_cast<std::size_t>(j)].replies_this_tick = 0;
-  return LifecycleResult::success();
+  return startup_emcy(nodes, "enable");
 }
 
 // ---- recovery and shut-down -------------------------------------------------------------------------

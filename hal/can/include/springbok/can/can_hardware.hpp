@@ -33,6 +33,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "springbok/can/config.hpp"
 #include "springbok/can/mit.hpp"
@@ -86,6 +87,7 @@ struct JointRuntime {
   std::uint32_t rated_torque_mnm = 0;
   cia402::TorqueScale torque_scale;
   bool booted = false;            // CiA 402 start-up: boot-up seen
+  std::uint16_t emcy_code = 0;    // CiA 402: the first non-zero EMCY code since this bus's start-up began
   bool sdo_answered = false;
   Frame sdo_answer;
   Frame pending;                  // the command frame for the next send
@@ -176,6 +178,8 @@ class CanHardware final : public hal::Hardware {
   hal::LifecycleResult start_cia402(int b);
   hal::LifecycleResult enable_cia402(int b);
   hal::LifecycleResult configure_node(int j);
+  // A failure naming the first of `nodes` that sent a non-zero EMCY since its start-up began.
+  hal::LifecycleResult startup_emcy(const std::vector<int>& nodes, const char* during);
   SdoOutcome sdo(int j, bool write, std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size);
   std::string drive_name(int j) const;
   template <class Done>
