@@ -1,6 +1,7 @@
 // CiA 402 subset codecs against CAN.md section 2 (worked SDO examples, state table).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <vector>
 
 #include "springbok/can/cia402.hpp"
@@ -206,6 +207,44 @@ TEST(Cia402Torque, PermilleOfRatedTorque) {
   EXPECT_EQ(torque_to_permille(500.0, 150.0, 1.0, 800), 800);   // clamped to 0x6072
   EXPECT_EQ(torque_to_permille(10.0, 2.0, 10.0, 1000), 500);    // motor-side rating, gear 10
   EXPECT_DOUBLE_EQ(permille_to_torque(20, 150.0, 1.0), 3.0);
+}
+
+// Start-up scaling from the 0x6076 a drive reports (CAN.md 2.4, 4.3 step 2), not from the config.
+TEST(Cia402Torque, ScaleFromTheDrivesRatedTorque) {
+  TorqueScale s;
+  // The spec's 150 Nm rating on a 39 Nm arm joint: 0.15 Nm per unit, 0x6072 = 39 / 0.15 = 260.
+  ASSERT_EQ(make_torque_scale(150000, 1.0, 39.0, 0, s), TorqueScaleStatus::ok);
+  EXPECT_DOUBLE_EQ(s.nm_per_permille, 0.15);
+  EXPECT_EQ(s.max_permille, 260);
+  EXPECT_EQ(torque_to_permille(3.0, s), 20);
+  EXPECT_EQ(torque_to_permille(-0.076, s), -1);
+  EXPECT_EQ(torque_to_permille(100.0, s), 260);    // clamped to 0x6072: the joint's limit
+  EXPECT_EQ(torque_to_permille(-100.0, s), -260);
+  EXPECT_EQ(torque_to_permille(std::nan(""), s), 0);
+  EXPECT_DOUBLE_EQ(permille_to_torque(20, s), 3.0);
+  // The same joint with a 39 Nm rating (the old default): 0x6072 = 1000.
+  ASSERT_EQ(make_torque_scale(39000, 1.0, 39.0, 0, s), TorqueScaleStatus::ok);
+  EXPECT_EQ(s.max_permille, 1000);
+  EXPECT_EQ(torque_to_permille(3.0, s), 77);
+  // A configured cap below the joint's limit wins.
+  ASSERT_EQ(make_torque_scale(150000, 1.0, 39.0, 100, s), TorqueScaleStatus::ok);
+  EXPECT_EQ(s.max_permille, 100);
+  EXPECT_EQ(torque_to_permille(100.0, s), 100);
+  // Motor-side rating 2 Nm, gear 10: 0.02 Nm per unit; 150 Nm joint -> 7500.
+  ASSERT_EQ(make_torque_scale(2000, 10.0, 150.0, 0, s), TorqueScaleStatus::ok);
+  EXPECT_EQ(s.max_permille, 7500);
+  EXPECT_EQ(torque_to_permille(10.0, s), 500);
+  // A drive far weaker than the joint: 0x6072 saturates at the i16 range of 0x6071.
+  ASSERT_EQ(make_torque_scale(1000, 1.0, 150.0, 0, s), TorqueScaleStatus::ok);
+  EXPECT_EQ(s.max_permille, 32767);
+  // Unusable values: 0, and one unit (0.1 %) coarser than the joint's torque limit.
+  EXPECT_EQ(make_torque_scale(0, 1.0, 39.0, 0, s), TorqueScaleStatus::zero_rating);
+  EXPECT_EQ(s.max_permille, 0);  // and nothing scales through it
+  EXPECT_EQ(torque_to_permille(3.0, s), 0);
+  EXPECT_EQ(make_torque_scale(39001000, 1.0, 39.0, 0, s), TorqueScaleStatus::too_coarse);
+  ASSERT_EQ(make_torque_scale(39000000, 1.0, 39.0, 0, s), TorqueScaleStatus::ok);  // one unit = the limit
+  EXPECT_EQ(s.max_permille, 1);
+  EXPECT_EQ(make_torque_scale(0xFFFFFFFFu, 1.0, 150.0, 0, s), TorqueScaleStatus::too_coarse);
 }
 
 }  // namespace

@@ -89,6 +89,21 @@ TEST(CanConfig, MitDrivesMayShareAReplyIdTheFactoryDefaultZeroIncluded) {
   EXPECT_TRUE(r.ok) << r.error;
 }
 
+// The drive's 0x6076 scales its torques (CAN.md 2.4): the config's rated torque is optional
+// (0 = not given) and so is the cap on 0x6072 (0 = the joint's torque limit).
+TEST(CanConfig, Cia402RatedTorqueAndMaxTorqueAreOptional) {
+  const ConfigResult absent = load_can_config_text(full_config("          protocol: cia402\n"));
+  ASSERT_TRUE(absent.ok) << absent.error;
+  EXPECT_EQ(absent.config.buses[0].drives[0].rated_torque_nm, 0.0);
+  EXPECT_EQ(absent.config.buses[0].drives[0].max_torque_permille, 0);
+  EXPECT_EQ(default_drive(12, Protocol::cia402).rated_torque_nm, 0.0);
+  const ConfigResult given = load_can_config_text(
+      full_config("          protocol: cia402\n          rated_torque_nm: 150\n          max_torque_permille: 800\n"));
+  ASSERT_TRUE(given.ok) << given.error;
+  EXPECT_EQ(given.config.buses[0].drives[0].rated_torque_nm, 150.0);
+  EXPECT_EQ(given.config.buses[0].drives[0].max_torque_permille, 800);
+}
+
 TEST(CanConfig, JointByName) {
   std::string s = full_config("");
   const auto pos = s.find("joint: 0\n");
@@ -114,6 +129,10 @@ TEST(CanConfig, ErrorsNameTheField) {
       {"          protocol: canopen\n", "can.buses[0].drives[0].protocol"},
       {"          colour: red\n", "can.buses[0].drives[0].colour: unknown key"},
       {"          mapping: three\n", "can.buses[0].drives[0].mapping"},
+      {"          protocol: cia402\n          rated_torque_nm: -1\n", "can.buses[0].drives[0].rated_torque_nm"},
+      {"          protocol: cia402\n          rated_torque_nm: .inf\n", "can.buses[0].drives[0].rated_torque_nm"},
+      {"          protocol: cia402\n          max_torque_permille: 40000\n", "can.buses[0].drives[0].max_torque_permille"},
+      {"          protocol: cia402\n          gear_ratio: 0\n", "can.buses[0].drives[0].gear_ratio"},
   };
   for (const BadCase& c : cases) {
     const ConfigResult r = load_can_config_text(full_config(c.extra));

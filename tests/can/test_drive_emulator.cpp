@@ -297,6 +297,128 @@ int run(const std::string& args, std::string& output) {
   const int status = ::pclose(p);
   return WEXITSTATUS(status);
 }
+// ---- CiA 402 start-up properties the host must not assume (CAN.md 2.4, 4.3) ------------------
+// One SDO request to node `n` at `now_ns`; the frames the drive sent back.
+std::vector<Frame> sdo(Cia402Drive& drive, std::uint8_t n, const c4::SdoRequest& req, std::int64_t now_ns = 0) {
+  Frame f;
+  c4::encode_sdo_request(n, req, f);
+  std::vector<Frame> out;
+  drive.on_frame(f, now_ns, out);
+  return out;
+}
+std::uint32_t sdo_read(Cia402Drive& drive, std::uint8_t n, std::uint16_t index, std::int64_t now_ns = 0) {
+  const std::vector<Frame> out = sdo(drive, n, {c4::SdoRequest::Kind::read, index, 0, 0, 0}, now_ns);
+  c4::SdoResponse res;
+  EXPECT_EQ(out.size(), 1u);
+  if (out.empty() || c4::decode_sdo_response(out[0], n, res) != can::FrameStatus::ok) return 0xDEADBEEF;
+  EXPECT_EQ(res.kind, c4::SdoResponse::Kind::read_ok);
+  return res.value;
+}
+std::vector<Fault> script(const std::string& yaml) {
+  const FaultResult r = load_faults_text(yaml);
+  EXPECT_TRUE(r.ok) << r.error;
+  return r.faults;
+}
+
+TEST(DriveEmulator, Cia402RatedTorqueFromTheScriptScalesTheDrive) {
+  const can::DriveConfig cfg = can::default_drive(12, can::Protocol::cia402);  // node 13, arm_joint_1, 39 Nm
+  {  // Default: the joint's effort limit.
+    Cia402Drive drive(cfg, make_joint_model(12, 0.0), {}, 0);
+    std::vector<Frame> out;
+    drive.boot(0, out);
+    EXPECT_EQ(sdo_read(drive, 13, c4::object::rated_torque), 39000u);
+  }
+  Cia402Drive drive(cfg, make_joint_model(12, 0.0), script("faults: [{kind: rated_torque, drive: 13, param: 150000}]"), 0);
+  std::vector<Frame> out;
+  drive.boot(0, out);
+  EXPECT_EQ(sdo_read(drive, 13, c4::object::rated_torque), 150000u);
+  std::array<c4::SdoWrite, c4::kMaxMappingWrites> seq{};
+  const int n = c4::pdo_mapping_sequence(13, c4::Mapping::compact, seq);
+  for (int i = 0; i < n; ++i) {
+    ASSERT_EQ(sdo(drive, 13, {c4::SdoRequest::Kind::write, seq[i].index, seq[i].sub, seq[i].value, seq[i].size}).size(), 1u);
+  }
+  // Enable, then 20 per mille of 150 Nm = 3 Nm applied, and 0x6077 reads 20 back.
+  Frame f;
+  c4::encode_nmt(c4::NmtCommand::start, 13, f);
+  drive.on_frame(f, 0, out);
+  c4::State s = c4::State::unknown;
+  std::uint16_t cw = 0;
+  c4::Feedback fb;
+  for (int cycle = 0; cycle < 12; ++cycle) {
+    cw = c4::controlword_towards_enabled(s, cw);
+    c4::encode_rpdo1(13, c4::Rpdo1{cw, static_cast<std::int16_t>(s == c4::State::operation_enabled ? 20 : 0)}, f);
+    drive.on_frame(f, 0, out);
+    out.clear();
+    c4::encode_sync(f);
+    drive.on_frame(f, 0, out);
+    ASSERT_EQ(out.size(), 1u);
+    ASSERT_EQ(c4::decode_tpdo1(out[0], 13, c4::Mapping::compact, fb), can::FrameStatus::ok);
+    s = c4::decode_statusword(fb.statusword);
+  }
+  ASSERT_EQ(s, c4::State::operation_enabled);
+  EXPECT_DOUBLE_EQ(drive.model().tau_nm, 3.0);
+  EXPECT_EQ(fb.torque, 20);
+}
+
+TEST(DriveEmulator, Cia402ModeDisplayFollowsTheWriteAfterTheScriptedDelay) {
+  const can::DriveConfig cfg = can::default_drive(2, can::Protocol::cia402);  // node 3
+  const c4::SdoRequest cst{c4::SdoRequest::Kind::write, c4::object::modes_of_operation, 0, 10, 1};
+  {  // Default: at once.
+    Cia402Drive drive(cfg, make_joint_model(2, 0.0), {}, 0);
+    std::vector<Frame> out;
+    drive.boot(0, out);
+    EXPECT_EQ(sdo(drive, 3, cst, 1000000).size(), 1u);
+    EXPECT_EQ(sdo_read(drive, 3, c4::object::modes_display, 1000000), 10u);
+  }
+  Cia402Drive drive(cfg, make_joint_model(2, 0.0), script("faults: [{kind: mode_display_delay, drive: 3, param: 5}]"), 0);
+  std::vector<Frame> out;
+  drive.boot(0, out);
+  EXPECT_EQ(sdo(drive, 3, cst, 1000000).size(), 1u);
+  EXPECT_EQ(sdo_read(drive, 3, c4::object::modes_of_operation, 1000000), 10u);  // 0x6060 itself at once
+  EXPECT_EQ(sdo_read(drive, 3, c4::object::modes_display, 1000000), 0u);
+  EXPECT_EQ(sdo_read(drive, 3, c4::object::modes_display, 5999999), 0u);
+  EXPECT_EQ(sdo_read(drive, 3, c4::object::modes_display, 6000000), 10u);
+}
+
+TEST(DriveEmulator, Cia402EmcyAfterTheKthSdoAnswer) {
+  const can::DriveConfig cfg = can::default_drive(2, can::Protocol::cia402);  // node 3
+  Cia402Drive drive(cfg, make_joint_model(2, 0.0),
+                    script("faults: [{kind: emcy, drive: 3, at_sdo: 2, param: 0x3210}]"), 0);
+  std::vector<Frame> out;
+  drive.boot(0, out);
+  EXPECT_EQ(sdo_read(drive, 3, c4::object::statusword), 0x0250u);  // 1st: switch on disabled
+  const std::vector<Frame> second = sdo(drive, 3, {c4::SdoRequest::Kind::read, c4::object::supported_modes, 0, 0, 0});
+  ASSERT_EQ(second.size(), 2u);  // the answer, then the EMCY
+  EXPECT_EQ(second[0].id, 0x583u);
+  c4::Emcy e;
+  ASSERT_EQ(c4::decode_emcy(second[1], 3, e), can::FrameStatus::ok);
+  EXPECT_EQ(e.error_code, 0x3210);
+  EXPECT_EQ(sdo_read(drive, 3, c4::object::statusword), 0x0218u);  // Fault
+  EXPECT_EQ(sdo_read(drive, 3, c4::object::error_code), 0x3210u);
+}
+
+TEST(DriveEmulator, FaultScriptDrivePropertiesAndAtSdo) {
+  const FaultResult ok = load_faults_text(
+      "faults: [{kind: rated_torque, drive: 3, param: 150000}, {kind: mode_display_delay, drive: 3, param: 20},"
+      " {kind: emcy, drive: 4, at_sdo: 7}]");
+  ASSERT_TRUE(ok.ok) << ok.error;
+  EXPECT_EQ(ok.faults[0].kind, FaultKind::rated_torque);
+  EXPECT_EQ(ok.faults[0].param, 150000u);
+  EXPECT_EQ(ok.faults[1].kind, FaultKind::mode_display_delay);
+  EXPECT_EQ(ok.faults[2].at_sdo, 7u);
+  const auto error = [](const char* yaml) { return load_faults_text(yaml).error; };
+  EXPECT_NE(error("faults: [{kind: rated_torque, drive: 3}]").find("faults[0].param"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: rated_torque, drive: 3, param: -1}]").find("faults[0].param"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: rated_torque, drive: 3, param: 1, at: 5}]").find("faults[0].at"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: mode_display_delay, drive: 3, param: 0}]").find("faults[0].param"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: mode_display_delay, drive: 3, param: 5, count: 2}]").find("faults[0].count"),
+            std::string::npos);
+  EXPECT_NE(error("faults: [{kind: drop, drive: 3, at_sdo: 2}]").find("faults[0].at_sdo"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: emcy, drive: 3, at_sdo: 0}]").find("faults[0].at_sdo"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: emcy, drive: 3, at: 1, at_sdo: 2}]").find("either `at` or `at_sdo`"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: emcy, drive: 3}]").find("faults[0].at"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: rated_torque, sensor: imu, param: 1}]").find("not a sensor fault"), std::string::npos);
+}
 
 TEST(DriveEmulatorCli, PrintsTheLayoutAndItsBusLoads) {
   std::string out;
@@ -317,6 +439,11 @@ TEST(DriveEmulatorCli, RejectsABadConfigOrFaultScript) {
   out.clear();
   EXPECT_EQ(run("--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml --faults " + bad, out), 2);
   EXPECT_NE(out.find("faults[0].kind"), std::string::npos) << out;
+  // CiA 402 drive properties on an MIT drive.
+  std::ofstream(bad) << "faults: [{kind: rated_torque, drive: 1, param: 150000}]\n";
+  out.clear();
+  EXPECT_EQ(run("--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml --faults " + bad, out), 2);
+  EXPECT_NE(out.find("fault 'rated_torque' names drive 1, which is an MIT drive"), std::string::npos) << out;
   std::remove(bad.c_str());
   // The MIT drives' flash settings: a reply length MIT does not have, an id past 11 bits.
   const std::string config = "--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml --print-layout ";

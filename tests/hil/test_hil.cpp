@@ -336,6 +336,107 @@ TEST(Hil, EmcyLatchesTheDriveFault) {
   }
 }
 
+// CAN.md 2.4 / 4.3 step 2: the drive's own 0x6076 scales 0x6071 / 0x6072 / 0x6077. Drive 13
+// (arm_joint_1, 39 Nm limit) reports the spec's example rating, 150 Nm (0.15 Nm per unit);
+// the config does not say (the default) or says 39 Nm: start-up goes on and notes the difference.
+TEST(Hil, Cia402TorquesAreScaledByTheDrivesRatedTorque) {
+  REQUIRE_VCAN(7);
+  CanConfig cfg = load("cia402_classic7.yaml");
+  cfg.buses[4].drives[0].rated_torque_nm = 39.0;  // what the config expects, not what the drive says
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: rated_torque, drive: 13, param: 150000}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  EXPECT_EQ(hw.joint(12).rated_torque_mnm, 150000u);
+  EXPECT_EQ(hw.joint(12).torque_scale.max_permille, 260);  // 0x6072 = 39 Nm / 0.15 Nm
+  EXPECT_EQ(hw.joint(13).rated_torque_mnm, 39000u);        // the others: their effort limit
+  EXPECT_EQ(hw.joint(13).torque_scale.max_permille, 1000);
+  EXPECT_NE(hw.startup_notes().find("drive 13 (joint arm_joint_1, cia402) on bus 'arm0' (vcan4): motor rated torque "
+                                    "0x6076 = 150000 mNm, the config's rated_torque_nm is 39"),
+            std::string::npos)
+      << hw.startup_notes();
+  EXPECT_NE(hw.diagnostics_report().find("0x6076 = 150000 mNm"), std::string::npos);
+  ASSERT_TRUE(hw.activate().ok);
+  hal::JointCommands cmd;
+  cmd.mode = hal::CommandMode::enabled;
+  cmd.kd_nms_per_rad.setConstant(0.5);
+  cmd.kd_nms_per_rad[12] = 0.0;
+  hal::Measurements m;
+  auto next = std::chrono::steady_clock::now();
+  const auto run = [&](double tau_nm, int ticks) {
+    cmd.tau_ff_nm[12] = tau_nm;
+    for (int k = 0; k < ticks; ++k) {
+      (void)hw.read(m);
+      EXPECT_EQ(hw.write(cmd), hal::IoStatus::ok);
+      next += std::chrono::milliseconds(1);
+      std::this_thread::sleep_until(next);
+    }
+  };
+  run(100.0, 40);  // clamped by the host to 0x6072: the joint's 39 Nm
+  EXPECT_EQ(m.drives[12].state, hal::DriveState::enabled);
+  EXPECT_NEAR(m.tau_nm[12], 39.0, 1e-9);
+  run(3.0, 40);  // 20 units of 0.15 Nm
+  EXPECT_EQ(m.drives[12].state, hal::DriveState::enabled);
+  EXPECT_NEAR(m.tau_nm[12], 3.0, 1e-9);
+  // The emulated drive's own torque (its oracle): what it applied from the last 0x6071.
+  const std::string summary = emu.stop();
+  const auto line_at = summary.find("drive 13 ");
+  ASSERT_NE(line_at, std::string::npos) << summary;
+  const std::string line = summary.substr(line_at, summary.find('\n', line_at) - line_at);
+  const auto tau_at = line.find("tau_nm ");
+  ASSERT_NE(tau_at, std::string::npos) << line;
+  EXPECT_NEAR(std::stod(line.substr(tau_at + 7)), 3.0, 1e-4) << line;
+}
+
+// CAN.md 2.4 / 4.3 step 2: 0x6061 must read back 10 before enabling; a drive may show the new
+// mode a cycle after the write, so the host polls it (bounded by state_step_timeout_ms).
+TEST(Hil, Cia402StartUpWaitsForTheModeDisplay) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml",
+               "faults: [{kind: mode_display_delay, drive: 8, param: 30}, {kind: mode_display_delay, drive: 17, param: 5}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  const hal::LifecycleResult a = hw.activate();
+  ASSERT_TRUE(a.ok) << a.message;
+  hal::Measurements last;
+  run_ticks(hw, 30, [&](int, const hal::Measurements& m, hal::IoStatus) { last = m; });
+  for (int j = 0; j < kNj; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
+}
+
+TEST(Hil, Cia402ModeDisplayThatNeverFollowsFailsStartUpNamingTheDrive) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: mode_display_delay, drive: 8, param: 60000}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  EXPECT_FALSE(c.ok);
+  EXPECT_NE(c.message.find("drive 8 (joint lh_hfe_joint, cia402) on bus 'lh' (vcan2)"), std::string::npos) << c.message;
+  EXPECT_NE(c.message.find("0x6061 still reads 0"), std::string::npos) << c.message;
+}
+
+// CAN.md 2.2: any EMCY with a non-zero code latches a drive fault, start-up included. Drive 8
+// sends EMCY 0x3210 (and goes to Fault) right after answering its third SDO of the
+// Pre-operational configuration; the state machine walk would otherwise fault-reset it.
+TEST(Hil, Cia402EmcyDuringStartUpFailsItNamingTheDriveAndTheCode) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: emcy, drive: 8, at_sdo: 3, param: 0x3210}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  hal::LifecycleResult r = hw.configure();
+  if (r.ok) r = hw.activate();
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("drive 8 (joint lh_hfe_joint, cia402) on bus 'lh' (vcan2)"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("EMCY 0x3210"), std::string::npos) << r.message;
+  EXPECT_EQ(hw.joint(7).status.state, hal::DriveState::fault);
+  EXPECT_EQ(hw.joint(7).status.fault_code, 0x3210);
+}
+
 TEST(Hil, BusOffFaultsTheBusAndNeedsAnOperatorRecovery) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("mit_classic7.yaml");

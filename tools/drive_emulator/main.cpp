@@ -146,6 +146,36 @@ int main(int argc, char** argv) {
     faults = fr.faults;
   }
 
+  // Every fault names a configured drive or sensor (checked before any socket opens).
+  for (const emu::Fault& f : faults) {
+    if (f.sensor != emu::SensorId::none) {
+      const bool configured = f.sensor == emu::SensorId::imu ? cfg.config.sensors.imu.enabled
+                                                             : cfg.config.sensors.wrist_ft.enabled;
+      if (!configured) {
+        std::fprintf(stderr, "drive_emulator: fault '%s' names sensor %s, which is not configured (can.sensors)\n",
+                     emu::to_string(f.kind), emu::to_string(f.sensor));
+        return 2;
+      }
+      continue;
+    }
+    const can::DriveConfig* drive = nullptr;
+    for (const can::BusConfig& bc : cfg.config.buses) {
+      for (const can::DriveConfig& d : bc.drives) {
+        if (d.drive_id == f.drive_id) drive = &d;
+      }
+    }
+    if (drive == nullptr) {
+      std::fprintf(stderr, "drive_emulator: fault '%s' names drive %d, which is not configured\n", emu::to_string(f.kind),
+                   f.drive_id);
+      return 2;
+    }
+    if ((emu::is_property(f.kind) || f.at_sdo != 0) && drive->protocol != can::Protocol::cia402) {
+      std::fprintf(stderr, "drive_emulator: fault '%s'%s names drive %d, which is an MIT drive (CiA 402 only)\n",
+                   emu::to_string(f.kind), f.at_sdo != 0 ? " with at_sdo" : "", f.drive_id);
+      return 2;
+    }
+  }
+
   std::unique_ptr<emu::Motion> world;
   std::FILE* truth_file = nullptr;
   if (motion == "bullet") {
@@ -216,27 +246,6 @@ int main(int argc, char** argv) {
         buses[b].drives.push_back(std::make_unique<emu::Cia402Drive>(d, model, mine, t0));
       }
       buses[b].drives.back()->attach(world.get());
-    }
-  }
-  for (const emu::Fault& f : faults) {
-    if (f.sensor != emu::SensorId::none) {
-      const bool configured = f.sensor == emu::SensorId::imu ? cfg.config.sensors.imu.enabled
-                                                             : cfg.config.sensors.wrist_ft.enabled;
-      if (!configured) {
-        std::fprintf(stderr, "drive_emulator: fault '%s' names sensor %s, which is not configured (can.sensors)\n",
-                     emu::to_string(f.kind), emu::to_string(f.sensor));
-        return 2;
-      }
-      continue;
-    }
-    bool found = false;
-    for (const BusIo& io : buses) {
-      for (const auto& d : io.drives) found = found || d->config().drive_id == f.drive_id;
-    }
-    if (!found) {
-      std::fprintf(stderr, "drive_emulator: fault '%s' names drive %d, which is not configured\n", emu::to_string(f.kind),
-                   f.drive_id);
-      return 2;
     }
   }
   // The sensors (CAN.md 6.5): one sample per world step, on their buses.
@@ -357,11 +366,11 @@ int main(int argc, char** argv) {
   }
   for (std::size_t b = 0; b < buses.size(); ++b) {
     for (const auto& d : buses[b].drives) {
-      std::printf("drive %d joint %s bus %s tick %llu frames_in %llu replies_out %llu enabled %d q_rad %.6f\n",
+      std::printf("drive %d joint %s bus %s tick %llu frames_in %llu replies_out %llu enabled %d q_rad %.6f tau_nm %.4f\n",
                   d->config().drive_id, std::string(robot::kJoints[static_cast<std::size_t>(d->config().joint)].name).c_str(),
                   cfg.config.buses[b].name.c_str(), static_cast<unsigned long long>(d->tick()),
                   static_cast<unsigned long long>(d->frames_in()), static_cast<unsigned long long>(d->replies_out()),
-                  d->enabled() ? 1 : 0, d->model().q_rad);
+                  d->enabled() ? 1 : 0, d->model().q_rad, d->model().tau_nm);
       if (const auto* mit = dynamic_cast<const emu::MitDrive*>(d.get()); mit != nullptr && cfg.config.buses[b].fd) {
         std::printf("fd_bus drive %d classic_frames %llu\n", d->config().drive_id,
                     static_cast<unsigned long long>(mit->classic_frames()));

@@ -159,7 +159,10 @@ void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
         ++bus.diag.bad_frames;
         return;
       }
-      if (e.error_code != 0) latch_fault(j, e.error_code);
+      if (e.error_code != 0) {
+        if (jr.emcy_code == 0) jr.emcy_code = e.error_code;  // start-up fails on it (can_startup.cpp)
+        latch_fault(j, e.error_code);
+      }
       return;
     }
     case cia402::cob::tpdo1: {
@@ -176,7 +179,7 @@ void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
         // No velocity object in the compact mapping: the position difference over the reply age.
         const double age_ticks = static_cast<double>(std::max<std::uint64_t>(1, tick_ - jr.last_rx_tick));
         jr.qd_rad_s = jr.have_state ? (q_rad - jr.q_rad) / (age_ticks * 1e-6 * config_.timing.tick_us) : 0.0;
-        jr.tau_nm = cia402::permille_to_torque(fb.torque, jr.cfg.rated_torque_nm, jr.cfg.gear_ratio);
+        jr.tau_nm = cia402::permille_to_torque(fb.torque, jr.torque_scale);
       }
       jr.q_rad = q_rad;
       jr.have_state = true;
@@ -197,7 +200,7 @@ void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
         return;
       }
       jr.qd_rad_s = static_cast<double>(fb.velocity) / jr.cfg.velocity_units_per_rad_s;
-      jr.tau_nm = cia402::permille_to_torque(fb.torque, jr.cfg.rated_torque_nm, jr.cfg.gear_ratio);
+      jr.tau_nm = cia402::permille_to_torque(fb.torque, jr.torque_scale);
       jr.tpdo2_this_tick = true;
       return;
     }
@@ -522,8 +525,7 @@ void CanHardware::queue_command(int j, const hal::JointCommands& cmd) noexcept {
     return;
   }
   jr.controlword = cia402::controlword::enable_operation;
-  const std::int16_t permille =
-      cia402::torque_to_permille(tau_nm, jr.cfg.rated_torque_nm, jr.cfg.gear_ratio, jr.cfg.max_torque_permille);
+  const std::int16_t permille = cia402::torque_to_permille(tau_nm, jr.torque_scale);
   cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{jr.controlword, permille}, jr.pending);
   jr.has_pending = true;
 }
@@ -538,7 +540,7 @@ hal::IoStatus CanHardware::write(const hal::JointCommands& cmd) noexcept {
 }
 
 std::string CanHardware::diagnostics_report() const {
-  std::string out;
+  std::string out = startup_notes_;
   char line[512];
   for (int b = 0; b < bus_count_; ++b) {
     const BusDiagnostics& d = diagnostics(b);

@@ -88,6 +88,7 @@ LifecycleResult CanHardware::configure() {
   }
   bus_count_ = static_cast<int>(config_.buses.size());
   joints_ = {};
+  startup_notes_.clear();
   for (int b = 0; b < bus_count_; ++b) {
     Bus& bus = buses_[static_cast<std::size_t>(b)];
     bus.count = 0;
@@ -148,6 +149,8 @@ LifecycleResult CanHardware::enable_bus(int b) {
   damping.kd_nms_per_rad.setConstant(config_.timing.damping_kd_nms_per_rad);
   for (int k = 0; k < bus.count; ++k) {
     JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    // Clears what the walk itself latched (a drive found in Fault, then reset); an EMCY during
+    // start-up never gets here: it failed start-up above (startup_emcy).
     jr.status = hal::DriveStatus{};
     jr.status.state = hal::DriveState::enabled;
     jr.last_rx_tick = tick_;
@@ -300,7 +303,7 @@ CanHardware::SdoOutcome CanHardware::sdo(int j, bool write, std::uint16_t index,
 }
 
 LifecycleResult CanHardware::configure_node(int j) {
-  const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
   const auto describe = [&](const SdoOutcome& o, bool write, std::uint16_t index, std::uint8_t sub) {
     std::string what = std::string("SDO ") + (write ? "write " : "read ") + hex(index, 4) + ":" + std::to_string(sub) +
                        " on " + drive_name(j) + ": ";
@@ -338,11 +341,26 @@ LifecycleResult CanHardware::configure_node(int j) {
   if ((value & kSupportedModeCstBit) == 0) {
     return LifecycleResult::failure(drive_name(j) + ": 0x6502 = " + hex(value, 8) + ", cyclic synchronous torque not supported");
   }
+  // The drive's own rated torque scales 0x6071 / 0x6072 / 0x6077 (CAN.md 2.4), so it is read
+  // before 0x6072 is computed and written below. The config's rated_torque_nm only documents
+  // what is expected: a difference is noted, not fatal.
   if (!(err = read(object::rated_torque, 0, value)).empty()) return LifecycleResult::failure(err);
+  const double limit_nm = robot::kJoints[static_cast<std::size_t>(j)].limits.effort_nm;
+  switch (make_torque_scale(value, jr.cfg.gear_ratio, limit_nm, jr.cfg.max_torque_permille, jr.torque_scale)) {
+    case TorqueScaleStatus::ok: break;
+    case TorqueScaleStatus::zero_rating:
+      return LifecycleResult::failure(drive_name(j) + ": motor rated torque 0x6076 reads 0 mNm: no torque scaling");
+    case TorqueScaleStatus::too_coarse:
+      return LifecycleResult::failure(drive_name(j) + ": motor rated torque 0x6076 reads " + std::to_string(value) +
+                                      " mNm: one 0x6071 unit (0.1 %, x gear ratio " + std::to_string(jr.cfg.gear_ratio) +
+                                      ") is coarser than the joint's torque limit " + std::to_string(limit_nm) + " Nm");
+  }
+  jr.rated_torque_mnm = value;
   const double rated_nm = static_cast<double>(value) / 1000.0;
-  if (std::abs(rated_nm - jr.cfg.rated_torque_nm) > 0.005 * jr.cfg.rated_torque_nm) {
-    return LifecycleResult::failure(drive_name(j) + ": motor rated torque 0x6076 = " + std::to_string(value) +
-                                    " mNm, the config says rated_torque_nm = " + std::to_string(jr.cfg.rated_torque_nm));
+  if (jr.cfg.rated_torque_nm > 0.0 && std::abs(rated_nm - jr.cfg.rated_torque_nm) > 0.005 * jr.cfg.rated_torque_nm) {
+    startup_notes_ += "can start-up: " + drive_name(j) + ": motor rated torque 0x6076 = " + std::to_string(value) +
+                      " mNm, the config's rated_torque_nm is " + std::to_string(jr.cfg.rated_torque_nm) +
+                      ": torques are scaled by the drive's value\n";
   }
   std::array<SdoWrite, kMaxMappingWrites> seq{};
   const int n = pdo_mapping_sequence(jr.cfg.drive_id, jr.cfg.mapping, seq);
@@ -352,13 +370,44 @@ LifecycleResult CanHardware::configure_node(int j) {
   if (!(err = write(object::modes_of_operation, 0, static_cast<std::uint8_t>(kModeCst), 1, false)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::interpolation_period, 1, 1, 1, false)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::interpolation_period, 2, static_cast<std::uint8_t>(-3), 1, false)).empty()) return LifecycleResult::failure(err);
-  if (!(err = write(object::max_torque, 0, jr.cfg.max_torque_permille, 2, false)).empty()) return LifecycleResult::failure(err);
+  if (!(err = write(object::max_torque, 0, jr.torque_scale.max_permille, 2, false)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::abort_connection, 0, 3, 2, true)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::error_behaviour, 1, 0, 1, true)).empty()) return LifecycleResult::failure(err);
-  if (!(err = read(object::modes_display, 0, value)).empty()) return LifecycleResult::failure(err);
-  if (static_cast<std::int8_t>(value & 0xFF) != kModeCst) {
-    return LifecycleResult::failure(drive_name(j) + ": modes of operation display 0x6061 reads " +
-                                    std::to_string(static_cast<std::int8_t>(value & 0xFF)) + ", expected 10 (CST)");
+  // 0x6061 must read back 10 before enabling (CAN.md 2.4); a drive may switch modes in its own
+  // cycle after the write, so re-read it, one tick apart, until it shows CST or
+  // state_step_timeout_ms (the bound on the drive's other state changes, 4.3 step 4) has passed.
+  const std::int64_t mode_deadline = after_ms(config_.timing.state_step_timeout_ms);
+  int mode_reads = 0;
+  for (;;) {
+    if (!(err = read(object::modes_display, 0, value)).empty()) return LifecycleResult::failure(err);
+    ++mode_reads;
+    if (static_cast<std::int8_t>(value & 0xFF) == kModeCst) break;
+    if (monotonic_ns() >= mode_deadline) {
+      return LifecycleResult::failure(drive_name(j) + ": modes of operation display 0x6061 still reads " +
+                                      std::to_string(static_cast<std::int8_t>(value & 0xFF)) + " after " +
+                                      std::to_string(mode_reads) + " reads over " +
+                                      std::to_string(config_.timing.state_step_timeout_ms) +
+                                      " ms, expected 10 (CST, written to 0x6060)");
+    }
+    sleep_until_ns(std::min<std::int64_t>(mode_deadline, monotonic_ns() + 1000LL * config_.timing.tick_us));
+  }
+  return LifecycleResult::success();
+}
+
+// CAN.md 2.2: any EMCY with a non-zero code latches a drive fault. During start-up the state
+// machine walk (4.3 step 4) fault-resets a drive in Fault and would enable it again, silently
+// clearing that latch; so an EMCY seen from the boot wait to Operation enabled fails start-up,
+// naming the drive and the code, and the fault stays latched in its status. Clearing it is an
+// operator action (as after bus-off, 4): fix the cause, then start up again. A drive found in
+// Fault without an EMCY during this start-up (a fault left from before) is reset by the walk.
+LifecycleResult CanHardware::startup_emcy(const std::vector<int>& nodes, const char* during) {
+  for (int j : nodes) {
+    const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+    if (jr.emcy_code != 0) {
+      return LifecycleResult::failure("CiA 402 " + std::string(during) + ": " + drive_name(j) + " sent EMCY " +
+                                      hex(jr.emcy_code, 4) + ": drive fault latched (CAN.md 2.2); clear its cause, "
+                                      "then start up again");
+    }
   }
   return LifecycleResult::success();
 }
@@ -377,7 +426,10 @@ LifecycleResult CanHardware::start_cia402(int b) {
     return true;
   };
   // 1. Boot-up: a node that is already up (or silent) is reset so that it boots again.
-  for (int j : nodes) joints_[static_cast<std::size_t>(j)].booted = false;
+  for (int j : nodes) {
+    joints_[static_cast<std::size_t>(j)].booted = false;
+    joints_[static_cast<std::size_t>(j)].emcy_code = 0;
+  }
   pump_until(after_ms(std::min<std::uint32_t>(200, config_.timing.boot_timeout_ms)), all_booted);
   for (int j : nodes) {
     JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
@@ -394,12 +446,15 @@ LifecycleResult CanHardware::start_cia402(int b) {
     return LifecycleResult::failure("CiA 402 start-up on bus '" + bc.name + "': no boot-up within " +
                                     std::to_string(config_.timing.boot_timeout_ms) + " ms: " + missing);
   }
+  if (LifecycleResult r = startup_emcy(nodes, "start-up"); !r.ok) return r;
   // 2. Pre-operational configuration by SDO.
   for (int j : nodes) {
     if (LifecycleResult r = configure_node(j); !r.ok) return r;
+    if (LifecycleResult r = startup_emcy(nodes, "start-up"); !r.ok) return r;
     joints_[static_cast<std::size_t>(j)].status.state = hal::DriveState::ready;
   }
-  return LifecycleResult::success();
+  pump_until(monotonic_ns(), [] { return false; });  // what arrived after the last SDO answer
+  return startup_emcy(nodes, "start-up");
 }
 
 LifecycleResult CanHardware::enable_cia402(int b) {
@@ -455,11 +510,12 @@ LifecycleResult CanHardware::enable_cia402(int b) {
       return true;
     };
     pump_until(after_ms(config_.timing.state_step_timeout_ms), all_tpdo);
+    if (LifecycleResult r = startup_emcy(nodes, "enable"); !r.ok) return r;
     next_cycle += 1000LL * config_.timing.tick_us;
     sleep_until_ns(std::max(next_cycle, monotonic_ns()));
   }
   for (int j : nodes) joints_[static_cast<std::size_t>(j)].replies_this_tick = 0;
-  return LifecycleResult::success();
+  return startup_emcy(nodes, "enable");
 }
 
 // ---- recovery and shut-down -------------------------------------------------------------------------

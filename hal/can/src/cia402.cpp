@@ -326,4 +326,28 @@ double permille_to_torque(std::int16_t permille, double rated_torque_nm, double 
   return static_cast<double>(permille) * gear_ratio * rated_torque_nm / 1000.0;
 }
 
+TorqueScaleStatus make_torque_scale(std::uint32_t rated_mnm, double gear_ratio, double joint_limit_nm,
+                                    std::uint16_t cap_permille, TorqueScale& out) noexcept {
+  out = TorqueScale{};
+  if (rated_mnm == 0) return TorqueScaleStatus::zero_rating;
+  const double step_nm = gear_ratio * static_cast<double>(rated_mnm) / 1e6;  // mNm -> Nm, per mille
+  if (!(step_nm > 0.0) || !(joint_limit_nm > 0.0) || step_nm > joint_limit_nm) return TorqueScaleStatus::too_coarse;
+  double max_permille = std::min(std::round(joint_limit_nm / step_nm), 32767.0);  // >= 1: step <= limit
+  if (cap_permille > 0) max_permille = std::min<double>(max_permille, cap_permille);
+  out.nm_per_permille = step_nm;
+  out.permille_per_nm = 1.0 / step_nm;
+  out.max_permille = static_cast<std::uint16_t>(max_permille);
+  return TorqueScaleStatus::ok;
+}
+
+std::int16_t torque_to_permille(double torque_nm, const TorqueScale& s) noexcept {
+  if (!std::isfinite(torque_nm)) return 0;
+  const double limit = s.max_permille;
+  return static_cast<std::int16_t>(std::clamp(std::round(torque_nm * s.permille_per_nm), -limit, limit));
+}
+
+double permille_to_torque(std::int16_t permille, const TorqueScale& s) noexcept {
+  return static_cast<double>(permille) * s.nm_per_permille;
+}
+
 }  // namespace springbok::can::cia402

@@ -28,9 +28,9 @@ DriveConfig default_drive(int joint, Protocol p) {
   d.mit_ranges.t_max_nm = effort_nm;
   d.counts_per_rad = 524288.0 / (2.0 * std::numbers::pi);  // 19-bit joint-side encoder
   d.velocity_units_per_rad_s = 1000.0;           // mrad/s
-  d.rated_torque_nm = effort_nm;
+  d.rated_torque_nm = 0.0;  // not given: the drive's 0x6076 scales the torques
   d.gear_ratio = 1.0;
-  d.max_torque_permille = 1000;
+  d.max_torque_permille = 0;  // 0x6072 = the joint's effort limit
   return d;
 }
 
@@ -267,11 +267,11 @@ std::string validate(const CanConfig& c) {
         if (!(std::isfinite(d.velocity_units_per_rad_s) && d.velocity_units_per_rad_s > 0.0)) {
           return dw + ".velocity_units_per_rad_s: must be > 0";
         }
-        if (!(std::isfinite(d.rated_torque_nm) && d.rated_torque_nm > 0.0)) return dw + ".rated_torque_nm: must be > 0";
-        if (!(std::isfinite(d.gear_ratio) && d.gear_ratio > 0.0)) return dw + ".gear_ratio: must be > 0";
-        if (d.max_torque_permille == 0 || d.max_torque_permille > 32767) {
-          return dw + ".max_torque_permille: must be 1..32767";
+        if (!(std::isfinite(d.rated_torque_nm) && d.rated_torque_nm >= 0.0)) {
+          return dw + ".rated_torque_nm: must be finite and >= 0 (0 or absent: not given, the drive's 0x6076 is used)";
         }
+        if (!(std::isfinite(d.gear_ratio) && d.gear_ratio > 0.0)) return dw + ".gear_ratio: must be > 0";
+        if (d.max_torque_permille > 32767) return dw + ".max_torque_permille: must be 0..32767 (0: no cap)";
         for (std::uint32_t base : {cia402::cob::tpdo1, cia402::cob::tpdo2}) {
           if (!rx_ids.insert(base + d.drive_id).second) return dw + ".id: its PDO id collides on bus '" + b.name + "'";
         }

@@ -121,7 +121,7 @@ std::optional<DriveConfig> parse_drive(const Field& f, Protocol bus_protocol) {
   f["velocity_units_per_rad_s"].number(d.velocity_units_per_rad_s, -1e12, 1e12);
   f["rated_torque_nm"].number(d.rated_torque_nm, -1e12, 1e12);
   f["gear_ratio"].number(d.gear_ratio, -1e12, 1e12);
-  f["max_torque_permille"].integer(d.max_torque_permille, 1, 32767);
+  f["max_torque_permille"].integer(d.max_torque_permille, 0, 32767);
   return d;
 }
 

@@ -45,6 +45,8 @@ const char* to_string(FaultKind k) noexcept {
     case FaultKind::corrupt: return "corrupt";
     case FaultKind::silent: return "silent";
     case FaultKind::no_heartbeat: return "no_heartbeat";
+    case FaultKind::rated_torque: return "rated_torque";
+    case FaultKind::mode_display_delay: return "mode_display_delay";
     case FaultKind::emcy: return "emcy";
     case FaultKind::bus_off: return "bus_off";
     case FaultKind::error_passive: return "error_passive";
@@ -59,6 +61,8 @@ const char* to_string(FaultKind k) noexcept {
   }
   return "?";
 }
+
+bool is_property(FaultKind k) noexcept { return k == FaultKind::rated_torque || k == FaultKind::mode_display_delay; }
 
 const char* to_string(SensorId s) noexcept {
   switch (s) {
@@ -129,7 +133,7 @@ void Drive::begin_tick(std::vector<Frame>& out) {
   }
   for (const Fault& flt : faults_) {
     const bool event = flt.kind == FaultKind::emcy || flt.kind == FaultKind::bus_off || flt.kind == FaultKind::error_passive;
-    if (event && flt.at_tick == tick_) on_fault_event(flt, out);
+    if (event && flt.at_sdo == 0 && flt.at_tick == tick_) on_fault_event(flt, out);
   }
 }
 
@@ -237,6 +241,15 @@ void MitDrive::on_time(std::int64_t now_ns, std::vector<Frame>&) {
 // ---- CiA 402 ----------------------------------------------------------------------------------------
 Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns)
     : Drive(cfg, false, model, std::move(faults)) {
+  // 0x6076: the config's rated torque, else the joint's effort limit, unless the script says otherwise.
+  const double rated_nm = cfg_.rated_torque_nm > 0.0 ? cfg_.rated_torque_nm
+                                                     : robot::kJoints[static_cast<std::size_t>(cfg_.joint)].limits.effort_nm;
+  rated_torque_mnm_ = static_cast<std::uint32_t>(std::lround(rated_nm * 1000.0));
+  for (const Fault& flt : faults_) {
+    if (flt.kind == FaultKind::rated_torque) rated_torque_mnm_ = flt.param;
+    if (flt.kind == FaultKind::mode_display_delay) mode_display_delay_ms_ = flt.param;
+  }
+  rated_torque_nm_ = static_cast<double>(rated_torque_mnm_) / 1000.0;
   reset_communication();
   next_heartbeat_ns_ = now_ns;
 }
@@ -328,7 +341,7 @@ void Cia402Drive::on_sync(std::vector<Frame>& out) {
     begin_tick(out);
     const std::int16_t permille = std::clamp<std::int16_t>(applied_target_torque_, static_cast<std::int16_t>(-max_torque_),
                                                            static_cast<std::int16_t>(max_torque_));
-    const double tau_nm = c4::permille_to_torque(permille, cfg_.rated_torque_nm, cfg_.gear_ratio);
+    const double tau_nm = c4::permille_to_torque(permille, rated_torque_nm_, cfg_.gear_ratio);
     step_joint(DriveLaw{0.0, 0.0, 0.0, 0.0, tau_nm}, tau_nm);
   } else if (motion_ == nullptr) {
     model_.step(0.0, 1e-3);
@@ -399,14 +412,14 @@ std::uint32_t Cia402Drive::read_object(std::uint16_t index, std::uint8_t sub, st
     case controlword: return one(controlword_, 2);
     case statusword: return one(status_word(), 2);
     case modes_of_operation: return one(static_cast<std::uint8_t>(mode_), 1);
-    case modes_display: return one(static_cast<std::uint8_t>(mode_), 1);
+    case modes_display: return one(static_cast<std::uint8_t>(mode_shown()), 1);
     case position_actual: return one(static_cast<std::uint32_t>(static_cast<std::int32_t>(std::lround(q * cfg_.counts_per_rad))), 4);
     case velocity_actual: return one(static_cast<std::uint32_t>(static_cast<std::int32_t>(std::lround(qd * cfg_.velocity_units_per_rad_s))), 4);
     case target_torque: return one(static_cast<std::uint16_t>(target_torque_), 2);
     case max_torque: return one(max_torque_, 2);
-    case rated_torque: return one(static_cast<std::uint32_t>(std::lround(cfg_.rated_torque_nm * 1000.0)), 4);
+    case rated_torque: return one(rated_torque_mnm_, 4);
     case torque_actual:
-      return one(static_cast<std::uint16_t>(c4::torque_to_permille(model_.tau_nm, cfg_.rated_torque_nm, cfg_.gear_ratio, 32767)), 2);
+      return one(static_cast<std::uint16_t>(c4::torque_to_permille(model_.tau_nm, rated_torque_nm_, cfg_.gear_ratio, 32767)), 2);
     case interpolation_period:
       if (sub == 0) { value = 2; size = 1; return 0; }
       if (sub == 1) { value = ip_value_; size = 1; return 0; }
@@ -442,7 +455,9 @@ std::uint32_t Cia402Drive::write_object(std::uint16_t index, std::uint8_t sub, s
     case modes_of_operation:
       if ((err = need(0, 1)) != 0) return err;
       if (static_cast<std::int8_t>(value) != c4::kModeCst && static_cast<std::int8_t>(value) != 0) return c4::abort_code::value_out_of_range;
+      mode_before_ = mode_shown();
       mode_ = static_cast<std::int8_t>(value);
+      mode_display_at_ns_ = now_ns_ + 1000000LL * mode_display_delay_ms_;
       return 0;
     case target_torque: if ((err = need(0, 2)) != 0) return err; target_torque_ = static_cast<std::int16_t>(value); return 0;
     case max_torque: if ((err = need(0, 2)) != 0) return err; max_torque_ = static_cast<std::uint16_t>(std::min<std::uint32_t>(value, 32767)); return 0;
@@ -499,6 +514,8 @@ std::uint32_t Cia402Drive::write_object(std::uint16_t index, std::uint8_t sub, s
   return 0;
 }
 
+std::int8_t Cia402Drive::mode_shown() const noexcept { return now_ns_ >= mode_display_at_ns_ ? mode_ : mode_before_; }
+
 void Cia402Drive::handle_sdo(const Frame& f, std::vector<Frame>& out) {
   c4::SdoRequest req;
   c4::SdoResponse res;
@@ -534,6 +551,10 @@ void Cia402Drive::handle_sdo(const Frame& f, std::vector<Frame>& out) {
   Frame a;
   c4::encode_sdo_response(cfg_.drive_id, res, a);
   emit(a, out);
+  ++sdo_requests_;
+  for (const Fault& flt : faults_) {
+    if (flt.kind == FaultKind::emcy && flt.at_sdo == sdo_requests_) on_fault_event(flt, out);
+  }
 }
 
 void Cia402Drive::on_fault_event(const Fault& flt, std::vector<Frame>& out) {
@@ -560,6 +581,7 @@ void Cia402Drive::corrupt(Frame& f) const {
 
 void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Frame>& out) {
   if (f.error || nmt_ == 0x00) return;
+  now_ns_ = now_ns;
   sync_from_motion();
   const std::uint8_t n = cfg_.drive_id;
   if (f.id == c4::cob::nmt) {
@@ -573,7 +595,8 @@ void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Fram
       case c4::NmtCommand::enter_pre_operational: nmt_ = 0x7F; break;
       case c4::NmtCommand::reset_node:
         state_ = St::switch_on_disabled;
-        mode_ = 0;
+        mode_ = mode_before_ = 0;
+        mode_display_at_ns_ = 0;
         [[fallthrough]];
       case c4::NmtCommand::reset_communication:
         reset_communication();

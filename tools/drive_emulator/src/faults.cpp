@@ -25,7 +25,7 @@ FaultResult read_faults(const config::Document& doc) {
         n.fail("must be a map {kind, drive | sensor, at, count, param}, got " + n.describe());
         continue;
       }
-      n.allow_only({"kind", "drive", "sensor", "at", "count", "param"});
+      n.allow_only({"kind", "drive", "sensor", "at", "at_sdo", "count", "param"});
       Fault f;
       int kind = -1;
       std::string name;
@@ -57,9 +57,34 @@ FaultResult read_faults(const config::Document& doc) {
           }
         }
       }
-      if (n["at"].require()) (void)n["at"].integer(f.at_tick, 1, std::numeric_limits<long long>::max());
-      (void)n["count"].integer(f.count, 1, std::numeric_limits<long long>::max());
-      (void)n["param"].integer(f.param, 0, 0xFFFFFFFFLL);
+      constexpr long long kMax = std::numeric_limits<long long>::max();
+      if (kind >= 0 && is_property(f.kind)) {
+        // A property of the drive from power-on: no time, the value in `param`.
+        for (const char* key : {"at", "at_sdo", "count"}) {
+          if (n[key].present()) n[key].fail(std::string("does not apply to '") + to_string(f.kind) + "' (a drive property from power-on)");
+        }
+        if (n["param"].require()) {
+          if (f.kind == FaultKind::rated_torque) {
+            (void)n["param"].integer(f.param, 0, 0xFFFFFFFFLL);  // mNm; 0 is a drive fault worth injecting
+          } else {
+            (void)n["param"].integer(f.param, 1, 60000);  // ms
+          }
+        }
+      } else {
+        if (n["at_sdo"].present()) {
+          if (kind >= 0 && f.kind != FaultKind::emcy) {
+            n["at_sdo"].fail("only for kind emcy (CiA 402: the EMCY after the k-th SDO answer)");
+          } else if (n["at"].present()) {
+            n.fail("give either `at` or `at_sdo`");
+          } else {
+            (void)n["at_sdo"].integer(f.at_sdo, 1, kMax);
+          }
+        } else if (n["at"].require()) {
+          (void)n["at"].integer(f.at_tick, 1, kMax);
+        }
+        (void)n["count"].integer(f.count, 1, kMax);
+        (void)n["param"].integer(f.param, 0, 0xFFFFFFFFLL);
+      }
       r.faults.push_back(f);
     }
   }

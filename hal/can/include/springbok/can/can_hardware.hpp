@@ -33,6 +33,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "springbok/can/config.hpp"
 #include "springbok/can/mit.hpp"
@@ -81,7 +82,12 @@ struct JointRuntime {
   std::uint64_t last_heartbeat_tick = 0;
   std::uint16_t statusword = 0;
   std::uint16_t controlword = 0;
+  // CiA 402: the drive's 0x6076 as read at start-up and the scaling built from it (0x6071,
+  // 0x6072, 0x6077), set once per start-up and only multiplied by on the tick.
+  std::uint32_t rated_torque_mnm = 0;
+  cia402::TorqueScale torque_scale;
   bool booted = false;            // CiA 402 start-up: boot-up seen
+  std::uint16_t emcy_code = 0;    // CiA 402: the first non-zero EMCY code since this bus's start-up began
   bool sdo_answered = false;
   Frame sdo_answer;
   Frame pending;                  // the command frame for the next send
@@ -122,6 +128,9 @@ class CanHardware final : public hal::Hardware {
   const BusDiagnostics& diagnostics(int bus) const noexcept { return buses_[static_cast<std::size_t>(bus)].diag; }
   const JointRuntime& joint(int j) const noexcept { return joints_[static_cast<std::size_t>(j)]; }
   std::uint64_t tick() const noexcept { return tick_; }
+  // What start-up noticed without failing, one line each (e.g. a drive whose 0x6076 differs
+  // from the config's rated_torque_nm); also at the head of diagnostics_report(). Not real-time.
+  const std::string& startup_notes() const noexcept { return startup_notes_; }
   // Commands that were not finite (replaced by zero torque).
   std::uint64_t rejected_commands() const noexcept { return rejected_commands_; }
 
@@ -169,6 +178,8 @@ class CanHardware final : public hal::Hardware {
   hal::LifecycleResult start_cia402(int b);
   hal::LifecycleResult enable_cia402(int b);
   hal::LifecycleResult configure_node(int j);
+  // A failure naming the first of `nodes` that sent a non-zero EMCY since its start-up began.
+  hal::LifecycleResult startup_emcy(const std::vector<int>& nodes, const char* during);
   SdoOutcome sdo(int j, bool write, std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size);
   std::string drive_name(int j) const;
   template <class Done>
@@ -204,6 +215,7 @@ class CanHardware final : public hal::Hardware {
   bool configured_ = false;
   bool active_ = false;
   std::int64_t last_send_ns_ = 0;
+  std::string startup_notes_;
   std::array<JointRuntime, kNj> joints_{};
   std::array<Bus, kMaxBuses> buses_{};
   ImuAssembler imu_;

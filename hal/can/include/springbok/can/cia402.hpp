@@ -193,4 +193,28 @@ std::int16_t torque_to_permille(double torque_nm, double rated_torque_nm, double
                                 std::uint16_t max_permille) noexcept;
 double permille_to_torque(std::int16_t permille, double rated_torque_nm, double gear_ratio) noexcept;
 
+// The torque scaling of one drive, fixed at start-up from the motor rated torque 0x6076 the
+// drive reports (CAN.md 2.4, 4.3 step 2): 0x6071, 0x6072 and 0x6077 are per mille of it
+// (times the gear ratio when the drive's torque is motor-side). Built once; the tick only
+// multiplies.
+struct TorqueScale {
+  double nm_per_permille = 0.0;    // joint-side torque of one unit: gear_ratio * rated / 1000
+  double permille_per_nm = 0.0;    // its inverse
+  std::uint16_t max_permille = 0;  // 0x6072 as written: the joint's torque limit (or a lower cap)
+};
+enum class TorqueScaleStatus : std::uint8_t {
+  ok,
+  zero_rating,  // 0x6076 reads 0
+  too_coarse,   // one unit (0.1 % of the rating) is larger than the joint's torque limit
+};
+// Start-up (no alloc). rated_mnm: 0x6076 as read; gear_ratio and joint_limit_nm > 0;
+// cap_permille: a configured cap on 0x6072 (per mille of the rating), 0 = none. 0x6072 =
+// round(1000 joint_limit / (gear_ratio rated)), at most the cap and 32767 (0x6071 is an i16).
+TorqueScaleStatus make_torque_scale(std::uint32_t rated_mnm, double gear_ratio, double joint_limit_nm,
+                                    std::uint16_t cap_permille, TorqueScale& out) noexcept;
+// rt: no alloc. Rounded to the nearest unit, clamped to +-s.max_permille; 0 if not finite.
+std::int16_t torque_to_permille(double torque_nm, const TorqueScale& s) noexcept;
+// rt: no alloc
+double permille_to_torque(std::int16_t permille, const TorqueScale& s) noexcept;
+
 }  // namespace springbok::can::cia402

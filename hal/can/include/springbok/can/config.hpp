@@ -35,9 +35,16 @@ struct DriveConfig {
   cia402::Mapping mapping = cia402::Mapping::compact;
   double counts_per_rad = 0.0;             // 0x6064 increments per joint radian
   double velocity_units_per_rad_s = 0.0;   // 0x606C units per joint rad/s
-  double rated_torque_nm = 0.0;            // 0x6076 (checked against the drive at start-up)
+  // Torque scaling (CAN.md 2.4): start-up reads the drive's motor rated torque 0x6076 and
+  // scales 0x6071 / 0x6072 / 0x6077 by that value, whatever the config says.
+  // rated_torque_nm: optional, what the drive is expected to report (0 = not given). When
+  // given and the drive reports a value more than 0.5 % away, start-up goes on with the
+  // drive's value and notes the difference (CanHardware::startup_notes, diagnostics_report).
+  double rated_torque_nm = 0.0;
   double gear_ratio = 1.0;                 // 1 when the drive's torque is joint-side
-  std::uint16_t max_torque_permille = 1000;  // 0x6072
+  // Optional cap on 0x6072 in per mille of the drive's 0x6076 (0 = none). 0x6072 is the
+  // joint's torque limit (robot model effort) in per mille of 0x6076, at most this cap.
+  std::uint16_t max_torque_permille = 0;
 };
 
 struct BusConfig {
@@ -58,7 +65,8 @@ struct Timing {
   std::uint32_t boot_timeout_ms = 5000;        // CiA 402: wait for boot-up
   std::uint32_t sdo_timeout_ms = 100;
   std::uint32_t sdo_retries = 2;
-  std::uint32_t state_step_timeout_ms = 100;   // CiA 402 state machine, per step
+  // CiA 402 state machine, per step; also how long 0x6061 may take to show the mode written to 0x6060
+  std::uint32_t state_step_timeout_ms = 100;
   std::uint32_t heartbeat_period_ms = 100;     // 0x1017
   std::uint32_t heartbeat_lost_periods = 3;
   std::uint32_t tx_fault_ticks = 3;            // ENOBUFS on this many ticks in a row -> bus fault
@@ -80,7 +88,8 @@ struct CanConfig {
 
 // The built-in parameters of joint `joint` (0..18): id = joint + 1, MIT reply
 // id 0x100 + id, Mini Cheetah ranges with the torque range = the joint's effort
-// limit, CiA 402 scaling of a 19-bit joint-side encoder, rated torque = effort limit.
+// limit, CiA 402 scaling of a 19-bit joint-side encoder, joint-side torque (gear ratio 1),
+// rated torque not given (the drive's 0x6076 is used) and no cap on 0x6072.
 DriveConfig default_drive(int joint, Protocol p);
 
 // CAN.md 3.3: seven classic 1 Mbit/s buses (one per leg, arm 1-3, 4-5, 6-7),

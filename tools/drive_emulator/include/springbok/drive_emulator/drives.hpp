@@ -63,12 +63,18 @@ enum class FaultKind : std::uint8_t {
   duplicate,      // each reply sent twice, for `count` ticks
   corrupt,        // position bytes inverted, for `count` ticks
   silent,         // never replies again
-  emcy,           // CiA 402: EMCY `param` (default 0x2310) + Fault state; MIT (vendor reply): error code `param`
+  emcy,           // CiA 402: EMCY `param` (default 0x2310) + Fault state; MIT (vendor reply): error code `param`.
+                  // CiA 402 also `at_sdo: k` instead of `at`: right after answering the k-th SDO
+                  // request since power-on (the host's Pre-operational configuration)
   bus_off,        // an error frame with CAN_ERR_BUSOFF on the drive's bus
   error_passive,  // an error frame CAN_ERR_CRTL / TX passive on the drive's bus
   wrong_dlc,      // the reply one byte short, for `count` ticks
   unexpected_id,  // MIT: byte 0 = `param`; CiA 402: TPDO1 with node id `param`; for `count` ticks
   no_heartbeat,   // CiA 402: heartbeats stop for good (the PDOs still flow)
+  // Drive properties from power-on (CiA 402; no `at` / `count`, `param` required):
+  rated_torque,        // 0x6076 reads `param` mNm instead of the config's rated_torque_nm (or the
+                       // joint's effort limit); the drive scales 0x6071 / 0x6072 / 0x6077 by it
+  mode_display_delay,  // 0x6061 shows a value written to 0x6060 only `param` ms after the write
   // Sensors (CAN.md 6.5; `sensor:` instead of `drive:`, ticks are the sensor's samples).
   // Also valid for a sensor: silent (never publishes again), drop (no frames for `count`
   // samples, the counter advances), wrong_dlc (every frame one byte short).
@@ -91,7 +97,10 @@ struct Fault {
   std::uint64_t at_tick = 1;  // the drive's cyclic tick (commands in motor mode / SYNCs while Operational)
   std::uint64_t count = 1;
   std::uint32_t param = 0;
+  std::uint64_t at_sdo = 0;  // emcy (CiA 402): fire after answering this SDO request (1 = the first); 0: at `at`
 };
+// The drive properties of rated_torque / mode_display_delay, not timed events.
+bool is_property(FaultKind k) noexcept;
 
 struct FaultResult {
   bool ok = false;
@@ -203,6 +212,7 @@ class Cia402Drive final : public Drive {
   std::uint32_t write_object(std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size);
   std::uint32_t object_value(std::uint32_t mapping_entry) const;
   void step_state_machine();
+  std::int8_t mode_shown() const noexcept;  // 0x6061 now
   void on_fault_event(const Fault& fault, std::vector<can::Frame>& out) override;
   void corrupt(can::Frame& f) const override;
 
@@ -214,6 +224,14 @@ class Cia402Drive final : public Drive {
   std::uint16_t heartbeat_ms_ = 0;
   std::int64_t next_heartbeat_ns_ = 0;
   std::int8_t mode_ = 0;
+  // 0x6061: shows mode_ from mode_display_at_ns_ on, mode_before_ until then (mode_display_delay).
+  std::int8_t mode_before_ = 0;
+  std::int64_t mode_display_at_ns_ = 0;
+  std::uint32_t mode_display_delay_ms_ = 0;
+  std::int64_t now_ns_ = 0;          // time of the frame being handled
+  std::uint64_t sdo_requests_ = 0;   // SDO requests answered since power-on (emcy at_sdo)
+  std::uint32_t rated_torque_mnm_ = 0;  // 0x6076
+  double rated_torque_nm_ = 0.0;        // the same in Nm: scales 0x6071 / 0x6077
   std::uint16_t max_torque_ = 1000;
   std::uint16_t error_code_ = 0;
   std::uint8_t error_register_ = 0;
