@@ -167,6 +167,36 @@ TEST_F(Imu, ClippingIsUsedAndCountedAndAStreakIsReported) {
   EXPECT_TRUE(imu.diagnostics().not_ready);
 }
 
+// The IMU of hyq_gen3.urdf is mounted upside down (rpy 0 -pi 0): level, its quaternion is
+// (0, 1, 0, 0), whose q_y = 1 is one count past the int16 range and goes out as 32767. That is
+// no clipping: the sensor side sets no bit for it, and a sensor that does (a literal "a field
+// saturated") makes no streak unless a rate or acceleration sits at the rail. (Before, the
+// emulator flagged every level sample of a trot: an 86-sample streak, a latched fault.)
+TEST_F(Imu, AUnitQuaternionComponentAtTheRailIsNoClipping) {
+  const Eigen::Quaterniond level_upside_down(Eigen::AngleAxisd(-3.14159265359, Eigen::Vector3d::UnitY()));
+  ImuReading r;
+  r.orientation = level_upside_down;
+  r.linear_accel_m_s2 = {0.0, 0.0, -9.81};
+  std::array<Frame, kImuFrames> frames;
+  ASSERT_TRUE(encode_imu_sample(cfg, r, 1, kValid, frames));
+  SensorFrameFields q;
+  ASSERT_EQ(decode_sensor_frame(frames[imu_frame::orientation], q), FrameStatus::ok);
+  EXPECT_EQ(std::abs(q.v[1]), 32767);
+  for (const Frame& f : frames) EXPECT_EQ(f.data[7] & sensor_status::clipping, 0) << std::hex << f.id;
+
+  cfg.clip_streak = 3;
+  imu.configure(cfg, 0);
+  ImuRaw raw;
+  raw.q = {0, 32767, 0};
+  for (int k = 1; k <= 5; ++k) EXPECT_EQ(sample(static_cast<std::uint8_t>(k), k, 0x05, raw), SensorEvent::accepted);
+  EXPECT_EQ(imu.diagnostics().clipped, 5u);  // the bit is counted
+  EXPECT_EQ(imu.diagnostics().clip_streak_max, 0u);
+  EXPECT_FALSE(imu.diagnostics().clip_streak_fault);
+  raw.a = {0, 0, -32768};  // an acceleration at the rail: a streak
+  for (int k = 6; k <= 8; ++k) EXPECT_EQ(sample(static_cast<std::uint8_t>(k), k, 0x05, raw), SensorEvent::accepted);
+  EXPECT_TRUE(imu.diagnostics().clip_streak_fault);
+}
+
 TEST_F(Imu, CounterWrapsAround) {
   std::uint64_t tick = 0;
   for (int c : {252, 253, 254, 255, 0, 1, 2}) EXPECT_EQ(sample(static_cast<std::uint8_t>(c), ++tick), SensorEvent::accepted) << c;

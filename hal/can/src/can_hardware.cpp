@@ -563,13 +563,13 @@ std::string CanHardware::diagnostics_report() const {
     std::snprintf(line, sizeof line,
                   "can sensor %s: frames=%llu accepted=%llu wrong_dlc=%llu reserved_bits=%llu status_invalid=%llu "
                   "bad_quaternion=%llu counter_jumps=%llu stale_counters=%llu late_frames=%llu "
-                  "incomplete_dropped=%llu clipped=%llu\n",
+                  "incomplete_dropped=%llu clipped=%llu clip_streak_max=%u\n",
                   name, static_cast<unsigned long long>(d.frames), static_cast<unsigned long long>(d.samples_accepted),
                   static_cast<unsigned long long>(d.wrong_dlc), static_cast<unsigned long long>(d.reserved_bits),
                   static_cast<unsigned long long>(d.status_invalid), static_cast<unsigned long long>(d.bad_quaternion),
                   static_cast<unsigned long long>(d.counter_jumps), static_cast<unsigned long long>(d.stale_counters),
                   static_cast<unsigned long long>(d.late_frames), static_cast<unsigned long long>(d.incomplete_dropped),
-                  static_cast<unsigned long long>(d.clipped));
+                  static_cast<unsigned long long>(d.clipped), d.clip_streak_max);
     out += line;
   };
   sensor("imu", config_.sensors.imu.enabled, imu_diagnostics());

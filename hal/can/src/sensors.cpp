@@ -187,7 +187,10 @@ bool encode_quaternion(const Eigen::Quaterniond& q, double per_count, std::array
     return true;
   }
   const double sign = q.w() < 0.0 ? -1.0 : 1.0;
-  return encode_scaled(Eigen::Vector3d(q.x(), q.y(), q.z()) * (sign / n), per_count, out);
+  // A unit quaternion's component never leaves [-1, 1]; 1 itself is one count past the int16
+  // range and is sent as 32767 (within the resolution): no clipping, nothing was out of range.
+  (void)encode_scaled(Eigen::Vector3d(q.x(), q.y(), q.z()) * (sign / n), per_count, out);
+  return false;
 }
 
 WrenchTransform wrench_transform(const SensorOffset& o) noexcept {
@@ -230,7 +233,8 @@ int index_of(const std::array<std::uint32_t, N>& ids, std::uint32_t id) noexcept
 // Start-up (the bus name is copied too).
 void ImuAssembler::configure(const ImuConfig& cfg, std::uint64_t tick) {
   cfg_ = cfg;
-  asm_.configure(cfg.stale_ticks, cfg.clip_streak, tick);
+  // The quaternion is no ranged measurement (SampleAssembler::configure).
+  asm_.configure(cfg.stale_ticks, cfg.clip_streak, tick, (1u << imu_frame::rate) | (1u << imu_frame::accel));
   track_.reset();
   orientation_ = Eigen::Quaterniond::Identity();
   track_tick_ = tick;

@@ -110,7 +110,9 @@ inline constexpr double kMaxQuaternionSquares = 1.0 + 1.0 / 1024.0;
 // |q_xyz|^2 > 1 + 2^-10: a corrupt frame.
 // rt: no alloc, no block
 bool decode_quaternion(const std::array<std::int16_t, 3>& xyz, double per_count, Eigen::Quaterniond& q) noexcept;
-// The sensor side: normalised, sign chosen so that q_w >= 0, the vector part encoded.
+// The sensor side: normalised, sign chosen so that q_w >= 0, the vector part encoded. True
+// only when q has no direction (not finite, or zero): a component of 1 goes out as 32767
+// (within the resolution), which is no clipping.
 bool encode_quaternion(const Eigen::Quaterniond& q, double per_count, std::array<std::int16_t, 3>& out) noexcept;
 
 // q_w where the wire leaves it vague. The sender rounds q_x, q_y, q_z to the nearest count, so
@@ -202,7 +204,8 @@ struct SensorDiagnostics {
   std::uint64_t duplicate_frames = 0;    // a frame of a pending sample replaced by a newer copy
   std::uint64_t incomplete_dropped = 0;  // partial samples superseded by a newer complete one (or evicted)
   std::uint64_t clipped = 0;             // accepted samples with the clipping bit (used, counted)
-  std::uint32_t clip_streak = 0;         // accepted samples in a row with the clipping bit
+  std::uint32_t clip_streak = 0;         // accepted samples in a row with the clipping bit and a ranged
+                                         // field at the int16 rail (see SampleAssembler::configure)
   std::uint32_t clip_streak_max = 0;
   bool clip_streak_fault = false;        // clip_streak >= the configured clip_streak (now)
   bool have_sample = false;              // a sample was accepted since configure
@@ -230,9 +233,16 @@ class SampleAssembler {
   };
 
   SampleAssembler() = default;
-  void configure(std::uint32_t stale_ticks, std::uint32_t clip_streak, std::uint64_t tick) noexcept {
+  // ranged_frames: the frames (bit i = frame i) whose fields are measurements with a range. A
+  // clipped sample counts toward the streak only when one of their fields sits at the int16
+  // rail: a unit quaternion's component of 1 cannot be sent (2^15 counts) and may be flagged
+  // by a sensor as saturated, but nothing was out of range (the IMU mounted upside down in
+  // hyq_gen3.urdf reads q_y ~ 1 whenever the trunk is level).
+  void configure(std::uint32_t stale_ticks, std::uint32_t clip_streak, std::uint64_t tick,
+                 std::uint32_t ranged_frames = (1u << N) - 1u) noexcept {
     stale_ticks_ = stale_ticks;
     clip_streak_limit_ = clip_streak;
+    ranged_frames_ = ranged_frames;
     reset(tick);
   }
   void reset(std::uint64_t tick) noexcept {
@@ -376,8 +386,8 @@ class SampleAssembler {
     diag_.last_counter = s.counter;
     diag_.last_status = s.status;
     diag_.not_ready = (s.status & sensor_status::not_ready) != 0;
-    if ((s.status & sensor_status::clipping) != 0) {
-      ++diag_.clipped;
+    if ((s.status & sensor_status::clipping) != 0) ++diag_.clipped;
+    if ((s.status & sensor_status::clipping) != 0 && ranged_field_at_rail(s)) {
       ++diag_.clip_streak;
       if (diag_.clip_streak > diag_.clip_streak_max) diag_.clip_streak_max = diag_.clip_streak;
     } else {
@@ -387,11 +397,22 @@ class SampleAssembler {
     return SensorEvent::accepted;
   }
 
+  bool ranged_field_at_rail(const Sample& s) const noexcept {
+    for (int i = 0; i < N; ++i) {
+      if ((ranged_frames_ & (1u << i)) == 0) continue;
+      for (const std::int16_t v : s.fields[static_cast<std::size_t>(i)]) {
+        if (v == std::numeric_limits<std::int16_t>::max() || v == std::numeric_limits<std::int16_t>::min()) return true;
+      }
+    }
+    return false;
+  }
+
   std::array<Slot, kSlots> slots_{};
   Sample newest_;
   SensorDiagnostics diag_;
   std::uint32_t stale_ticks_ = 3;
   std::uint32_t clip_streak_limit_ = 10;
+  std::uint32_t ranged_frames_ = (1u << N) - 1u;
   bool have_ref_ = false;
   std::uint8_t ref_counter_ = 0;
   std::uint64_t ref_tick_ = 0;
