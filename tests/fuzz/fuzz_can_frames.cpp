@@ -3,6 +3,7 @@
 // sensor assemblers (CAN.md 6: IMU, wrist F/T). Each 12-byte chunk of the input is one
 // frame: id (2 bytes), len, flags, 8 data bytes. Flags bit 2 maps the frame onto a sensor
 // id (so the assemblers see mostly their own frames), bits 4..5 advance the tick.
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -140,11 +141,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const bool imu_clipped = (imu2.diagnostics().last_status & can::sensor_status::clipping) != 0;
     const double rate_err = (imu2.reading().angular_rate_rad_s - in_imu.angular_rate_rad_s).cwiseAbs().maxCoeff();
     if (!imu_clipped && rate_err > 0.5 / 1024.0 + 1e-12) __builtin_trap();
-    const double q_vec_err = (imu2.reading().orientation.vec() -
-                              (in_imu.orientation.w() < 0 ? -1.0 : 1.0) * in_imu.orientation.normalized().vec())
-                                 .cwiseAbs()
-                                 .maxCoeff();
-    if (!imu_clipped && q_vec_err > 0.5 / 32768.0 + 1e-12) __builtin_trap();
+    // Half a count, or one at the rail: a component of 1 (more than 32767.5 counts) goes out
+    // as 32767, which is no clipping (a unit quaternion never leaves [-1, 1]).
+    const Eigen::Vector3d q_true = (in_imu.orientation.w() < 0 ? -1.0 : 1.0) * in_imu.orientation.normalized().vec();
+    for (int i = 0; i < 3; ++i) {
+      const double bound = (std::abs(q_true[i]) * 32768.0 > 32767.5 ? 1.0 : 0.5) / 32768.0 + 1e-12;
+      if (!imu_clipped && std::abs(imu2.reading().orientation.vec()[i] - q_true[i]) > bound) __builtin_trap();
+    }
     const bool ft_clipped = (ft2.diagnostics().last_status & can::sensor_status::clipping) != 0;
     if (!ft_clipped && (ft2.reading().force_n - in_wrist.force_n).cwiseAbs().maxCoeff() > 0.5 / 64.0 + 1e-12) __builtin_trap();
   }
