@@ -410,10 +410,9 @@ std::string WbcAdapter::summary_fields() const {
       const bool constant = std::abs(rate) * p.duration_s < 1e-9;
       double worst_db = 0.0;
       bool any = false;
-      for (double f = constant ? p.start_frequency_hz : 0.25, k = 1.0; constant ? f > 0.0 : f <= 3.0 + 1e-9;) {
-        const double tc = constant ? p.start_s + k / f : p.start_s + (f - p.start_frequency_hz) / rate;
-        if (constant && tc > p.start_s + p.duration_s) break;
+      const auto fit_window = [&](double tc, double f) {  // one local period centred at tc
         const double half = 0.5 / f;
+        if (tc - half < p.start_s || tc + half > p.start_s + p.duration_s) return;
         std::vector<double> ym, yt, ph;
         for (const auto& s : samples_) {
           if (s.time_s < tc - half || s.time_s > tc + half) continue;
@@ -421,17 +420,20 @@ std::string WbcAdapter::summary_fields() const {
           yt.push_back(s.reference[a]);
           ph.push_back(chirp_phase_rad(p, s.time_s));
         }
-        if (ym.size() > 20 && tc - half >= p.start_s && tc + half <= p.start_s + p.duration_s) {
-          const double am = fitted_amplitude(ym, ph), at = fitted_amplitude(yt, ph);
-          if (at > 0.0 && am > 0.0) {
-            worst_db = std::max(worst_db, std::abs(20.0 * std::log10(am / at)));
-            any = true;
-          }
+        if (ym.size() <= 20) return;
+        const double am = fitted_amplitude(ym, ph), at = fitted_amplitude(yt, ph);
+        if (at > 0.0 && am > 0.0) {
+          worst_db = std::max(worst_db, std::abs(20.0 * std::log10(am / at)));
+          any = true;
         }
-        if (constant) {
-          k += 1.0;  // the next period
-        } else {
-          f += 0.5 * f * 0.5;  // next centre a quarter of the local frequency up (overlapping windows)
+      };
+      if (constant) {
+        const double f = p.start_frequency_hz;
+        for (double k = 1.0; f > 0.0 && k / f <= p.duration_s; k += 1.0) fit_window(p.start_s + k / f, f);
+      } else {
+        // Each centre a quarter of the local frequency above the last (overlapping windows).
+        for (double f = 0.25; f <= 3.0 + 1e-9; f += 0.5 * f * 0.5) {
+          fit_window(p.start_s + (f - p.start_frequency_hz) / rate, f);
         }
       }
       if (any) chirp_db[a] = worst_db;

@@ -249,7 +249,6 @@ Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vec
     if (flt.kind == FaultKind::rated_torque) rated_torque_mnm_ = flt.param;
     if (flt.kind == FaultKind::mode_display_delay) mode_display_delay_ms_ = flt.param;
   }
-  rated_torque_nm_ = static_cast<double>(rated_torque_mnm_) / 1000.0;
   reset_communication();
   next_heartbeat_ns_ = now_ns;
 }
@@ -341,7 +340,7 @@ void Cia402Drive::on_sync(std::vector<Frame>& out) {
     begin_tick(out);
     const std::int16_t permille = std::clamp<std::int16_t>(applied_target_torque_, static_cast<std::int16_t>(-max_torque_),
                                                            static_cast<std::int16_t>(max_torque_));
-    const double tau_nm = c4::permille_to_torque(permille, rated_torque_nm_, cfg_.gear_ratio);
+    const double tau_nm = c4::permille_to_torque(permille, rated_torque_nm(), cfg_.gear_ratio);
     step_joint(DriveLaw{0.0, 0.0, 0.0, 0.0, tau_nm}, tau_nm);
   } else if (motion_ == nullptr) {
     model_.step(0.0, 1e-3);
@@ -419,7 +418,7 @@ std::uint32_t Cia402Drive::read_object(std::uint16_t index, std::uint8_t sub, st
     case max_torque: return one(max_torque_, 2);
     case rated_torque: return one(rated_torque_mnm_, 4);
     case torque_actual:
-      return one(static_cast<std::uint16_t>(c4::torque_to_permille(model_.tau_nm, rated_torque_nm_, cfg_.gear_ratio, 32767)), 2);
+      return one(static_cast<std::uint16_t>(c4::torque_to_permille(model_.tau_nm, rated_torque_nm(), cfg_.gear_ratio, 32767)), 2);
     case interpolation_period:
       if (sub == 0) { value = 2; size = 1; return 0; }
       if (sub == 1) { value = ip_value_; size = 1; return 0; }

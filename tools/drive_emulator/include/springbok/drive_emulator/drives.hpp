@@ -230,8 +230,8 @@ class Cia402Drive final : public Drive {
   std::uint32_t mode_display_delay_ms_ = 0;
   std::int64_t now_ns_ = 0;          // time of the frame being handled
   std::uint64_t sdo_requests_ = 0;   // SDO requests answered since power-on (emcy at_sdo)
-  std::uint32_t rated_torque_mnm_ = 0;  // 0x6076
-  double rated_torque_nm_ = 0.0;        // the same in Nm: scales 0x6071 / 0x6077
+  std::uint32_t rated_torque_mnm_ = 0;  // 0x6076; in Nm it scales 0x6071 / 0x6077
+  double rated_torque_nm() const noexcept { return static_cast<double>(rated_torque_mnm_) / 1000.0; }
   std::uint16_t max_torque_ = 1000;
   std::uint16_t error_code_ = 0;
   std::uint8_t error_register_ = 0;
