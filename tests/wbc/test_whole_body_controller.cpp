@@ -219,6 +219,94 @@ TEST_F(Fixture, SpeedRowsGiveWayWhereTheTorqueCannotBrake) {
   EXPECT_FALSE(calm.velocity_limits_relaxed);
 }
 
+// A push the arm cannot hold: at rest, 150 N along x at the hand asks more of the elbow
+// (arm joint 4) than its 39 N m just to hold still. The arm is overloaded: it yields, its
+// acceleration bounds open, and the base keeps its task (at rest in the template: no
+// acceleration). Before, the QP gave the arm's task and bounds the base instead: it
+// accelerated the trunk to relieve the shoulder, and in closed loop the robot toppled.
+TEST_F(Fixture, AnArmOverloadedByAPushYieldsAndTheBaseKeepsItsTask) {
+  tick();  // warm up
+  const Vec3 push(150.0, 0.0, 0.0);
+  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * push;
+  constexpr int kElbow = kFirstArmJoint + 3;
+  std::size_t allocations = 0;
+  wbc::WbcOutput out;
+  {
+    test::AllocationTrap trap;
+    out = tick();
+    allocations = trap.disarm();
+  }
+  EXPECT_EQ(allocations, 0u);
+  ASSERT_EQ(out.qp_status, qp::Status::optimal);
+  EXPECT_FALSE(out.failed);
+  EXPECT_TRUE(out.arm_overloaded);
+  EXPECT_TRUE(out.arm_reference_saturated);
+  EXPECT_FALSE(out.velocity_limits_relaxed);
+  EXPECT_FALSE(out.joint_limits_relaxed);
+  // The arm gives what it has; the trunk is not used to relieve it.
+  EXPECT_NEAR(std::abs(out.tau_nm[kElbow]), robot::kJoints[kElbow].limits.effort_nm, 1e-3);
+  for (int j = 0; j < kNj; ++j) EXPECT_LE(std::abs(out.tau_nm[j]), robot::kJoints[j].limits.effort_nm + 1e-9) << j;
+  EXPECT_LT(out.base_wrench_desired.norm(), 1e-9) << "at rest in the template: no base acceleration asked";
+  EXPECT_LT(out.base_wrench_applied.head<3>().norm(), 1.0) << out.base_wrench_applied.transpose();
+  EXPECT_LT(out.base_wrench_applied.tail<3>().norm(), 1.0) << out.base_wrench_applied.transpose();
+  // The arm's cut reference is what it does.
+  EXPECT_LT((out.udot.segment<wbc::kArmDofs>(wbc::kArmCol) - out.arm_qdd_desired).cwiseAbs().maxCoeff(), 1e-3);
+  Vec6 wrench;
+  wrench << push, Vec3::Zero();
+  EXPECT_LT(dynamics_residual(out, wrench).cwiseAbs().maxCoeff(), 1e-6);
+
+  // Yielding, the elbow is past its speed limit: no bound brakes it (with one, only the
+  // base could have).
+  in.state.v[6 + kElbow] = -2.0 * robot::kJoints[kElbow].limits.velocity_rad_s;
+  const wbc::WbcOutput& fast = tick();
+  ASSERT_EQ(fast.qp_status, qp::Status::optimal);
+  EXPECT_TRUE(fast.arm_overloaded);
+  EXPECT_FALSE(fast.velocity_limits_relaxed);
+  EXPECT_LT(fast.base_wrench_applied.tail<3>().norm(), 1.0) << fast.base_wrench_applied.transpose();
+
+  // The push gone, the arm holds again and its bounds are back.
+  in.wrist_force_n.setZero();
+  in.state.v.setZero();
+  const wbc::WbcOutput& calm = tick();
+  ASSERT_EQ(calm.qp_status, qp::Status::optimal);
+  EXPECT_FALSE(calm.arm_overloaded);
+  EXPECT_FALSE(calm.arm_reference_saturated);
+}
+
+// A light hand (M_e 0.2 kg) under 50 N: its template asks 250 m/s^2, which needs more than
+// the arm's torques though holding still does not. The reference is cut to what the torques
+// give, the arm keeps its bounds (not overloaded), and the QP meets both tasks. (The hand's
+// acceleration bound is lifted and the speed rows' horizon short here: with the defaults, 100
+// m/s^2 and 0.02 s, those bind before the torques.)
+TEST_F(Fixture, AnArmReferenceBeyondItsTorquesIsCutToWhatTheyGive) {
+  params.template_params.mass_ee_kg = Vec3::Constant(0.2);
+  params.ee_acceleration_limit_m_s2 = 1e3;
+  params.joint_velocity_horizon_s = 1e-3;
+  wbc = std::make_unique<WholeBodyController>(params);
+  wbc->set_reference(in.state.q, *data);
+  tick();
+  const Vec3 push(50.0, 0.0, 0.0);
+  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * push;
+  const wbc::WbcOutput& out = tick();
+  ASSERT_EQ(out.qp_status, qp::Status::optimal);
+  EXPECT_TRUE(out.arm_reference_saturated);
+  EXPECT_FALSE(out.arm_overloaded);
+  bool at_limit = false;
+  for (int j = kFirstArmJoint; j < kNj; ++j) {
+    at_limit = at_limit || std::abs(out.tau_nm[j]) > robot::kJoints[j].limits.effort_nm - 1e-3;
+    EXPECT_LE(std::abs(out.tau_nm[j]), robot::kJoints[j].limits.effort_nm + 1e-9) << j;
+  }
+  EXPECT_TRUE(at_limit) << out.tau_nm.tail<wbc::kArmDofs>().transpose();
+  EXPECT_LT((out.udot.segment<wbc::kArmDofs>(wbc::kArmCol) - out.arm_qdd_desired).cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_LT(out.base_wrench_applied.norm(), 1.0) << out.base_wrench_applied.transpose();
+  const Vec3 ee_acc = data->J_ee.topRows<3>() * out.udot + data->dJv_ee.head<3>();
+  EXPECT_GT(ee_acc.x(), 10.0) << "the hand still moves with the push";
+  EXPECT_LT(ee_acc.x(), out.ee_acceleration_desired.x());
+  Vec6 wrench;
+  wrench << push, Vec3::Zero();
+  EXPECT_LT(dynamics_residual(out, wrench).cwiseAbs().maxCoeff(), 1e-6);
+}
+
 TEST_F(Fixture, SwingFootCarriesNoForceAndTracksItsTarget) {
   in.state.stance = {true, false, false, true};  // trot pair LF + RH on the ground
   for (int f : {1, 2}) {

@@ -236,13 +236,17 @@ std::string WbcAdapter::csv_columns() const {
   }
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",te_{}_nm", a);
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",hand_rest_r{}_rad", a);
+  h += ",arm_reference_saturated,arm_overloaded";
   return h;
 }
 
 void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   if (!ticked_) {
-    row += ",0";
-    for (int i = 0; i < 3 * 5 + 3 * kFeet + 5 + 2 + 6 + 12 + 3 * kFeet + 3 + 6 + 3 + 3; ++i) row += ",0";
+    if (idle_columns_ < 0) {
+      const std::string columns = csv_columns();
+      idle_columns_ = static_cast<int>(std::count(columns.begin(), columns.end(), ','));
+    }
+    for (int i = 0; i < idle_columns_; ++i) row += ",0";  // wbc_active 0, and zeros in the WBC's columns
     return;
   }
   const wbc::WbcOutput& o = control_->output();
@@ -320,6 +324,7 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   }
 
   if (at_limit) ++any_torque_limit_ticks_;
+  if (o.arm_overloaded) ++arm_overloaded_ticks_;
 
   row += ",1";
   for (int a = 0; a < 6; ++a) put(row, s.measured[a]);
@@ -350,6 +355,8 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   // The hand's rest orientation from the engaged one (world; it turns with a hand pose command).
   const Vec3 rest_r = wbc::so3_log(ref.ee_rotation * control_->wbc().engaged_reference().ee_rotation.transpose());
   for (int a = 0; a < 3; ++a) put(row, rest_r[a]);
+  row += o.arm_reference_saturated ? ",1" : ",0";
+  row += o.arm_overloaded ? ",1" : ",0";
 }
 
 std::string WbcAdapter::summary_fields() const {
@@ -467,6 +474,7 @@ std::string WbcAdapter::summary_fields() const {
   j += fmt::format("  \"torque_limit_s\": {{\"any\": {:.6g}, \"most\": {:.6g}, \"most_joint\": \"{}\"}},\n",
                    static_cast<double>(any_torque_limit_ticks_) * dt_s_, static_cast<double>(*most_at_limit) * dt_s_,
                    robot::kJoints[static_cast<std::size_t>(most_at_limit - torque_limit_ticks_.begin())].name);
+  j += fmt::format("  \"arm_overloaded_s\": {:.6g},\n", static_cast<double>(arm_overloaded_ticks_) * dt_s_);
   j += fmt::format("  \"max_joint_speed_ratio\": {:.6g},\n", max_speed_ratio_);
   j += fmt::format("  \"max_joint_speed_joint\": \"{}\",\n", robot::kJoints[static_cast<std::size_t>(max_speed_joint_)].name);
   j += fmt::format("  \"nrmse\": {},\n", json_axes(nrmse));

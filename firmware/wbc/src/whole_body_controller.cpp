@@ -7,9 +7,6 @@
 
 #include <Eigen/LU>
 
-#include "springbok/wbc/small_cholesky.hpp"
-
-
 namespace springbok::wbc {
 namespace {
 
@@ -172,22 +169,25 @@ void WholeBodyController::base_task(const WbcInput& in, const dyn::Data& d, Vec6
 // accelerations. The base's part of the EE acceleration uses this tick's
 // desired base acceleration (the QP tracks it), so the arm does not lag a tick.
 // kTask 3: the hand's position (the paper); 6: position and orientation (the
-// rotational template), the posture in the 1-D null space left.
+// rotational template), the posture in the 1-D null space left. Then the reference is
+// fitted to the arm's torques (fit_arm_to_its_torques).
 void WholeBodyController::arm_task(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired) noexcept {
+  const MatArm m_arm = d.M.block<kArmDofs, kArmDofs>(kArmCol, kArmCol);
+  const SmallCholesky<kArmDofs> llt(m_arm);
   if (params_.rotational_template_enabled) {
-    arm_task_rows<6>(in, d, base_acc_desired);
+    arm_task_rows<6>(in, d, base_acc_desired, llt);
   } else {
-    arm_task_rows<3>(in, d, base_acc_desired);
+    arm_task_rows<3>(in, d, base_acc_desired, llt);
   }
+  fit_arm_to_its_torques(d, base_acc_desired, m_arm, llt);
 }
 
 template <int kTask>
-void WholeBodyController::arm_task_rows(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired) noexcept {
+void WholeBodyController::arm_task_rows(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired,
+                                        const SmallCholesky<kArmDofs>& llt) noexcept {
   using MatTask = Eigen::Matrix<double, kTask, kTask>;
   using VecTask = Eigen::Matrix<double, kTask, 1>;
   const Eigen::Matrix<double, kTask, kArmDofs> jac = d.J_ee.block<kTask, kArmDofs>(0, kArmCol);
-  const Eigen::Matrix<double, kArmDofs, kArmDofs> m_arm = d.M.block<kArmDofs, kArmDofs>(kArmCol, kArmCol);
-  const SmallCholesky<kArmDofs> llt(m_arm);
   const Eigen::Matrix<double, kArmDofs, kTask> minv_jt = llt.solve<kTask>(jac.transpose());
 
   const MatTask jjt = jac * jac.transpose();
@@ -213,6 +213,38 @@ void WholeBodyController::arm_task_rows(const WbcInput& in, const dyn::Data& d, 
   ee_acc.tail<3>() = out_.ee_angular_acceleration_desired;
   const VecTask task = ee_acc.head<kTask>() - d.J_ee.block<kTask, 6>(0, 0) * base_acc_desired - d.dJv_ee.head<kTask>();
   out_.arm_qdd_desired = pinv * task + null_space * qdd_posture;
+}
+
+// The arm's reference within its joints' torques. At the base's desired acceleration a_b
+// the arm's joints need tau = tau_hold + M_aa qdd_a^d, where
+//   tau_hold = M_ab a_b + h_a + c qd_a - J_e,a^T W_e
+// holds the arm still (the legs' accelerations do not enter: M has no arm-leg block in a
+// tree). Where tau is beyond a joint's limit the reference becomes what the clipped
+// torques give, qdd_a^d = M_aa^-1 (clip(tau) - tau_hold): the hand renders a heavier mass
+// while the push lasts. Left as it was, a reference the arm cannot follow draws the QP to
+// accelerate the base instead (the arm's rows couple to it through M_ab), and a push the
+// arm could not hold - 50 N on the straight arm, 80 N on the bent one - toppled the robot.
+// Where tau_hold alone is beyond a limit, the arm is overloaded: no torque of its own holds
+// it against the push and gravity, it is back-driven whatever it does, and its joints'
+// acceleration bounds (speed and position limits) could be met only by moving the base,
+// the same way; build_qp leaves them open until the load is back within the arm's torques.
+// rt: no alloc
+void WholeBodyController::fit_arm_to_its_torques(const dyn::Data& d, const Vec6& base_acc_desired, const MatArm& m_arm,
+                                                 const SmallCholesky<kArmDofs>& llt) noexcept {
+  const VecArm external = d.J_ee.block<6, kArmDofs>(0, kArmCol).transpose() * wrench_ee_world_;
+  const VecArm hold = d.M.block<kArmDofs, 6>(kArmCol, 0) * base_acc_desired + d.nle.segment<kArmDofs>(kArmCol) +
+                      joint_friction_nm_.segment<kArmDofs>(kFirstArmJoint) - external;
+  const VecArm need = hold + m_arm * out_.arm_qdd_desired;
+  VecArm fit;
+  out_.arm_reference_saturated = false;
+  out_.arm_overloaded = false;
+  for (int j = 0; j < kArmDofs; ++j) {
+    const double limit = params_.torque_limit_scale * robot::kJoints[kFirstArmJoint + j].limits.effort_nm;
+    fit[j] = std::clamp(need[j], -limit, limit);
+    out_.arm_reference_saturated = out_.arm_reference_saturated || fit[j] != need[j];
+    out_.arm_overloaded = out_.arm_overloaded || std::abs(hold[j]) > limit;
+  }
+  if (out_.arm_reference_saturated) out_.arm_qdd_desired = llt.solve<1>(fit - hold);
 }
 
 void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexcept {
@@ -318,6 +350,11 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
     lb[row] = lo <= hi ? lo : lo_q;
     ub[row] = lo <= hi ? hi : hi_q;
     position_only_bounds_[static_cast<std::size_t>(j)] = {lo_q, hi_q};
+    if (out_.arm_overloaded && j >= kFirstArmJoint) {  // it yields (fit_arm_to_its_torques)
+      lb[row] = -kInf;
+      ub[row] = kInf;
+      position_only_bounds_[static_cast<std::size_t>(j)] = {-kInf, kInf};
+    }
     ++row;
   }
   // Torque limits through the actuated rows of eq. 1 (c_j qd_j: the compensated friction):

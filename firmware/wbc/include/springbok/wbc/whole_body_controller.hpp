@@ -11,7 +11,9 @@
 //  3. the arm task (eq. 8): the template's EE acceleration through the damped,
 //     dynamically consistent pseudo-inverse of the arm Jacobian, plus a
 //     null-space posture task (with the rotational template: the hand's linear and
-//     angular accelerations through the full 6x7 Jacobian);
+//     angular accelerations through the full 6x7 Jacobian); cut to what the arm's
+//     torques give, and an arm overloaded by a push it cannot hold yields (its
+//     acceleration bounds open) rather than the base giving way for it;
 //  4. one QP (eq. 6) over xi = [udot (25); 3 per foot] where a foot's three
 //     variables are its ground force when in stance and its swing-task slack
 //     when in swing, so the sizes never change, only which rows are live:
@@ -44,6 +46,7 @@
 #include "springbok/qp/qp.hpp"
 #include "springbok/wbc/contact_kinematics.hpp"
 #include "springbok/wbc/impedance_template.hpp"
+#include "springbok/wbc/small_cholesky.hpp"
 
 namespace springbok::wbc {
 
@@ -56,6 +59,7 @@ inline constexpr int kStanceFootRows = 5;                // friction pyramid (4)
 inline constexpr int kQpIn = 2 * kNj + kStanceFootRows * kFeet;  // 58 (all feet in stance)
 using WbcSolver = qp::Solver<kQpVars, kQpEq, kQpIn>;
 using VecArm = Vec<kArmDofs>;
+using MatArm = Eigen::Matrix<double, kArmDofs, kArmDofs>;
 
 struct WbcParams {
   TemplateParams template_params;
@@ -212,6 +216,11 @@ struct WbcOutput {
   bool failed = false;                         // the QP failed this tick: tau_nm is the last solved tick's
   bool velocity_limits_relaxed = false;        // solved only without the joints' speed limits
   bool joint_limits_relaxed = false;           // solved only without any joint-acceleration bound
+  // The arm's reference asked more torque than its joints have: it was cut to what they give.
+  bool arm_reference_saturated = false;
+  // No torque of the arm's holds it against the push and gravity: it yields, its joints'
+  // acceleration bounds left open (whole_body_controller.cpp, fit_arm_to_its_torques).
+  bool arm_overloaded = false;
   // What the tasks asked for, for logs and plots.
   Vec6 base_wrench_desired = Vec6::Zero();     // [F_b^d; T_b^d], world
   // The wrench the solution renders on the template's base (the base task's rows at
@@ -274,7 +283,10 @@ class WholeBodyController {
   void base_task(const WbcInput& in, const dyn::Data& d, Vec6& base_acc_desired) noexcept;
   void arm_task(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired) noexcept;
   template <int kTask>
-  void arm_task_rows(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired) noexcept;
+  void arm_task_rows(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired,
+                     const SmallCholesky<kArmDofs>& llt) noexcept;
+  void fit_arm_to_its_torques(const dyn::Data& d, const Vec6& base_acc_desired, const MatArm& m_arm,
+                              const SmallCholesky<kArmDofs>& llt) noexcept;
   void build_qp(const WbcInput& in, const dyn::Data& d) noexcept;
   void torques_from_solution(const WbcInput& in, const dyn::Data& d) noexcept;
 
