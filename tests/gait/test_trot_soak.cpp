@@ -1,8 +1,8 @@
 // The trots under seeded random pushes (ctest label `soak`, not in CI's default run;
 // `ctest --preset debug -L soak`): every shipped trot in place (M_e 0.4 / 4 / 10 x GP1-GP4)
 // for 60 s with its 50 N step at the hand and horizontal pushes of up to 80 N for 0.2 s on
-// the trunk or the hand every 2-4 s. Each run prints its figures. Measured: M_e 4 and 10 hold
-// (8 runs); the 4 at M_e 0.4 fall at 6.9 s (the first strong push on the hand).
+// the trunk or the hand every 2-4 s. Each run prints its figures. Measured: all 12 hold, 0 QP
+// failures (release build; 21 more runs of three of them with seeds 1-5, 11, 13 too).
 #include <gtest/gtest.h>
 
 #include <cstdio>
