@@ -106,6 +106,7 @@ void ControlMode::telemetry(TelemetryRecord& r) const noexcept {
   const wbc::WbcReference& ref = c.wbc().reference();
   r.qp_status = static_cast<std::uint8_t>(o.qp_status);
   r.qp_iterations = o.qp_iterations;
+  r.arm_overloaded = o.arm_overloaded;
   put(r.base_rest_m, ref.base_position_m);
   put(r.hand_rest_m, ref.ee_position_m);
   put(r.base_displacement_m, o.base_displacement_m);
