@@ -273,6 +273,47 @@ TEST_F(Fixture, AnArmOverloadedByAPushYieldsAndTheBaseKeepsItsTask) {
   EXPECT_FALSE(calm.arm_reference_saturated);
 }
 
+// After an overload the hand is wherever the push put it, and its spring (K_e x_be) would
+// drag the base after it: it pulls the base by at most the push |F_e| until it is back within
+// the push (plus 10 N). The same displaced hand without an overload pulls with its full spring.
+TEST_F(Fixture, AfterAnOverloadTheHandSpringPullsTheBaseByAtMostThePush) {
+  const Vec3 push(150.0, 0.0, 0.0);
+  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * push;
+  ASSERT_TRUE(tick().arm_overloaded);
+  // The arm folded by the push: the elbow 0.8 rad further, the hand ~0.3 m away.
+  const VecNq folded = [this] {
+    VecNq q = in.state.q;
+    q[7 + kFirstArmJoint + 3] -= 0.8;
+    return q;
+  }();
+  in.state.q = folded;
+  in.wrist_force_n = Vec3::Zero();
+  dyn::compute_tick(model, *data, in.state.q, in.state.v);
+  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * push;
+  const Vec3 spring = params.template_params.stiffness_ee_n_per_m.cwiseProduct(
+      data->frames[kEeFrame].translation - wbc->reference().ee_position_m);
+  ASSERT_GT(spring.norm(), push.norm() + 10.0) << "the case: a spring stretched beyond the push";
+  const wbc::WbcOutput& limited = tick();
+  ASSERT_EQ(limited.qp_status, qp::Status::optimal);
+  EXPECT_TRUE(limited.hand_coupling_limited);
+  EXPECT_NEAR(limited.base_wrench_desired.head<3>().norm(), push.norm(), 1e-9);  // at rest: the pull alone
+  EXPECT_LT((limited.base_wrench_desired.head<3>().normalized() - spring.normalized()).norm(), 1e-9);
+  // The hand back: the spring is within the push again, the limit ends.
+  in.state.q = standing_q();
+  const wbc::WbcOutput& back = tick();
+  EXPECT_FALSE(back.hand_coupling_limited);
+  EXPECT_LT(back.base_wrench_desired.head<3>().norm(), 1e-9);
+
+  // A controller that saw no overload: the full spring.
+  WholeBodyController fresh(params);
+  fresh.set_reference(standing_q(), *data);
+  in.state.q = folded;
+  in.wrist_force_n = Vec3::Zero();
+  const wbc::WbcOutput& full = tick(fresh);
+  EXPECT_FALSE(full.hand_coupling_limited);
+  EXPECT_LT((full.base_wrench_desired.head<3>() - spring).norm(), 1e-9);
+}
+
 // A light hand (M_e 0.2 kg) under 50 N: its template asks 250 m/s^2, which needs more than
 // the arm's torques though holding still does not. The reference is cut to what the torques
 // give, the arm keeps its bounds (not overloaded), and the QP meets both tasks. (The hand's

@@ -236,7 +236,7 @@ std::string WbcAdapter::csv_columns() const {
   }
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",te_{}_nm", a);
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",hand_rest_r{}_rad", a);
-  h += ",arm_reference_saturated,arm_overloaded";
+  h += ",arm_reference_saturated,arm_overloaded,hand_coupling_limited";
   return h;
 }
 
@@ -357,6 +357,7 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   for (int a = 0; a < 3; ++a) put(row, rest_r[a]);
   row += o.arm_reference_saturated ? ",1" : ",0";
   row += o.arm_overloaded ? ",1" : ",0";
+  row += o.hand_coupling_limited ? ",1" : ",0";
 }
 
 std::string WbcAdapter::summary_fields() const {

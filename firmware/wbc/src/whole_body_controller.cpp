@@ -11,6 +11,9 @@ namespace springbok::wbc {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// base_task: the hand spring's pull on the base is limited to the push after an overload of
+// the arm until it is within this of the push again [N].
+constexpr double kCouplingReleaseMarginN = 10.0;
 
 int foot_var(int foot) noexcept { return kNv + kFootVars * foot; }
 
@@ -68,6 +71,8 @@ void WholeBodyController::set_reference(const VecNq& q, dyn::Data& data) noexcep
   for (int i = 0; i < 3; ++i) base_inertia_diag_[i] = given[i] > 0.0 ? given[i] : inertia_trunk(i, i);
   have_warm_start_ = false;
   have_mode_set_.fill(false);
+  out_.arm_overloaded = false;
+  coupling_limited_ = false;
 }
 
 void WholeBodyController::move_reference(const PlanarMotion& m) noexcept {
@@ -120,10 +125,28 @@ void WholeBodyController::base_task(const WbcInput& in, const dyn::Data& d, Vec6
   const Vec3 x_be = x_e - x_b, xd_be = xd_e - xd_b;
 
   // The template's force on the base, plus what carries the base along the rest pose's
-  // acceleration (M_b a_ref: zero in place).
-  const Vec3 force = -tp.stiffness_base_n_per_m.cwiseProduct(x_b) - tp.damping_base_ns_per_m.cwiseProduct(xd_b) +
-                     tp.stiffness_ee_n_per_m.cwiseProduct(x_be) + tp.damping_ee_ns_per_m.cwiseProduct(xd_be) +
-                     tp.mass_base_kg.cwiseProduct(reference_.base_acceleration_m_s2);
+  // acceleration (M_b a_ref: zero in place). The hand's spring pulls the base by the hand's
+  // measured displacement; where a push overloaded the arm (last tick's fit_arm_to_its_torques)
+  // that displacement is the push's doing, not the spring's: the arm yielded, the hand went
+  // where it was pushed, and the stretched spring would drag the base after it (the straight
+  // arm under 50 N: the hand 0.9 m down, 450 N on the base, which sank 21 cm; under 100 N the
+  // robot tipped over). So from the overload on, the spring's pull on the base is at most the
+  // push |F_e| (what an arm at its torques passes on), until it is back within that by
+  // kCouplingReleaseMarginN: the hand back within the spring's reach (2 cm at K_e 500).
+  Vec3 force = -tp.stiffness_base_n_per_m.cwiseProduct(x_b) - tp.damping_base_ns_per_m.cwiseProduct(xd_b) +
+               tp.stiffness_ee_n_per_m.cwiseProduct(x_be) + tp.damping_ee_ns_per_m.cwiseProduct(xd_be) +
+               tp.mass_base_kg.cwiseProduct(reference_.base_acceleration_m_s2);
+  if (out_.arm_overloaded) coupling_limited_ = true;
+  if (coupling_limited_) {
+    const Vec3 pull = tp.stiffness_ee_n_per_m.cwiseProduct(x_be) + tp.damping_ee_ns_per_m.cwiseProduct(xd_be);
+    const double push_n = out_.external_force_world_n.norm(), pull_n = pull.norm();
+    if (pull_n > push_n + kCouplingReleaseMarginN) {
+      force -= (1.0 - push_n / pull_n) * pull;
+    } else {
+      coupling_limited_ = false;
+    }
+  }
+  out_.hand_coupling_limited = coupling_limited_;
   Vec3 torque;
   if (params_.rotational_template_enabled) {
     // The rotational template's torque on the trunk and the hand's angular acceleration.

@@ -221,6 +221,9 @@ struct WbcOutput {
   // No torque of the arm's holds it against the push and gravity: it yields, its joints'
   // acceleration bounds left open (whole_body_controller.cpp, fit_arm_to_its_torques).
   bool arm_overloaded = false;
+  // The hand spring's pull on the base limited to the push (from an overload of the arm until
+  // the hand is back within the spring's reach: whole_body_controller.cpp, base_task).
+  bool hand_coupling_limited = false;
   // What the tasks asked for, for logs and plots.
   Vec6 base_wrench_desired = Vec6::Zero();     // [F_b^d; T_b^d], world
   // The wrench the solution renders on the template's base (the base task's rows at
@@ -320,6 +323,7 @@ class WholeBodyController {
   Vec6 wrench_ee_world_ = Vec6::Zero();
   VecNj joint_friction_nm_ = VecNj::Zero();  // c qd this tick
   std::array<std::array<double, 2>, kNj> position_only_bounds_{};  // the acceleration rows without the speed limits
+  bool coupling_limited_ = false;  // base_task: the hand spring's pull limited to the push
   WbcOutput out_;
   std::uint64_t qp_failures_ = 0;
 };
