@@ -7,7 +7,8 @@
 //     by the caller); from them the stance feet's rolling contact points and the swing
 //     feet's positions relative to the trunk (contact_kinematics.hpp);
 //  2. the desired base wrench W_b^d (eq. 4-5) from the template gains and a
-//     rotational PD; the base task  diag(M_b, I_b) qdd_b = W_b^d;
+//     rotational PD (after an overload of the arm, see 3, the hand spring's pull on
+//     the base at most the push); the base task  diag(M_b, I_b) qdd_b = W_b^d;
 //  3. the arm task (eq. 8): the template's EE acceleration through the damped,
 //     dynamically consistent pseudo-inverse of the arm Jacobian, plus a
 //     null-space posture task (with the rotational template: the hand's linear and
