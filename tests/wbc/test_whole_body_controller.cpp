@@ -199,12 +199,7 @@ TEST_F(Fixture, SpeedRowsGiveWayWhereTheTorqueCannotBrake) {
   constexpr int kWrist2 = kFirstArmJoint + 5;
   in.state.v[6 + kWrist2] = 20.0;  // braking to 1.22 rad/s within 0.02 s asks ~940 rad/s^2
   std::size_t allocations = 0;
-  wbc::WbcOutput out;
-  {
-    test::AllocationTrap trap;
-    out = tick();
-    allocations = trap.disarm();
-  }
+  const wbc::WbcOutput out = tick_counting_allocations(allocations);
   EXPECT_EQ(allocations, 0u);
   ASSERT_EQ(out.qp_status, qp::Status::optimal);
   EXPECT_FALSE(out.failed);
@@ -230,12 +225,7 @@ TEST_F(Fixture, AnArmOverloadedByAPushYieldsAndTheBaseKeepsItsTask) {
   in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * push;
   constexpr int kElbow = kFirstArmJoint + 3;
   std::size_t allocations = 0;
-  wbc::WbcOutput out;
-  {
-    test::AllocationTrap trap;
-    out = tick();
-    allocations = trap.disarm();
-  }
+  const wbc::WbcOutput out = tick_counting_allocations(allocations);
   EXPECT_EQ(allocations, 0u);
   ASSERT_EQ(out.qp_status, qp::Status::optimal);
   EXPECT_FALSE(out.failed);

@@ -66,6 +66,14 @@ struct WbcFixture : ::testing::Test {
     return data->M * out.udot + data->nle - gen;
   }
 
+  // One tick with the allocation trap armed; what it counted in `allocations`.
+  wbc::WbcOutput tick_counting_allocations(std::size_t& allocations) {
+    AllocationTrap trap;
+    const wbc::WbcOutput out = tick();
+    allocations = trap.disarm();
+    return out;
+  }
+
   // Allocations over 20 ticks with a wrist wrench and changing stance sets (after a warm-up tick).
   std::size_t allocations_over_ticks() {
     tick();
