@@ -76,7 +76,7 @@ LifecycleResult CanHardware::open_bus(int b) {
   const std::string err = bus.socket.open(bc.interface, bc.fd, ids, true);
   if (!err.empty()) return LifecycleResult::failure("bus '" + bc.name + "': " + err);
   bus.diag = BusDiagnostics{};
-  bus.enobufs_ticks_in_row = 0;
+  bus.tx_full = TxBufferFull{};
   return LifecycleResult::success();
 }
 

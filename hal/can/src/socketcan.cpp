@@ -90,8 +90,12 @@ TxStatus SocketCanBus::send(const Frame& f) noexcept {
   if (n == static_cast<ssize_t>(size)) return TxStatus::ok;
   if (n >= 0) return TxStatus::short_write;
   last_errno_ = errno;
-  if (errno == ENOBUFS || errno == EAGAIN) return TxStatus::queue_full;
-  if (errno == ENETDOWN) return TxStatus::net_down;
+  return tx_status_of(errno);
+}
+
+TxStatus tx_status_of(int err) noexcept {
+  if (err == ENOBUFS || err == EAGAIN) return TxStatus::queue_full;
+  if (err == ENETDOWN) return TxStatus::net_down;
   return TxStatus::error;
 }
 

@@ -66,6 +66,32 @@ struct BusDiagnostics {
   BusFault fault = BusFault::none;       // latched until recover_bus()
 };
 
+// Counts an error frame into its bus's diagnostics (CAN.md 4, "Error frames"); returns the
+// bus fault it means (bus-off, controller restarted) or BusFault::none. rt: no alloc
+BusFault record_error_frame(const Frame& f, BusDiagnostics& d) noexcept;
+// The bus's line of CanHardware::diagnostics_report(): "can bus lf (vcan0): fault=none ...".
+std::string bus_diagnostics_line(const BusConfig& bus, const BusDiagnostics& d);
+
+// CAN.md 4 "TX buffer full", for one bus: after a write fails with a full queue the rest of
+// that bus's frames are dropped for the tick (never retried); on fault_ticks ticks in a row
+// it is a bus fault. rt: no alloc
+class TxBufferFull {
+ public:
+  void begin_tick() noexcept { queue_full_ = false; }
+  void record(TxStatus s) noexcept { queue_full_ = queue_full_ || s == TxStatus::queue_full; }
+  // The rest of this tick's frames are to be dropped.
+  bool dropping() const noexcept { return queue_full_; }
+  // Ends the tick; true when it completes fault_ticks ticks in a row with a full queue.
+  bool end_tick(std::uint32_t fault_ticks) noexcept {
+    ticks_in_row_ = queue_full_ ? ticks_in_row_ + 1 : 0;
+    return ticks_in_row_ >= fault_ticks;
+  }
+
+ private:
+  bool queue_full_ = false;
+  std::uint32_t ticks_in_row_ = 0;
+};
+
 // Per-joint runtime state of the backend (fixed size).
 struct JointRuntime {
   DriveConfig cfg;
@@ -158,8 +184,7 @@ class CanHardware final : public hal::Hardware {
     int count = 0;
     bool any_mit = false;
     bool any_cia = false;
-    int enobufs_ticks_in_row = 0;
-    bool enobufs_this_tick = false;
+    TxBufferFull tx_full;
     int rx_budget = kMaxRxFramesPerBusPerTick;  // frames this read() may still take from this bus
     bool has_imu = false, has_ft = false;       // sensors on this bus
     BusDiagnostics diag;

@@ -17,6 +17,8 @@ enum class TxStatus : std::uint8_t {
   short_write = 3,  // the kernel took fewer bytes than a frame
   error = 4,        // any other errno
 };
+// What a failed write()'s errno means. rt: no alloc
+TxStatus tx_status_of(int err) noexcept;
 
 enum class RxStatus : std::uint8_t { frame = 0, empty = 1, error = 2 };
 
