@@ -420,6 +420,36 @@ TEST(DriveEmulator, FaultScriptDrivePropertiesAndAtSdo) {
   EXPECT_NE(error("faults: [{kind: rated_torque, sensor: imu, param: 1}]").find("not a sensor fault"), std::string::npos);
 }
 
+// CAN.md 1.4: a vendor MIT drive's reply carries an error code in byte 7. One that boots with
+// a fault reports it from its first reply (the host's presence check, 4.2 step 1) on.
+TEST(DriveEmulator, MitVendorErrorFromPowerOnIsInEveryReply) {
+  can::DriveConfig cfg = can::default_drive(7, can::Protocol::mit);  // drive 8
+  cfg.mit_vendor_reply = true;
+  MitDrive drive(cfg, false, make_joint_model(7, 0.0), script("faults: [{kind: vendor_error, drive: 8, param: 0x15}]"), 0);
+  std::vector<Frame> out;
+  Frame f;
+  can::mit::encode_special(8, can::mit::Special::exit_motor_mode, f);
+  drive.on_frame(f, 0, out);
+  (void)can::mit::encode_command(8, can::mit::Command{}, cfg.mit_ranges, f);
+  drive.on_frame(f, 0, out);
+  can::mit::encode_special(8, can::mit::Special::enter_motor_mode, f);
+  drive.on_frame(f, 0, out);
+  (void)can::mit::encode_command(8, can::mit::Command{}, cfg.mit_ranges, f);
+  drive.on_frame(f, 0, out);
+  ASSERT_EQ(out.size(), 4u);
+  for (const Frame& reply : out) {
+    can::mit::Reply r;
+    ASSERT_EQ(can::mit::decode_reply(reply, cfg.mit_ranges, r), can::FrameStatus::ok);
+    EXPECT_TRUE(r.has_vendor_bytes);
+    EXPECT_EQ(r.error_code, 0x15);
+  }
+  const auto error = [](const char* yaml) { return load_faults_text(yaml).error; };
+  EXPECT_NE(error("faults: [{kind: vendor_error, drive: 8}]").find("faults[0].param"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: vendor_error, drive: 8, param: 0}]").find("faults[0].param"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: vendor_error, drive: 8, param: 256}]").find("faults[0].param"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: vendor_error, drive: 8, param: 5, at: 3}]").find("faults[0].at"), std::string::npos);
+}
+
 TEST(DriveEmulatorCli, PrintsTheLayoutAndItsBusLoads) {
   std::string out;
   EXPECT_EQ(run("--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_fd5.yaml --print-layout", out), 0) << out;
@@ -444,6 +474,15 @@ TEST(DriveEmulatorCli, RejectsABadConfigOrFaultScript) {
   out.clear();
   EXPECT_EQ(run("--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml --faults " + bad, out), 2);
   EXPECT_NE(out.find("fault 'rated_torque' names drive 1, which is an MIT drive"), std::string::npos) << out;
+  // The vendor error byte: MIT drives only, and only those whose replies have it.
+  std::ofstream(bad) << "faults: [{kind: vendor_error, drive: 1, param: 5}]\n";
+  out.clear();
+  EXPECT_EQ(run("--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/cia402_classic7.yaml --faults " + bad, out), 2);
+  EXPECT_NE(out.find("fault 'vendor_error' names drive 1, which is a CiA 402 drive (MIT only)"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(run("--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml --faults " + bad, out), 2);
+  EXPECT_NE(out.find("fault 'vendor_error' names drive 1, whose 6-byte replies have no error byte"), std::string::npos)
+      << out;
   std::remove(bad.c_str());
   // The MIT drives' flash settings: a reply length MIT does not have, an id past 11 bits.
   const std::string config = "--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml --print-layout ";

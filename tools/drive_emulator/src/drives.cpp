@@ -47,6 +47,7 @@ const char* to_string(FaultKind k) noexcept {
     case FaultKind::no_heartbeat: return "no_heartbeat";
     case FaultKind::rated_torque: return "rated_torque";
     case FaultKind::mode_display_delay: return "mode_display_delay";
+    case FaultKind::vendor_error: return "vendor_error";
     case FaultKind::emcy: return "emcy";
     case FaultKind::bus_off: return "bus_off";
     case FaultKind::error_passive: return "error_passive";
@@ -62,7 +63,9 @@ const char* to_string(FaultKind k) noexcept {
   return "?";
 }
 
-bool is_property(FaultKind k) noexcept { return k == FaultKind::rated_torque || k == FaultKind::mode_display_delay; }
+bool is_property(FaultKind k) noexcept {
+  return k == FaultKind::rated_torque || k == FaultKind::mode_display_delay || k == FaultKind::vendor_error;
+}
 
 const char* to_string(SensorId s) noexcept {
   switch (s) {
@@ -164,7 +167,11 @@ void Drive::emit_cyclic(Frame f, std::vector<Frame>& out) {
 // ---- MIT mode ---------------------------------------------------------------------------------------
 MitDrive::MitDrive(const can::DriveConfig& cfg, bool fd_bus, JointModel model, std::vector<Fault> faults,
                    std::uint32_t can_timeout_ms)
-    : Drive(cfg, fd_bus, model, std::move(faults)), can_timeout_ms_(can_timeout_ms) {}
+    : Drive(cfg, fd_bus, model, std::move(faults)), can_timeout_ms_(can_timeout_ms) {
+  for (const Fault& flt : faults_) {
+    if (flt.kind == FaultKind::vendor_error) error_code_ = static_cast<std::uint8_t>(flt.param);
+  }
+}
 
 Frame MitDrive::reply() const {
   can::mit::Reply r;
