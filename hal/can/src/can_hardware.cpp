@@ -395,7 +395,8 @@ bool CanHardware::send_now(int b, const Frame& f) noexcept {
   bus.tx_full.record(s);
   switch (s) {
     case TxStatus::ok: ++bus.diag.frames_sent; return true;
-    case TxStatus::queue_full: ++bus.diag.tx_dropped; return false;
+    case TxStatus::queue_full:
+    case TxStatus::buffer_full: ++bus.diag.tx_dropped; return false;
     case TxStatus::net_down: fault_bus(b, BusFault::net_down); return false;
     case TxStatus::short_write: ++bus.diag.short_writes; return false;
     case TxStatus::error: ++bus.diag.tx_errors; return false;

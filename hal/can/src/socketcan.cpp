@@ -94,7 +94,8 @@ TxStatus SocketCanBus::send(const Frame& f) noexcept {
 }
 
 TxStatus tx_status_of(int err) noexcept {
-  if (err == ENOBUFS || err == EAGAIN) return TxStatus::queue_full;
+  if (err == ENOBUFS) return TxStatus::queue_full;
+  if (err == EAGAIN || err == EWOULDBLOCK) return TxStatus::buffer_full;
   if (err == ENETDOWN) return TxStatus::net_down;
   return TxStatus::error;
 }

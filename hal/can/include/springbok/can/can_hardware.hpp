@@ -72,23 +72,31 @@ BusFault record_error_frame(const Frame& f, BusDiagnostics& d) noexcept;
 // The bus's line of CanHardware::diagnostics_report(): "can bus lf (vcan0): fault=none ...".
 std::string bus_diagnostics_line(const BusConfig& bus, const BusDiagnostics& d);
 
-// CAN.md 4 "TX buffer full", for one bus: after a write fails with a full queue the rest of
-// that bus's frames are dropped for the tick (never retried); on fault_ticks ticks in a row
-// it is a bus fault. rt: no alloc
+// CAN.md 4 "TX buffer full", for one bus: after a write fails with ENOBUFS (the device queue)
+// or EAGAIN (the socket's buffer) the rest of that bus's frames are dropped for the tick (never
+// retried); ENOBUFS on fault_ticks ticks in a row is a bus fault. A tick that stopped at EAGAIN
+// says nothing of the device queue: it neither extends nor ends that streak. rt: no alloc
 class TxBufferFull {
  public:
-  void begin_tick() noexcept { queue_full_ = false; }
-  void record(TxStatus s) noexcept { queue_full_ = queue_full_ || s == TxStatus::queue_full; }
+  void begin_tick() noexcept { queue_full_ = buffer_full_ = false; }
+  void record(TxStatus s) noexcept {
+    queue_full_ = queue_full_ || s == TxStatus::queue_full;
+    buffer_full_ = buffer_full_ || s == TxStatus::buffer_full;
+  }
   // The rest of this tick's frames are to be dropped.
-  bool dropping() const noexcept { return queue_full_; }
-  // Ends the tick; true when it completes fault_ticks ticks in a row with a full queue.
+  bool dropping() const noexcept { return queue_full_ || buffer_full_; }
+  // Ends the tick; true when it completes fault_ticks ticks in a row with ENOBUFS.
   bool end_tick(std::uint32_t fault_ticks) noexcept {
-    ticks_in_row_ = queue_full_ ? ticks_in_row_ + 1 : 0;
+    if (queue_full_) {
+      ++ticks_in_row_;
+    } else if (!buffer_full_) {
+      ticks_in_row_ = 0;
+    }
     return ticks_in_row_ >= fault_ticks;
   }
 
  private:
-  bool queue_full_ = false;
+  bool queue_full_ = false, buffer_full_ = false;
   std::uint32_t ticks_in_row_ = 0;
 };
 

@@ -12,10 +12,11 @@ namespace springbok::can {
 
 enum class TxStatus : std::uint8_t {
   ok = 0,
-  queue_full = 1,   // ENOBUFS (device queue) or EAGAIN (socket buffer): drop, never retry in a loop
+  queue_full = 1,   // ENOBUFS (device queue): drop, never retry in a loop; ticks in a row: bus fault
   net_down = 2,     // ENETDOWN: bus fault at once
   short_write = 3,  // the kernel took fewer bytes than a frame
   error = 4,        // any other errno
+  buffer_full = 5,  // EAGAIN (the socket's buffer): drop, never retry in a loop; never a bus fault by itself
 };
 // What a failed write()'s errno means. rt: no alloc
 TxStatus tx_status_of(int err) noexcept;
