@@ -238,6 +238,11 @@ BusFault record_error_frame(const Frame& f, BusDiagnostics& d) noexcept {
   }
   if (e.back_to_active) d.error_passive = false;
   if (e.overflow) ++d.overflows;
+  if (e.has_counters) {
+    d.have_error_counters = true;
+    d.tx_error_counter = e.tx_errors;
+    d.rx_error_counter = e.rx_errors;
+  }
   // CAN_ERR_ACK / TX_TIMEOUT / TRX act like a silent bus: the missing replies count.
   if (e.bus_off) return BusFault::bus_off;
   return e.restarted ? BusFault::restarted : BusFault::none;
@@ -541,16 +546,19 @@ hal::IoStatus CanHardware::write(const hal::JointCommands& cmd) noexcept {
 }
 
 std::string bus_diagnostics_line(const BusConfig& bus, const BusDiagnostics& d) {
+  const auto counter = [&](std::uint8_t c) { return d.have_error_counters ? std::to_string(c) : std::string("-"); };
   char line[512];
   std::snprintf(line, sizeof line,
                 "can bus %s: fault=%s sent=%llu received=%llu tx_dropped=%llu bad_frames=%llu unexpected=%llu "
-                "foreign=%llu duplicates=%llu sensor_frames=%llu error_frames=%llu error_passive=%d\n",
+                "foreign=%llu duplicates=%llu sensor_frames=%llu error_frames=%llu error_passive=%d "
+                "tx_error_counter=%s rx_error_counter=%s\n",
                 (bus.name + " (" + bus.interface + ")").c_str(), to_string(d.fault),
                 static_cast<unsigned long long>(d.frames_sent), static_cast<unsigned long long>(d.frames_received),
                 static_cast<unsigned long long>(d.tx_dropped), static_cast<unsigned long long>(d.bad_frames),
                 static_cast<unsigned long long>(d.unexpected_frames), static_cast<unsigned long long>(d.foreign_frames),
                 static_cast<unsigned long long>(d.duplicates), static_cast<unsigned long long>(d.sensor_frames),
-                static_cast<unsigned long long>(d.error_frames), d.error_passive ? 1 : 0);
+                static_cast<unsigned long long>(d.error_frames), d.error_passive ? 1 : 0,
+                counter(d.tx_error_counter).c_str(), counter(d.rx_error_counter).c_str());
   return line;
 }
 

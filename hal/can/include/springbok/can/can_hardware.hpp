@@ -63,6 +63,10 @@ struct BusDiagnostics {
   std::uint64_t sensor_frames = 0;       // frames of a sensor configured on this bus (see the sensor's diagnostics)
   std::uint64_t rx_budget_exhausted = 0; // ticks on which the per-tick receive budget ran out (frames left queued)
   bool error_passive = false;            // degraded (warning for safety)
+  // The controller's TX / RX error counters of the newest CAN_ERR_CNT report (none on vcan).
+  bool have_error_counters = false;
+  std::uint8_t tx_error_counter = 0;
+  std::uint8_t rx_error_counter = 0;
   BusFault fault = BusFault::none;       // latched until recover_bus()
 };
 
