@@ -437,6 +437,29 @@ TEST(Hil, Cia402EmcyDuringStartUpFailsItNamingTheDriveAndTheCode) {
   EXPECT_EQ(hw.joint(7).status.fault_code, 0x3210);
 }
 
+// CAN.md 1.4 / 4.2: a vendor MIT drive (8-byte replies) reports an error code in byte 7; a
+// non-zero one latches a drive fault, start-up included. Drive 8 boots with error 0x15 in every
+// reply; MIT start-up would otherwise mark it ready and enable it. (The drives all reply with 8
+// bytes; the host reads the error byte of drive 8 only: with all vendor replies the classic
+// layout's bus lf would be above the load limit.)
+TEST(Hil, MitVendorErrorDuringStartUpFailsItNamingTheDriveAndTheCode) {
+  REQUIRE_VCAN(7);
+  CanConfig cfg = load("mit_classic7.yaml");
+  ASSERT_EQ(cfg.buses[2].drives[1].drive_id, 8);
+  cfg.buses[2].drives[1].mit_vendor_reply = true;
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "faults: [{kind: vendor_error, drive: 8, param: 0x15}]\n",
+               {"--mit-reply-dlc", "8"});
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  hal::LifecycleResult r = hw.configure();
+  if (r.ok) r = hw.activate();
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("drive 8 (joint lh_hfe_joint, mit) on bus 'lh' (vcan2)"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("error code 0x15"), std::string::npos) << r.message;
+  EXPECT_EQ(hw.joint(7).status.state, hal::DriveState::fault);
+  EXPECT_EQ(hw.joint(7).status.fault_code, 0x15);
+}
+
 TEST(Hil, BusOffFaultsTheBusAndNeedsAnOperatorRecovery) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("mit_classic7.yaml");

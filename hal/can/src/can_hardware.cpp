@@ -139,7 +139,10 @@ void CanHardware::process_mit_reply(int b, const Frame& f) noexcept {
   jr.tau_nm = r.t_nm;
   jr.have_state = true;
   jr.last_rx_tick = tick_;
-  if (jr.cfg.mit_vendor_reply && r.has_vendor_bytes && r.error_code != 0) latch_fault(j, r.error_code);
+  if (jr.cfg.mit_vendor_reply && r.has_vendor_bytes && r.error_code != 0) {
+    if (jr.startup_fault_code == 0) jr.startup_fault_code = r.error_code;  // start-up fails on it
+    latch_fault(j, r.error_code);
+  }
 }
 
 void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
@@ -160,7 +163,7 @@ void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
         return;
       }
       if (e.error_code != 0) {
-        if (jr.emcy_code == 0) jr.emcy_code = e.error_code;  // start-up fails on it (can_startup.cpp)
+        if (jr.startup_fault_code == 0) jr.startup_fault_code = e.error_code;  // start-up fails on it
         latch_fault(j, e.error_code);
       }
       return;

@@ -125,7 +125,9 @@ struct JointRuntime {
   std::uint32_t rated_torque_mnm = 0;
   cia402::TorqueScale torque_scale;
   bool booted = false;            // CiA 402 start-up: boot-up seen
-  std::uint16_t emcy_code = 0;    // CiA 402: the first non-zero EMCY code since this bus's start-up began
+  // The first non-zero fault code the drive itself sent since this bus's start-up began (CiA 402:
+  // EMCY; MIT: the vendor reply's error byte): start-up fails on it (can_startup.cpp).
+  std::uint16_t startup_fault_code = 0;
   bool sdo_answered = false;
   Frame sdo_answer;
   Frame pending;                  // the command frame for the next send
@@ -215,8 +217,8 @@ class CanHardware final : public hal::Hardware {
   hal::LifecycleResult start_cia402(int b);
   hal::LifecycleResult enable_cia402(int b);
   hal::LifecycleResult configure_node(int j);
-  // A failure naming the first of `nodes` that sent a non-zero EMCY since its start-up began.
-  hal::LifecycleResult startup_emcy(const std::vector<int>& nodes, const char* during);
+  // A failure naming the first of `drives` that sent a fault code since its start-up began.
+  hal::LifecycleResult startup_fault(const std::vector<int>& drives, const char* during);
   SdoOutcome sdo(int j, bool write, std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size);
   std::string drive_name(int j) const;
   template <class Done>
