@@ -11,6 +11,7 @@
 #include "springbok/can/cia402.hpp"
 #include "springbok/can/mit.hpp"
 #include "springbok/can/sensors.hpp"
+#include "springbok/can/socketcan.hpp"
 #include "springbok/drive_emulator/drives.hpp"
 #include "springbok/drive_emulator/sensors.hpp"
 
@@ -448,6 +449,32 @@ TEST(DriveEmulator, MitVendorErrorFromPowerOnIsInEveryReply) {
   EXPECT_NE(error("faults: [{kind: vendor_error, drive: 8, param: 0}]").find("faults[0].param"), std::string::npos);
   EXPECT_NE(error("faults: [{kind: vendor_error, drive: 8, param: 256}]").find("faults[0].param"), std::string::npos);
   EXPECT_NE(error("faults: [{kind: vendor_error, drive: 8, param: 5, at: 3}]").find("faults[0].at"), std::string::npos);
+}
+
+// CAN.md 4 / 5: the controller's error-passive report and its return to error active, as
+// error frames on the drive's bus at the scripted cyclic ticks.
+TEST(DriveEmulator, ErrorPassiveThenErrorActiveReports) {
+  const can::DriveConfig cfg = can::default_drive(18, can::Protocol::mit);  // drive 19
+  MitDrive drive(cfg, false, make_joint_model(18, 0.0),
+                 script("faults: [{kind: error_passive, drive: 19, at: 2}, {kind: error_active, drive: 19, at: 3}]"), 0);
+  std::vector<Frame> out;
+  Frame f;
+  can::mit::encode_special(19, can::mit::Special::enter_motor_mode, f);
+  drive.on_frame(f, 0, out);
+  (void)can::mit::encode_command(19, can::mit::Command{}, cfg.mit_ranges, f);
+  std::vector<can::ErrorFrameInfo> reports;
+  for (int tick = 1; tick <= 4; ++tick) {
+    out.clear();
+    drive.on_frame(f, 0, out);
+    for (const Frame& e : out) {
+      if (e.error) reports.push_back(can::classify_error_frame(e));
+    }
+  }
+  ASSERT_EQ(reports.size(), 2u);
+  EXPECT_TRUE(reports[0].error_passive);
+  EXPECT_FALSE(reports[0].back_to_active);
+  EXPECT_TRUE(reports[1].back_to_active);
+  EXPECT_FALSE(reports[1].error_passive);
 }
 
 TEST(DriveEmulatorCli, PrintsTheLayoutAndItsBusLoads) {

@@ -171,12 +171,18 @@ void make_bus_off_frame(Frame& f) noexcept {
   f.len = CAN_ERR_DLC;
 }
 
-void make_error_passive_frame(Frame& f) noexcept {
+namespace {
+void make_controller_frame(std::uint8_t status, Frame& f) noexcept {
   f = Frame{};
   f.error = true;
   f.id = CAN_ERR_CRTL;
   f.len = CAN_ERR_DLC;
-  f.data[1] = CAN_ERR_CRTL_TX_PASSIVE;
+  f.data[1] = status;
 }
+}  // namespace
+
+void make_error_passive_frame(Frame& f) noexcept { make_controller_frame(CAN_ERR_CRTL_TX_PASSIVE, f); }
+
+void make_error_active_frame(Frame& f) noexcept { make_controller_frame(CAN_ERR_CRTL_ACTIVE, f); }
 
 }  // namespace springbok::can

@@ -81,5 +81,7 @@ ErrorFrameInfo classify_error_frame(const Frame& f) noexcept;
 void make_bus_off_frame(Frame& f) noexcept;
 // An error-passive controller report (CAN_ERR_CRTL, TX passive).
 void make_error_passive_frame(Frame& f) noexcept;
+// A controller report of its return to error active (CAN_ERR_CRTL, ACTIVE).
+void make_error_active_frame(Frame& f) noexcept;
 
 }  // namespace springbok::can

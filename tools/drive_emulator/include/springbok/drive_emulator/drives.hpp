@@ -68,6 +68,7 @@ enum class FaultKind : std::uint8_t {
                   // request since power-on (the host's Pre-operational configuration)
   bus_off,        // an error frame with CAN_ERR_BUSOFF on the drive's bus
   error_passive,  // an error frame CAN_ERR_CRTL / TX passive on the drive's bus
+  error_active,   // an error frame CAN_ERR_CRTL / ACTIVE on the drive's bus (back from error passive)
   wrong_dlc,      // the reply one byte short, for `count` ticks
   unexpected_id,  // MIT: byte 0 = `param`; CiA 402: TPDO1 with node id `param`; for `count` ticks
   no_heartbeat,   // CiA 402: heartbeats stop for good (the PDOs still flow)
