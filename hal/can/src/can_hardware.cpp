@@ -483,9 +483,12 @@ hal::IoStatus CanHardware::read(hal::Measurements& out) noexcept {
     ++expected;
     fresh += jr.status.fresh ? 1 : 0;
   }
+  static_assert(kMaxBuses <= 32, "hal::Measurements::degraded_buses has a bit per bus");
+  out.degraded_buses = 0;
   for (int b = 0; b < bus_count_; ++b) {
     const Bus& bus = buses_[static_cast<std::size_t>(b)];
     bus_fault = bus_fault || (bus.count > 0 && bus.diag.fault != BusFault::none);  // sensors-only: its sensors go lost
+    if (bus.diag.error_passive) out.degraded_buses |= 1u << b;
   }
   fill_sensors(out);
 

@@ -16,7 +16,9 @@
 // DriveState::fault. Bus-off, ENETDOWN or ENOBUFS on tx_fault_ticks ticks in a
 // row fault the bus: its drives are lost, read() returns IoStatus::error, and
 // nothing resumes by itself: recovery is an operator action (restart the
-// controller, then recover_bus(), which re-runs that bus's start-up).
+// controller, then recover_bus(), which re-runs that bus's start-up). A bus whose
+// controller reports error passive is only degraded (its bit in m.degraded_buses,
+// a warning for the safety layer) until the controller reports error active again.
 //
 // Sensors (CAN.md 6): the trunk IMU and the wrist F/T push their frames on their own
 // clock. read() feeds every sensor frame it drains to the sensor's assembler and fills
