@@ -11,6 +11,7 @@
 #include "springbok/can/cia402.hpp"
 #include "springbok/can/mit.hpp"
 #include "springbok/can/sensors.hpp"
+#include "springbok/can/socketcan.hpp"
 #include "springbok/drive_emulator/drives.hpp"
 #include "springbok/drive_emulator/sensors.hpp"
 
@@ -420,6 +421,62 @@ TEST(DriveEmulator, FaultScriptDrivePropertiesAndAtSdo) {
   EXPECT_NE(error("faults: [{kind: rated_torque, sensor: imu, param: 1}]").find("not a sensor fault"), std::string::npos);
 }
 
+// CAN.md 1.4: a vendor MIT drive's reply carries an error code in byte 7. One that boots with
+// a fault reports it from its first reply (the host's presence check, 4.2 step 1) on.
+TEST(DriveEmulator, MitVendorErrorFromPowerOnIsInEveryReply) {
+  can::DriveConfig cfg = can::default_drive(7, can::Protocol::mit);  // drive 8
+  cfg.mit_vendor_reply = true;
+  MitDrive drive(cfg, false, make_joint_model(7, 0.0), script("faults: [{kind: vendor_error, drive: 8, param: 0x15}]"), 0);
+  std::vector<Frame> out;
+  Frame f;
+  can::mit::encode_special(8, can::mit::Special::exit_motor_mode, f);
+  drive.on_frame(f, 0, out);
+  (void)can::mit::encode_command(8, can::mit::Command{}, cfg.mit_ranges, f);
+  drive.on_frame(f, 0, out);
+  can::mit::encode_special(8, can::mit::Special::enter_motor_mode, f);
+  drive.on_frame(f, 0, out);
+  (void)can::mit::encode_command(8, can::mit::Command{}, cfg.mit_ranges, f);
+  drive.on_frame(f, 0, out);
+  ASSERT_EQ(out.size(), 4u);
+  for (const Frame& reply : out) {
+    can::mit::Reply r;
+    ASSERT_EQ(can::mit::decode_reply(reply, cfg.mit_ranges, r), can::FrameStatus::ok);
+    EXPECT_TRUE(r.has_vendor_bytes);
+    EXPECT_EQ(r.error_code, 0x15);
+  }
+  const auto error = [](const char* yaml) { return load_faults_text(yaml).error; };
+  EXPECT_NE(error("faults: [{kind: vendor_error, drive: 8}]").find("faults[0].param"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: vendor_error, drive: 8, param: 0}]").find("faults[0].param"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: vendor_error, drive: 8, param: 256}]").find("faults[0].param"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: vendor_error, drive: 8, param: 5, at: 3}]").find("faults[0].at"), std::string::npos);
+}
+
+// CAN.md 4 / 5: the controller's error-passive report and its return to error active, as
+// error frames on the drive's bus at the scripted cyclic ticks.
+TEST(DriveEmulator, ErrorPassiveThenErrorActiveReports) {
+  const can::DriveConfig cfg = can::default_drive(18, can::Protocol::mit);  // drive 19
+  MitDrive drive(cfg, false, make_joint_model(18, 0.0),
+                 script("faults: [{kind: error_passive, drive: 19, at: 2}, {kind: error_active, drive: 19, at: 3}]"), 0);
+  std::vector<Frame> out;
+  Frame f;
+  can::mit::encode_special(19, can::mit::Special::enter_motor_mode, f);
+  drive.on_frame(f, 0, out);
+  (void)can::mit::encode_command(19, can::mit::Command{}, cfg.mit_ranges, f);
+  std::vector<can::ErrorFrameInfo> reports;
+  for (int tick = 1; tick <= 4; ++tick) {
+    out.clear();
+    drive.on_frame(f, 0, out);
+    for (const Frame& e : out) {
+      if (e.error) reports.push_back(can::classify_error_frame(e));
+    }
+  }
+  ASSERT_EQ(reports.size(), 2u);
+  EXPECT_TRUE(reports[0].error_passive);
+  EXPECT_FALSE(reports[0].back_to_active);
+  EXPECT_TRUE(reports[1].back_to_active);
+  EXPECT_FALSE(reports[1].error_passive);
+}
+
 TEST(DriveEmulatorCli, PrintsTheLayoutAndItsBusLoads) {
   std::string out;
   EXPECT_EQ(run("--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_fd5.yaml --print-layout", out), 0) << out;
@@ -444,6 +501,15 @@ TEST(DriveEmulatorCli, RejectsABadConfigOrFaultScript) {
   out.clear();
   EXPECT_EQ(run("--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml --faults " + bad, out), 2);
   EXPECT_NE(out.find("fault 'rated_torque' names drive 1, which is an MIT drive"), std::string::npos) << out;
+  // The vendor error byte: MIT drives only, and only those whose replies have it.
+  std::ofstream(bad) << "faults: [{kind: vendor_error, drive: 1, param: 5}]\n";
+  out.clear();
+  EXPECT_EQ(run("--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/cia402_classic7.yaml --faults " + bad, out), 2);
+  EXPECT_NE(out.find("fault 'vendor_error' names drive 1, which is a CiA 402 drive (MIT only)"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(run("--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml --faults " + bad, out), 2);
+  EXPECT_NE(out.find("fault 'vendor_error' names drive 1, whose 6-byte replies have no error byte"), std::string::npos)
+      << out;
   std::remove(bad.c_str());
   // The MIT drives' flash settings: a reply length MIT does not have, an id past 11 bits.
   const std::string config = "--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml --print-layout ";

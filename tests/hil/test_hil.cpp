@@ -437,6 +437,29 @@ TEST(Hil, Cia402EmcyDuringStartUpFailsItNamingTheDriveAndTheCode) {
   EXPECT_EQ(hw.joint(7).status.fault_code, 0x3210);
 }
 
+// CAN.md 1.4 / 4.2: a vendor MIT drive (8-byte replies) reports an error code in byte 7; a
+// non-zero one latches a drive fault, start-up included. Drive 8 boots with error 0x15 in every
+// reply; MIT start-up would otherwise mark it ready and enable it. (The drives all reply with 8
+// bytes; the host reads the error byte of drive 8 only: with all vendor replies the classic
+// layout's bus lf would be above the load limit.)
+TEST(Hil, MitVendorErrorDuringStartUpFailsItNamingTheDriveAndTheCode) {
+  REQUIRE_VCAN(7);
+  CanConfig cfg = load("mit_classic7.yaml");
+  ASSERT_EQ(cfg.buses[2].drives[1].drive_id, 8);
+  cfg.buses[2].drives[1].mit_vendor_reply = true;
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "faults: [{kind: vendor_error, drive: 8, param: 0x15}]\n",
+               {"--mit-reply-dlc", "8"});
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  hal::LifecycleResult r = hw.configure();
+  if (r.ok) r = hw.activate();
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("drive 8 (joint lh_hfe_joint, mit) on bus 'lh' (vcan2)"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("error code 0x15"), std::string::npos) << r.message;
+  EXPECT_EQ(hw.joint(7).status.state, hal::DriveState::fault);
+  EXPECT_EQ(hw.joint(7).status.fault_code, 0x15);
+}
+
 TEST(Hil, BusOffFaultsTheBusAndNeedsAnOperatorRecovery) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("mit_classic7.yaml");
@@ -558,13 +581,31 @@ TEST(Hil, TransientFaultsAreCountedNotFatal) {
                "  - {kind: wrong_dlc, drive: 10, at: 30, count: 2}\n"
                "  - {kind: unexpected_id, drive: 13, at: 30, count: 2, param: 5}\n"
                "  - {kind: delay, drive: 16, at: 40, count: 1, param: 2}\n"
-               "  - {kind: error_passive, drive: 19, at: 25}\n");
+               "  - {kind: error_passive, drive: 19, at: 25}\n"
+               "  - {kind: error_active, drive: 19, at: 60}\n");
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   ASSERT_TRUE(hw.configure().ok);
   ASSERT_TRUE(hw.activate().ok);
   hal::Measurements last;
-  run_ticks(hw, 80, [&](int, const hal::Measurements& m, hal::IoStatus) { last = m; });
+  // Bus arm2 (vcan6, bus 6) degraded from its error-passive report to its error-active one.
+  int degraded_from = -1, degraded_until = -1;
+  std::uint32_t other_degraded = 0;
+  run_ticks(hw, 80, [&](int k, const hal::Measurements& m, hal::IoStatus) {
+    const bool degraded = (m.degraded_buses & (1u << 6)) != 0;
+    if (degraded && degraded_from < 0) degraded_from = k;
+    if (!degraded && degraded_from >= 0 && degraded_until < 0) degraded_until = k;
+    other_degraded |= m.degraded_buses & ~(1u << 6);
+    last = m;
+  });
+  EXPECT_GE(degraded_from, 25);
+  EXPECT_LE(degraded_from, 28);
+  EXPECT_GE(degraded_until, 60);
+  EXPECT_LE(degraded_until, 63);
+  EXPECT_EQ(other_degraded, 0u);
+  EXPECT_EQ(last.degraded_buses, 0u);
+  EXPECT_FALSE(hw.diagnostics(6).error_passive);             // back to normal
+  EXPECT_EQ(hw.diagnostics(6).error_passive_events, 1u);
   for (int j = 0; j < kNj; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
   EXPECT_GE(last.drives[1].missed_total, 2u);                // dropped
   EXPECT_GE(hw.diagnostics(1).duplicates, 3u);               // drive 4 on bus rf
@@ -573,8 +614,7 @@ TEST(Hil, TransientFaultsAreCountedNotFatal) {
   EXPECT_GE(hw.diagnostics(3).bad_frames, 2u);               // drive 10: DLC 5
   EXPECT_GE(hw.diagnostics(4).foreign_frames, 2u);           // drive 13 answering as drive 5 (bus rf)
   EXPECT_GE(last.drives[15].missed_total, 1u);               // drive 16 delayed by 2 ticks
-  EXPECT_TRUE(hw.diagnostics(6).error_passive);              // bus arm2 degraded
-  EXPECT_EQ(hw.diagnostics(6).fault, BusFault::none);
+  EXPECT_EQ(hw.diagnostics(6).fault, BusFault::none);        // bus arm2 was only degraded
 }
 
 // The deployed binary as a child process; stdout and stderr into one file.
@@ -731,8 +771,13 @@ TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
   const std::string socket_path = "/tmp/springbok_hil_stand.sock";  // operator.socket of the config
   const std::string truth = "/tmp/springbok_hil_truth_" + std::to_string(::getpid()) + ".txt";
   // --settle-s: the first Bullet steps are slow under the VM's emulated CPU (code not yet
-  // translated); 0.1 s unpowered on the feet before the drives boot warms them up.
-  Emulator emu(config, "", {"--motion", "bullet", "--truth-log", truth, "--settle-s", "0.1"});
+  // translated); 0.1 s unpowered on the feet before the drives boot warms them up. Bus arm2's
+  // controller reports error passive for a second (CAN.md 4): a warning, logged both ways.
+  Emulator emu(config,
+               "faults:\n"
+               "  - {kind: error_passive, drive: 19, at: 1000}\n"
+               "  - {kind: error_active, drive: 19, at: 2000}\n",
+               {"--motion", "bullet", "--truth-log", truth, "--settle-s", "0.1"});
   ASSERT_TRUE(emu.ready());
   ::unlink(socket_path.c_str());
   Firmware fw(config, time_scale);
@@ -760,6 +805,8 @@ TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
   const std::string fw_out = fw.stop();
   EXPECT_TRUE(WIFEXITED(fw.exit_status()) && WEXITSTATUS(fw.exit_status()) == 0) << fw_out;
   EXPECT_NE(fw_out.find("mode=stand faults=none"), std::string::npos) << fw_out;
+  EXPECT_NE(fw_out.find(" buses_degraded a=64 b=0 x=0 (degraded=bus6 was=none)\n"), std::string::npos) << fw_out;
+  EXPECT_NE(fw_out.find(" buses_degraded a=0 b=64 x=0 (degraded=none was=bus6)\n"), std::string::npos) << fw_out;
   const std::string summary = emu.stop();
 
   // The emulator's ground truth over the 5 s of standing.

@@ -229,6 +229,29 @@ TEST_F(SupervisorTest, ANeededSensorLostInControlLatchesElsewhereWarns) {
   EXPECT_EQ(sup.sensors_lost(), 0u);
 }
 
+// CAN.md 4: a bus whose controller is error passive is degraded: a warning to safety in every
+// mode (degraded_buses()), never a latched fault, and it refuses nothing: the robot keeps going.
+TEST_F(SupervisorTest, DegradedBusesAreAWarningNeverAFault) {
+  meas.degraded_buses = 1u << 6;
+  tick();
+  EXPECT_EQ(sup.degraded_buses(), 1u << 6);  // idle
+  EXPECT_EQ(sup.faults(), 0u);
+  go_to_control();
+  meas.degraded_buses = (1u << 6) | 1u;
+  tick();
+  EXPECT_EQ(sup.mode(), Mode::control);
+  EXPECT_EQ(sup.degraded_buses(), (1u << 6) | 1u);
+  EXPECT_EQ(sup.faults(), 0u);
+  EXPECT_EQ(ask(OperatorCommand::mode_stand), Verdict::accepted);
+  tick();
+  EXPECT_EQ(ask(OperatorCommand::mode_control), Verdict::accepted);
+  meas.degraded_buses = 0;  // back to error active
+  tick();
+  EXPECT_EQ(sup.degraded_buses(), 0u);
+  EXPECT_EQ(sup.mode(), Mode::control);
+  EXPECT_EQ(sup.faults(), 0u);
+}
+
 // CAN.md 6.1: while the IMU says its orientation has not converged the estimator must not
 // start: `mode control` (the WBC, which needs the IMU) is refused, nothing latches; once it
 // has converged the mode starts. A controller that does not need the IMU ignores the bit.

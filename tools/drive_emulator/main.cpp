@@ -169,9 +169,22 @@ int main(int argc, char** argv) {
                    f.drive_id);
       return 2;
     }
-    if ((emu::is_property(f.kind) || f.at_sdo != 0) && drive->protocol != can::Protocol::cia402) {
+    const bool mit_only = f.kind == emu::FaultKind::vendor_error;
+    if (((emu::is_property(f.kind) && !mit_only) || f.at_sdo != 0) && drive->protocol != can::Protocol::cia402) {
       std::fprintf(stderr, "drive_emulator: fault '%s'%s names drive %d, which is an MIT drive (CiA 402 only)\n",
                    emu::to_string(f.kind), f.at_sdo != 0 ? " with at_sdo" : "", f.drive_id);
+      return 2;
+    }
+    if (mit_only && drive->protocol != can::Protocol::mit) {
+      std::fprintf(stderr, "drive_emulator: fault '%s' names drive %d, which is a CiA 402 drive (MIT only)\n",
+                   emu::to_string(f.kind), f.drive_id);
+      return 2;
+    }
+    if (mit_only && !(mit_reply_dlc > 0 ? mit_reply_dlc == 8 : drive->mit_vendor_reply)) {
+      std::fprintf(stderr,
+                   "drive_emulator: fault '%s' names drive %d, whose 6-byte replies have no error byte "
+                   "(vendor_reply: true in the config, or --mit-reply-dlc 8)\n",
+                   emu::to_string(f.kind), f.drive_id);
       return 2;
     }
   }

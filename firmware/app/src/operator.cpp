@@ -261,10 +261,18 @@ std::string describe_log_record(const rt::LogRecord& r) {
                                                                           : "?";
   };
   const auto faults = [](std::int64_t bits) { return fault_list(static_cast<safety::FaultMask>(bits)); };
+  const auto buses = [](std::int64_t bits) {
+    std::string out;
+    for (int b = 0; b < 32; ++b) {
+      if ((bits & (std::int64_t{1} << b)) != 0) out += (out.empty() ? "bus" : ",bus") + std::to_string(b);
+    }
+    return out.empty() ? std::string("none") : out;
+  };
   switch (r.event) {
     case rt::LogEvent::mode_change: return std::string(mode(r.a)) + " -> " + mode(r.b);
     case rt::LogEvent::fault_latched: return "new=" + faults(r.a) + " latched=" + faults(r.b);
     case rt::LogEvent::sensors_lost: return "lost=" + faults(r.a) + " mode=" + mode(r.b);
+    case rt::LogEvent::buses_degraded: return "degraded=" + buses(r.a) + " was=" + buses(r.b);
     case rt::LogEvent::command_accepted:
     case rt::LogEvent::command_rejected: {
       std::string words = r.a >= 0 && r.a <= static_cast<std::int64_t>(safety::OperatorCommand::reset)

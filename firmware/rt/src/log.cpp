@@ -17,6 +17,7 @@ const char* to_string(LogEvent event) noexcept {
     case LogEvent::sensors_lost: return "sensors_lost";
     case LogEvent::controller_request: return "controller_request";
     case LogEvent::controller_request_refused: return "controller_request_refused";
+    case LogEvent::buses_degraded: return "buses_degraded";
   }
   return "unknown";
 }

@@ -144,6 +144,7 @@ void Supervisor::observe(const hal::Measurements& meas, hal::IoStatus io, std::u
                   (config_.control_needs_imu && meas.imu.clip_streak ? fault::kImuClipping : 0u) |
                   (config_.control_needs_wrist_ft && meas.wrist.clip_streak ? fault::kWristFtClipping : 0u);
   imu_not_converged_ = config_.control_needs_imu && !meas.imu.converged;
+  degraded_buses_ = meas.degraded_buses;
   if (mode_ == Mode::control) found |= sensors_lost_;
   latch(found);
 }

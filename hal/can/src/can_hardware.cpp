@@ -139,7 +139,10 @@ void CanHardware::process_mit_reply(int b, const Frame& f) noexcept {
   jr.tau_nm = r.t_nm;
   jr.have_state = true;
   jr.last_rx_tick = tick_;
-  if (jr.cfg.mit_vendor_reply && r.has_vendor_bytes && r.error_code != 0) latch_fault(j, r.error_code);
+  if (jr.cfg.mit_vendor_reply && r.has_vendor_bytes && r.error_code != 0) {
+    if (jr.startup_fault_code == 0) jr.startup_fault_code = r.error_code;  // start-up fails on it
+    latch_fault(j, r.error_code);
+  }
 }
 
 void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
@@ -160,7 +163,7 @@ void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
         return;
       }
       if (e.error_code != 0) {
-        if (jr.emcy_code == 0) jr.emcy_code = e.error_code;  // start-up fails on it (can_startup.cpp)
+        if (jr.startup_fault_code == 0) jr.startup_fault_code = e.error_code;  // start-up fails on it
         latch_fault(j, e.error_code);
       }
       return;
@@ -228,8 +231,7 @@ void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
   }
 }
 
-void CanHardware::process_error_frame(int b, const Frame& f) noexcept {
-  BusDiagnostics& d = buses_[static_cast<std::size_t>(b)].diag;
+BusFault record_error_frame(const Frame& f, BusDiagnostics& d) noexcept {
   ++d.error_frames;
   const ErrorFrameInfo e = classify_error_frame(f);
   if (e.warning) ++d.warnings;
@@ -239,9 +241,19 @@ void CanHardware::process_error_frame(int b, const Frame& f) noexcept {
   }
   if (e.back_to_active) d.error_passive = false;
   if (e.overflow) ++d.overflows;
-  if (e.bus_off) fault_bus(b, BusFault::bus_off);
-  if (e.restarted) fault_bus(b, BusFault::restarted);
+  if (e.has_counters) {
+    d.have_error_counters = true;
+    d.tx_error_counter = e.tx_errors;
+    d.rx_error_counter = e.rx_errors;
+  }
   // CAN_ERR_ACK / TX_TIMEOUT / TRX act like a silent bus: the missing replies count.
+  if (e.bus_off) return BusFault::bus_off;
+  return e.restarted ? BusFault::restarted : BusFault::none;
+}
+
+void CanHardware::process_error_frame(int b, const Frame& f) noexcept {
+  const BusFault fault = record_error_frame(f, buses_[static_cast<std::size_t>(b)].diag);
+  if (fault != BusFault::none) fault_bus(b, fault);
 }
 
 bool CanHardware::process_sensor_frame(int b, const Frame& f) noexcept {
@@ -387,9 +399,12 @@ bool CanHardware::send_now(int b, const Frame& f) noexcept {
     fd_frame.fd = true;
     out = &fd_frame;
   }
-  switch (bus.socket.send(*out)) {
+  const TxStatus s = bus.socket.send(*out);
+  bus.tx_full.record(s);
+  switch (s) {
     case TxStatus::ok: ++bus.diag.frames_sent; return true;
-    case TxStatus::queue_full: bus.enobufs_this_tick = true; ++bus.diag.tx_dropped; return false;
+    case TxStatus::queue_full:
+    case TxStatus::buffer_full: ++bus.diag.tx_dropped; return false;
     case TxStatus::net_down: fault_bus(b, BusFault::net_down); return false;
     case TxStatus::short_write: ++bus.diag.short_writes; return false;
     case TxStatus::error: ++bus.diag.tx_errors; return false;
@@ -401,23 +416,20 @@ void CanHardware::send_pending() noexcept {
   for (int b = 0; b < bus_count_; ++b) {
     Bus& bus = buses_[static_cast<std::size_t>(b)];
     if (bus.diag.fault != BusFault::none || !bus.socket.is_open()) continue;
-    bus.enobufs_this_tick = false;
-    bool dropping = false;  // after ENOBUFS the rest of this bus's frames wait for the next tick
+    bus.tx_full.begin_tick();
     for (int k = 0; k < bus.count; ++k) {
       JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
       if (!jr.has_pending) continue;
-      if (dropping) {
+      if (bus.tx_full.dropping()) {
         ++bus.diag.tx_dropped;
         continue;
       }
-      const bool sent = send_now(b, jr.pending);
-      if (bus.enobufs_this_tick) dropping = true;
-      if (sent && jr.cfg.protocol == Protocol::mit) jr.awaiting = true;
+      if (send_now(b, jr.pending) && jr.cfg.protocol == Protocol::mit) jr.awaiting = true;
     }
     if (bus.any_cia) {
       Frame sync;
       cia402::encode_sync(sync);
-      if (dropping) {
+      if (bus.tx_full.dropping()) {
         ++bus.diag.tx_dropped;
       } else if (send_now(b, sync)) {
         for (int k = 0; k < bus.count; ++k) {
@@ -426,10 +438,7 @@ void CanHardware::send_pending() noexcept {
         }
       }
     }
-    bus.enobufs_ticks_in_row = bus.enobufs_this_tick ? bus.enobufs_ticks_in_row + 1 : 0;
-    if (bus.enobufs_ticks_in_row >= static_cast<int>(config_.timing.tx_fault_ticks)) {
-      fault_bus(b, BusFault::tx_queue_full);
-    }
+    if (bus.tx_full.end_tick(config_.timing.tx_fault_ticks)) fault_bus(b, BusFault::tx_queue_full);
   }
 }
 
@@ -474,9 +483,12 @@ hal::IoStatus CanHardware::read(hal::Measurements& out) noexcept {
     ++expected;
     fresh += jr.status.fresh ? 1 : 0;
   }
+  static_assert(kMaxBuses <= 32, "hal::Measurements::degraded_buses has a bit per bus");
+  out.degraded_buses = 0;
   for (int b = 0; b < bus_count_; ++b) {
     const Bus& bus = buses_[static_cast<std::size_t>(b)];
     bus_fault = bus_fault || (bus.count > 0 && bus.diag.fault != BusFault::none);  // sensors-only: its sensors go lost
+    if (bus.diag.error_passive) out.degraded_buses |= 1u << b;
   }
   fill_sensors(out);
 
@@ -539,24 +551,28 @@ hal::IoStatus CanHardware::write(const hal::JointCommands& cmd) noexcept {
   return rejected_commands_ == rejected_before ? hal::IoStatus::ok : hal::IoStatus::error;
 }
 
+std::string bus_diagnostics_line(const BusConfig& bus, const BusDiagnostics& d) {
+  const auto counter = [&](std::uint8_t c) { return d.have_error_counters ? std::to_string(c) : std::string("-"); };
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "can bus %s: fault=%s sent=%llu received=%llu tx_dropped=%llu bad_frames=%llu unexpected=%llu "
+                "foreign=%llu duplicates=%llu sensor_frames=%llu error_frames=%llu error_passive=%d "
+                "tx_error_counter=%s rx_error_counter=%s\n",
+                (bus.name + " (" + bus.interface + ")").c_str(), to_string(d.fault),
+                static_cast<unsigned long long>(d.frames_sent), static_cast<unsigned long long>(d.frames_received),
+                static_cast<unsigned long long>(d.tx_dropped), static_cast<unsigned long long>(d.bad_frames),
+                static_cast<unsigned long long>(d.unexpected_frames), static_cast<unsigned long long>(d.foreign_frames),
+                static_cast<unsigned long long>(d.duplicates), static_cast<unsigned long long>(d.sensor_frames),
+                static_cast<unsigned long long>(d.error_frames), d.error_passive ? 1 : 0,
+                counter(d.tx_error_counter).c_str(), counter(d.rx_error_counter).c_str());
+  return line;
+}
+
 std::string CanHardware::diagnostics_report() const {
   std::string out = startup_notes_;
   char line[512];
   for (int b = 0; b < bus_count_; ++b) {
-    const BusDiagnostics& d = diagnostics(b);
-    std::snprintf(line, sizeof line,
-                  "can bus %s: fault=%s sent=%llu received=%llu tx_dropped=%llu bad_frames=%llu unexpected=%llu "
-                  "foreign=%llu duplicates=%llu sensor_frames=%llu error_frames=%llu error_passive=%d\n",
-                  (config_.buses[static_cast<std::size_t>(b)].name + " (" +
-                   config_.buses[static_cast<std::size_t>(b)].interface + ")")
-                      .c_str(),
-                  to_string(d.fault), static_cast<unsigned long long>(d.frames_sent),
-                  static_cast<unsigned long long>(d.frames_received), static_cast<unsigned long long>(d.tx_dropped),
-                  static_cast<unsigned long long>(d.bad_frames), static_cast<unsigned long long>(d.unexpected_frames),
-                  static_cast<unsigned long long>(d.foreign_frames), static_cast<unsigned long long>(d.duplicates),
-                  static_cast<unsigned long long>(d.sensor_frames), static_cast<unsigned long long>(d.error_frames),
-                  d.error_passive ? 1 : 0);
-    out += line;
+    out += bus_diagnostics_line(config_.buses[static_cast<std::size_t>(b)], diagnostics(b));
   }
   const auto sensor = [&](const char* name, bool enabled, const SensorDiagnostics& d) {
     if (!enabled) return;

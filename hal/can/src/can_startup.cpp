@@ -76,7 +76,7 @@ LifecycleResult CanHardware::open_bus(int b) {
   const std::string err = bus.socket.open(bc.interface, bc.fd, ids, true);
   if (!err.empty()) return LifecycleResult::failure("bus '" + bc.name + "': " + err);
   bus.diag = BusDiagnostics{};
-  bus.enobufs_ticks_in_row = 0;
+  bus.tx_full = TxBufferFull{};
   return LifecycleResult::success();
 }
 
@@ -149,8 +149,8 @@ LifecycleResult CanHardware::enable_bus(int b) {
   damping.kd_nms_per_rad.setConstant(config_.timing.damping_kd_nms_per_rad);
   for (int k = 0; k < bus.count; ++k) {
     JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
-    // Clears what the walk itself latched (a drive found in Fault, then reset); an EMCY during
-    // start-up never gets here: it failed start-up above (startup_emcy).
+    // Clears what the walk itself latched (a drive found in Fault, then reset); a drive's own
+    // fault code during start-up never gets here: it failed start-up above (startup_fault).
     jr.status = hal::DriveStatus{};
     jr.status.state = hal::DriveState::enabled;
     jr.last_rx_tick = tick_;
@@ -185,7 +185,12 @@ LifecycleResult CanHardware::start_mit(int b) {
     mit_joints([&](int j) { all = all && joints_[static_cast<std::size_t>(j)].replies_this_tick > 0; });
     return all;
   };
-  mit_joints([&](int j) { joints_[static_cast<std::size_t>(j)].replies_this_tick = 0; });
+  std::vector<int> drives;
+  mit_joints([&](int j) {
+    joints_[static_cast<std::size_t>(j)].replies_this_tick = 0;
+    joints_[static_cast<std::size_t>(j)].startup_fault_code = 0;
+    drives.push_back(j);
+  });
   // 1. Exit motor mode: presence check; the reply gives the initial position.
   for (std::uint32_t attempt = 0; attempt <= config_.timing.mit_presence_retries && !all_replied(); ++attempt) {
     mit_joints([&](int j) {
@@ -197,6 +202,7 @@ LifecycleResult CanHardware::start_mit(int b) {
     });
     pump_until(after_ms(config_.timing.mit_presence_timeout_ms), all_replied);
   }
+  if (LifecycleResult r = startup_fault(drives, "start-up"); !r.ok) return r;
   std::string missing;
   mit_joints([&](int j) {
     if (joints_[static_cast<std::size_t>(j)].replies_this_tick == 0) missing += (missing.empty() ? "" : "; ") + drive_name(j);
@@ -214,7 +220,9 @@ LifecycleResult CanHardware::start_mit(int b) {
                               joints_[static_cast<std::size_t>(j)].cfg.mit_ranges, f);
     send_now(b, f);
   });
-  if (!pump_until(after_ms(config_.timing.mit_presence_timeout_ms), all_replied)) {
+  const bool answered = pump_until(after_ms(config_.timing.mit_presence_timeout_ms), all_replied);
+  if (LifecycleResult r = startup_fault(drives, "start-up"); !r.ok) return r;
+  if (!answered) {
     return LifecycleResult::failure("MIT start-up: a drive on bus '" + config_.buses[static_cast<std::size_t>(b)].name +
                                     "' did not answer the zero command");
   }
@@ -238,9 +246,11 @@ LifecycleResult CanHardware::start_mit(int b) {
 LifecycleResult CanHardware::enable_mit(int b) {
   const Bus& bus = buses_[static_cast<std::size_t>(b)];
   bool all_sent = true;
+  std::vector<int> drives;
   for (int k = 0; k < bus.count; ++k) {
     JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
     if (jr.cfg.protocol != Protocol::mit) continue;
+    drives.push_back(bus.joints[k]);
     jr.replies_this_tick = 0;
     Frame f;
     mit::encode_special(jr.cfg.drive_id, mit::Special::enter_motor_mode, f);
@@ -255,6 +265,7 @@ LifecycleResult CanHardware::enable_mit(int b) {
   };
   const bool ok = all_sent && pump_until(after_ms(config_.timing.mit_presence_timeout_ms), all_replied);
   for (int k = 0; k < bus.count; ++k) joints_[static_cast<std::size_t>(bus.joints[k])].replies_this_tick = 0;
+  if (LifecycleResult r = startup_fault(drives, "enable"); !r.ok) return r;
   if (!ok) {
     return LifecycleResult::failure("MIT enable: a drive on bus '" + config_.buses[static_cast<std::size_t>(b)].name +
                                     "' did not answer enter-motor-mode");
@@ -394,20 +405,24 @@ LifecycleResult CanHardware::configure_node(int j) {
   return LifecycleResult::success();
 }
 
-// CAN.md 2.2: any EMCY with a non-zero code latches a drive fault. During start-up the state
-// machine walk (4.3 step 4) fault-resets a drive in Fault and would enable it again, silently
-// clearing that latch; so an EMCY seen from the boot wait to Operation enabled fails start-up,
-// naming the drive and the code, and the fault stays latched in its status. Clearing it is an
-// operator action (as after bus-off, 4): fix the cause, then start up again. A drive found in
-// Fault without an EMCY during this start-up (a fault left from before) is reset by the walk.
-LifecycleResult CanHardware::startup_emcy(const std::vector<int>& nodes, const char* during) {
-  for (int j : nodes) {
+// A fault code from the drive itself latches a drive fault: any EMCY with a non-zero code (CAN.md
+// 2.2), the non-zero error byte of a vendor MIT reply (1.4, drives with mit_vendor_reply). During
+// start-up the CiA 402 state machine walk (4.3 step 4) fault-resets a drive in Fault and would
+// enable it again, and MIT start-up marks every drive that answered ready (4.2 step 3), silently
+// clearing that latch; so a code seen from the start of the bus's start-up to its enable fails
+// start-up, naming the drive and the code, and the fault stays latched in its status. Clearing it
+// is an operator action (as after bus-off, 4): fix the cause, then start up again. A CiA 402 drive
+// found in Fault without an EMCY during this start-up (a fault left from before) is reset by the walk.
+LifecycleResult CanHardware::startup_fault(const std::vector<int>& drives, const char* during) {
+  for (int j : drives) {
     const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
-    if (jr.emcy_code != 0) {
-      return LifecycleResult::failure("CiA 402 " + std::string(during) + ": " + drive_name(j) + " sent EMCY " +
-                                      hex(jr.emcy_code, 4) + ": drive fault latched (CAN.md 2.2); clear its cause, "
-                                      "then start up again");
-    }
+    if (jr.startup_fault_code == 0) continue;
+    const bool mit = jr.cfg.protocol == Protocol::mit;
+    return LifecycleResult::failure(
+        std::string(mit ? "MIT " : "CiA 402 ") + during + ": " + drive_name(j) +
+        (mit ? " reports vendor error code " + hex(jr.startup_fault_code, 2) + ": drive fault latched (CAN.md 1.4)"
+             : " sent EMCY " + hex(jr.startup_fault_code, 4) + ": drive fault latched (CAN.md 2.2)") +
+        "; clear its cause, then start up again");
   }
   return LifecycleResult::success();
 }
@@ -428,7 +443,7 @@ LifecycleResult CanHardware::start_cia402(int b) {
   // 1. Boot-up: a node that is already up (or silent) is reset so that it boots again.
   for (int j : nodes) {
     joints_[static_cast<std::size_t>(j)].booted = false;
-    joints_[static_cast<std::size_t>(j)].emcy_code = 0;
+    joints_[static_cast<std::size_t>(j)].startup_fault_code = 0;
   }
   pump_until(after_ms(std::min<std::uint32_t>(200, config_.timing.boot_timeout_ms)), all_booted);
   for (int j : nodes) {
@@ -446,15 +461,15 @@ LifecycleResult CanHardware::start_cia402(int b) {
     return LifecycleResult::failure("CiA 402 start-up on bus '" + bc.name + "': no boot-up within " +
                                     std::to_string(config_.timing.boot_timeout_ms) + " ms: " + missing);
   }
-  if (LifecycleResult r = startup_emcy(nodes, "start-up"); !r.ok) return r;
+  if (LifecycleResult r = startup_fault(nodes, "start-up"); !r.ok) return r;
   // 2. Pre-operational configuration by SDO.
   for (int j : nodes) {
     if (LifecycleResult r = configure_node(j); !r.ok) return r;
-    if (LifecycleResult r = startup_emcy(nodes, "start-up"); !r.ok) return r;
+    if (LifecycleResult r = startup_fault(nodes, "start-up"); !r.ok) return r;
     joints_[static_cast<std::size_t>(j)].status.state = hal::DriveState::ready;
   }
   pump_until(monotonic_ns(), [] { return false; });  // what arrived after the last SDO answer
-  return startup_emcy(nodes, "start-up");
+  return startup_fault(nodes, "start-up");
 }
 
 LifecycleResult CanHardware::enable_cia402(int b) {
@@ -510,12 +525,12 @@ LifecycleResult CanHardware::enable_cia402(int b) {
       return true;
     };
     pump_until(after_ms(config_.timing.state_step_timeout_ms), all_tpdo);
-    if (LifecycleResult r = startup_emcy(nodes, "enable"); !r.ok) return r;
+    if (LifecycleResult r = startup_fault(nodes, "enable"); !r.ok) return r;
     next_cycle += 1000LL * config_.timing.tick_us;
     sleep_until_ns(std::max(next_cycle, monotonic_ns()));
   }
   for (int j : nodes) joints_[static_cast<std::size_t>(j)].replies_this_tick = 0;
-  return startup_emcy(nodes, "enable");
+  return startup_fault(nodes, "enable");
 }
 
 // ---- recovery and shut-down -------------------------------------------------------------------------

@@ -90,8 +90,13 @@ TxStatus SocketCanBus::send(const Frame& f) noexcept {
   if (n == static_cast<ssize_t>(size)) return TxStatus::ok;
   if (n >= 0) return TxStatus::short_write;
   last_errno_ = errno;
-  if (errno == ENOBUFS || errno == EAGAIN) return TxStatus::queue_full;
-  if (errno == ENETDOWN) return TxStatus::net_down;
+  return tx_status_of(errno);
+}
+
+TxStatus tx_status_of(int err) noexcept {
+  if (err == ENOBUFS) return TxStatus::queue_full;
+  if (err == EAGAIN || err == EWOULDBLOCK) return TxStatus::buffer_full;
+  if (err == ENETDOWN) return TxStatus::net_down;
   return TxStatus::error;
 }
 
@@ -166,12 +171,18 @@ void make_bus_off_frame(Frame& f) noexcept {
   f.len = CAN_ERR_DLC;
 }
 
-void make_error_passive_frame(Frame& f) noexcept {
+namespace {
+void make_controller_frame(std::uint8_t status, Frame& f) noexcept {
   f = Frame{};
   f.error = true;
   f.id = CAN_ERR_CRTL;
   f.len = CAN_ERR_DLC;
-  f.data[1] = CAN_ERR_CRTL_TX_PASSIVE;
+  f.data[1] = status;
 }
+}  // namespace
+
+void make_error_passive_frame(Frame& f) noexcept { make_controller_frame(CAN_ERR_CRTL_TX_PASSIVE, f); }
+
+void make_error_active_frame(Frame& f) noexcept { make_controller_frame(CAN_ERR_CRTL_ACTIVE, f); }
 
 }  // namespace springbok::can

@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <limits>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "alloc_trap.hpp"
 #include "loop_fixture.hpp"
@@ -159,6 +161,36 @@ TEST_F(LoopTest, LogRingRecordsModeChangesAndVerdicts) {
   EXPECT_EQ(mode_changes, 3);  // idle -> stand_up -> stand -> control
   EXPECT_EQ(accepted, 2);
   EXPECT_EQ(rig->log.dropped(), 0u);
+}
+
+// CAN.md 4: a bus in error passive is degraded: logged when the set of degraded buses changes,
+// both ways, with the buses' words; a warning, never a fault: the robot keeps going.
+TEST_F(LoopTest, DegradedBusesAreLoggedBothWaysAndNeverAFault) {
+  to_control();
+  rt::LogRecord r;
+  while (rig->log.pop(r)) {
+  }
+  const auto step = [&](std::uint32_t degraded, int ticks) {
+    hardware.state().degraded_buses = degraded;
+    rig->executive->run_ticks(ticks);
+  };
+  step(1u << 6, 10);
+  step((1u << 6) | 1u, 10);
+  step(0, 10);
+  EXPECT_EQ(rig->supervisor.mode(), Mode::control);
+  EXPECT_EQ(rig->supervisor.faults(), 0u);
+  std::vector<std::pair<std::int64_t, std::int64_t>> changes;
+  std::vector<std::string> words;
+  while (rig->log.pop(r)) {
+    if (r.event != rt::LogEvent::buses_degraded) continue;
+    changes.emplace_back(r.a, r.b);
+    words.push_back(describe_log_record(r));
+  }
+  const std::vector<std::pair<std::int64_t, std::int64_t>> expected{{64, 0}, {65, 64}, {0, 65}};
+  EXPECT_EQ(changes, expected);
+  EXPECT_EQ(words, (std::vector<std::string>{"degraded=bus6 was=none", "degraded=bus0,bus6 was=bus6",
+                                             "degraded=none was=bus0,bus6"}));
+  EXPECT_STREQ(rt::to_string(rt::LogEvent::buses_degraded), "buses_degraded");
 }
 
 TEST_F(LoopTest, WholeTicksAllocateNothing) {

@@ -162,6 +162,8 @@ TEST(OperatorLine, LogRecordsAreDescribedByName) {
   EXPECT_EQ(describe(rt::LogEvent::controller_request, 0, 1), "gait trot");
   EXPECT_EQ(describe(rt::LogEvent::controller_request_refused, 1, 0), "tare");
   EXPECT_EQ(describe(rt::LogEvent::mode_change, 99, -1), "? -> ?");
+  EXPECT_EQ(describe(rt::LogEvent::buses_degraded, (1 << 6) | 1, 1 << 6), "degraded=bus0,bus6 was=bus6");
+  EXPECT_EQ(describe(rt::LogEvent::buses_degraded, 0, 1 << 9), "degraded=none was=bus9");
   EXPECT_EQ(describe(rt::LogEvent::overrun, 1, 2), "");
 }
 

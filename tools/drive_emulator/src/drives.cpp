@@ -47,9 +47,11 @@ const char* to_string(FaultKind k) noexcept {
     case FaultKind::no_heartbeat: return "no_heartbeat";
     case FaultKind::rated_torque: return "rated_torque";
     case FaultKind::mode_display_delay: return "mode_display_delay";
+    case FaultKind::vendor_error: return "vendor_error";
     case FaultKind::emcy: return "emcy";
     case FaultKind::bus_off: return "bus_off";
     case FaultKind::error_passive: return "error_passive";
+    case FaultKind::error_active: return "error_active";
     case FaultKind::wrong_dlc: return "wrong_dlc";
     case FaultKind::unexpected_id: return "unexpected_id";
     case FaultKind::stale_counter: return "stale_counter";
@@ -62,7 +64,9 @@ const char* to_string(FaultKind k) noexcept {
   return "?";
 }
 
-bool is_property(FaultKind k) noexcept { return k == FaultKind::rated_torque || k == FaultKind::mode_display_delay; }
+bool is_property(FaultKind k) noexcept {
+  return k == FaultKind::rated_torque || k == FaultKind::mode_display_delay || k == FaultKind::vendor_error;
+}
 
 const char* to_string(SensorId s) noexcept {
   switch (s) {
@@ -132,7 +136,8 @@ void Drive::begin_tick(std::vector<Frame>& out) {
     }
   }
   for (const Fault& flt : faults_) {
-    const bool event = flt.kind == FaultKind::emcy || flt.kind == FaultKind::bus_off || flt.kind == FaultKind::error_passive;
+    const bool event = flt.kind == FaultKind::emcy || flt.kind == FaultKind::bus_off ||
+                       flt.kind == FaultKind::error_passive || flt.kind == FaultKind::error_active;
     if (event && flt.at_sdo == 0 && flt.at_tick == tick_) on_fault_event(flt, out);
   }
 }
@@ -164,7 +169,11 @@ void Drive::emit_cyclic(Frame f, std::vector<Frame>& out) {
 // ---- MIT mode ---------------------------------------------------------------------------------------
 MitDrive::MitDrive(const can::DriveConfig& cfg, bool fd_bus, JointModel model, std::vector<Fault> faults,
                    std::uint32_t can_timeout_ms)
-    : Drive(cfg, fd_bus, model, std::move(faults)), can_timeout_ms_(can_timeout_ms) {}
+    : Drive(cfg, fd_bus, model, std::move(faults)), can_timeout_ms_(can_timeout_ms) {
+  for (const Fault& flt : faults_) {
+    if (flt.kind == FaultKind::vendor_error) error_code_ = static_cast<std::uint8_t>(flt.param);
+  }
+}
 
 Frame MitDrive::reply() const {
   can::mit::Reply r;
@@ -190,6 +199,7 @@ void MitDrive::on_fault_event(const Fault& flt, std::vector<Frame>& out) {
     case FaultKind::emcy: error_code_ = static_cast<std::uint8_t>(flt.param == 0 ? 1 : flt.param); break;
     case FaultKind::bus_off: can::make_bus_off_frame(e); emit(e, out); break;
     case FaultKind::error_passive: can::make_error_passive_frame(e); emit(e, out); break;
+    case FaultKind::error_active: can::make_error_active_frame(e); emit(e, out); break;
     default: break;
   }
 }
@@ -568,6 +578,7 @@ void Cia402Drive::on_fault_event(const Fault& flt, std::vector<Frame>& out) {
       break;
     case FaultKind::bus_off: can::make_bus_off_frame(e); emit(e, out); break;
     case FaultKind::error_passive: can::make_error_passive_frame(e); emit(e, out); break;
+    case FaultKind::error_active: can::make_error_active_frame(e); emit(e, out); break;
     default: break;
   }
 }

@@ -66,6 +66,8 @@ FaultResult read_faults(const config::Document& doc) {
         if (n["param"].require()) {
           if (f.kind == FaultKind::rated_torque) {
             (void)n["param"].integer(f.param, 0, 0xFFFFFFFFLL);  // mNm; 0 is a drive fault worth injecting
+          } else if (f.kind == FaultKind::vendor_error) {
+            (void)n["param"].integer(f.param, 1, 0xFF);  // the reply's error byte; 0 is no error
           } else {
             (void)n["param"].integer(f.param, 1, 60000);  // ms
           }

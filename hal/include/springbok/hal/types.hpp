@@ -66,6 +66,11 @@ struct Measurements {
   VecNj qd_rad_s = VecNj::Zero();
   VecNj tau_nm = VecNj::Zero();      // measured joint torque
   std::array<DriveStatus, kNj> drives{};
+  // Degraded buses, bit b for the backend's bus b: filled by the SocketCAN backend (the b-th of
+  // can.buses whose controller reported error passive, CAN.md 4, until it reports error active
+  // again). A warning, not a fault: the bus still carries every frame. Backends without buses
+  // (the simulation) leave it 0.
+  std::uint32_t degraded_buses = 0;
   Imu imu;
   Wrench wrist;
 };

@@ -4,7 +4,8 @@
 //   -> (every N ticks) a telemetry record into its ring
 // Fixed-size structs passed by reference; the controller is a template
 // parameter (no virtual call, no std::function); one virtual call per HAL
-// exchange. Mode and fault changes, verdicts and HAL errors go to the log ring.
+// exchange. Mode and fault changes, verdicts, HAL errors and the warnings (sensors lost,
+// buses degraded) go to the log ring.
 #pragma once
 
 #include "springbok/app/operator.hpp"
@@ -67,6 +68,10 @@ class ControlLoop {
     if (supervisor_.sensors_lost() != sensors_lost_) {  // a warning outside the control mode, a fault in it
       sensors_lost_ = supervisor_.sensors_lost();
       log(info, rt::LogEvent::sensors_lost, sensors_lost_, static_cast<std::int64_t>(supervisor_.mode()));
+    }
+    if (supervisor_.degraded_buses() != degraded_buses_) {  // a warning: the robot keeps going
+      log(info, rt::LogEvent::buses_degraded, supervisor_.degraded_buses(), degraded_buses_);
+      degraded_buses_ = supervisor_.degraded_buses();
     }
     if (supervisor_.mode() != mode_before) {
       log(info, rt::LogEvent::mode_change, static_cast<std::int64_t>(mode_before),
@@ -149,6 +154,7 @@ class ControlLoop {
   hal::JointCommands cmd_;
   hal::IoStatus last_io_ = hal::IoStatus::ok;
   safety::FaultMask sensors_lost_ = 0;
+  std::uint32_t degraded_buses_ = 0;
   TelemetryRing* telemetry_ = nullptr;
   std::uint32_t telemetry_every_ = 1;
   TelemetryRecord telemetry_record_;

@@ -130,8 +130,8 @@ struct LoopStatus {
 std::string fault_list(safety::FaultMask faults);
 
 // The words of a loop log record (rt::LogDrainer::Describe): modes, fault and
-// sensor names, commands and verdicts ("new=imu_lost latched=imu_lost"); "" for
-// records whose numbers say it all.
+// sensor names, degraded buses, commands and verdicts ("new=imu_lost
+// latched=imu_lost", "degraded=bus6 was=none"); "" for records whose numbers say it all.
 std::string describe_log_record(const rt::LogRecord& record);
 
 }  // namespace springbok::app

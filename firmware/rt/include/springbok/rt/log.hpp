@@ -27,6 +27,7 @@ enum class LogEvent : std::uint16_t {
   sensors_lost = 9,      // a: the needed sensors lost now (fault bits imu_lost, wrist_ft_lost; 0: back), b: mode
   controller_request = 10,          // a: request kind (0 gait, 1 tare), b: gait (0 stand, 1 trot), x: f_s [Hz]
   controller_request_refused = 11,  // as controller_request
+  buses_degraded = 12,   // a: the buses degraded now (bit b: the HAL's bus b; 0: none), b: those before
 };
 
 const char* to_string(LogEvent event) noexcept;

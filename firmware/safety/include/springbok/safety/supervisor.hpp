@@ -121,6 +121,10 @@ class Supervisor {
   // kWristFtLost, kImuClipping, kWristFtClipping), in any mode: the warning outside the
   // control mode.
   FaultMask sensors_lost() const noexcept { return sensors_lost_; }
+  // The buses the HAL reported degraded at the last observe() (hal::Measurements::degraded_buses,
+  // bit b: the backend's bus b; CAN.md 4: error passive): a warning in every mode, never a fault
+  // (the bus still carries every frame; its failures are caught where they happen).
+  std::uint32_t degraded_buses() const noexcept { return degraded_buses_; }
   // The joint that latched fault::kJointLimit (-1: none) and its position then.
   int limit_joint() const noexcept { return limit_joint_; }
   double limit_joint_position_rad() const noexcept { return limit_joint_position_rad_; }
@@ -160,6 +164,7 @@ class Supervisor {
   bool last_drives_healthy_ = false;
   double last_max_speed_rad_s_ = 0.0;
   FaultMask sensors_lost_ = 0;
+  std::uint32_t degraded_buses_ = 0;
   bool imu_not_converged_ = false;  // the control mode needs the IMU and it says: not converged
   bool have_last_good_ = false;
   hal::JointCommands last_good_;

@@ -16,7 +16,9 @@
 // DriveState::fault. Bus-off, ENETDOWN or ENOBUFS on tx_fault_ticks ticks in a
 // row fault the bus: its drives are lost, read() returns IoStatus::error, and
 // nothing resumes by itself: recovery is an operator action (restart the
-// controller, then recover_bus(), which re-runs that bus's start-up).
+// controller, then recover_bus(), which re-runs that bus's start-up). A bus whose
+// controller reports error passive is only degraded (its bit in m.degraded_buses,
+// a warning for the safety layer) until the controller reports error active again.
 //
 // Sensors (CAN.md 6): the trunk IMU and the wrist F/T push their frames on their own
 // clock. read() feeds every sensor frame it drains to the sensor's assembler and fills
@@ -63,7 +65,45 @@ struct BusDiagnostics {
   std::uint64_t sensor_frames = 0;       // frames of a sensor configured on this bus (see the sensor's diagnostics)
   std::uint64_t rx_budget_exhausted = 0; // ticks on which the per-tick receive budget ran out (frames left queued)
   bool error_passive = false;            // degraded (warning for safety)
+  // The controller's TX / RX error counters of the newest CAN_ERR_CNT report (none on vcan).
+  bool have_error_counters = false;
+  std::uint8_t tx_error_counter = 0;
+  std::uint8_t rx_error_counter = 0;
   BusFault fault = BusFault::none;       // latched until recover_bus()
+};
+
+// Counts an error frame into its bus's diagnostics (CAN.md 4, "Error frames"); returns the
+// bus fault it means (bus-off, controller restarted) or BusFault::none. rt: no alloc
+BusFault record_error_frame(const Frame& f, BusDiagnostics& d) noexcept;
+// The bus's line of CanHardware::diagnostics_report(): "can bus lf (vcan0): fault=none ...".
+std::string bus_diagnostics_line(const BusConfig& bus, const BusDiagnostics& d);
+
+// CAN.md 4 "TX buffer full", for one bus: after a write fails with ENOBUFS (the device queue)
+// or EAGAIN (the socket's buffer) the rest of that bus's frames are dropped for the tick (never
+// retried); ENOBUFS on fault_ticks ticks in a row is a bus fault. A tick that stopped at EAGAIN
+// says nothing of the device queue: it neither extends nor ends that streak. rt: no alloc
+class TxBufferFull {
+ public:
+  void begin_tick() noexcept { queue_full_ = buffer_full_ = false; }
+  void record(TxStatus s) noexcept {
+    queue_full_ = queue_full_ || s == TxStatus::queue_full;
+    buffer_full_ = buffer_full_ || s == TxStatus::buffer_full;
+  }
+  // The rest of this tick's frames are to be dropped.
+  bool dropping() const noexcept { return queue_full_ || buffer_full_; }
+  // Ends the tick; true when it completes fault_ticks ticks in a row with ENOBUFS.
+  bool end_tick(std::uint32_t fault_ticks) noexcept {
+    if (queue_full_) {
+      ++ticks_in_row_;
+    } else if (!buffer_full_) {
+      ticks_in_row_ = 0;
+    }
+    return ticks_in_row_ >= fault_ticks;
+  }
+
+ private:
+  bool queue_full_ = false, buffer_full_ = false;
+  std::uint32_t ticks_in_row_ = 0;
 };
 
 // Per-joint runtime state of the backend (fixed size).
@@ -87,7 +127,9 @@ struct JointRuntime {
   std::uint32_t rated_torque_mnm = 0;
   cia402::TorqueScale torque_scale;
   bool booted = false;            // CiA 402 start-up: boot-up seen
-  std::uint16_t emcy_code = 0;    // CiA 402: the first non-zero EMCY code since this bus's start-up began
+  // The first non-zero fault code the drive itself sent since this bus's start-up began (CiA 402:
+  // EMCY; MIT: the vendor reply's error byte): start-up fails on it (can_startup.cpp).
+  std::uint16_t startup_fault_code = 0;
   bool sdo_answered = false;
   Frame sdo_answer;
   Frame pending;                  // the command frame for the next send
@@ -158,8 +200,7 @@ class CanHardware final : public hal::Hardware {
     int count = 0;
     bool any_mit = false;
     bool any_cia = false;
-    int enobufs_ticks_in_row = 0;
-    bool enobufs_this_tick = false;
+    TxBufferFull tx_full;
     int rx_budget = kMaxRxFramesPerBusPerTick;  // frames this read() may still take from this bus
     bool has_imu = false, has_ft = false;       // sensors on this bus
     BusDiagnostics diag;
@@ -178,8 +219,8 @@ class CanHardware final : public hal::Hardware {
   hal::LifecycleResult start_cia402(int b);
   hal::LifecycleResult enable_cia402(int b);
   hal::LifecycleResult configure_node(int j);
-  // A failure naming the first of `nodes` that sent a non-zero EMCY since its start-up began.
-  hal::LifecycleResult startup_emcy(const std::vector<int>& nodes, const char* during);
+  // A failure naming the first of `drives` that sent a fault code since its start-up began.
+  hal::LifecycleResult startup_fault(const std::vector<int>& drives, const char* during);
   SdoOutcome sdo(int j, bool write, std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size);
   std::string drive_name(int j) const;
   template <class Done>

@@ -12,11 +12,14 @@ namespace springbok::can {
 
 enum class TxStatus : std::uint8_t {
   ok = 0,
-  queue_full = 1,   // ENOBUFS (device queue) or EAGAIN (socket buffer): drop, never retry in a loop
+  queue_full = 1,   // ENOBUFS (device queue): drop, never retry in a loop; ticks in a row: bus fault
   net_down = 2,     // ENETDOWN: bus fault at once
   short_write = 3,  // the kernel took fewer bytes than a frame
   error = 4,        // any other errno
+  buffer_full = 5,  // EAGAIN (the socket's buffer): drop, never retry in a loop; never a bus fault by itself
 };
+// What a failed write()'s errno means. rt: no alloc
+TxStatus tx_status_of(int err) noexcept;
 
 enum class RxStatus : std::uint8_t { frame = 0, empty = 1, error = 2 };
 
@@ -78,5 +81,7 @@ ErrorFrameInfo classify_error_frame(const Frame& f) noexcept;
 void make_bus_off_frame(Frame& f) noexcept;
 // An error-passive controller report (CAN_ERR_CRTL, TX passive).
 void make_error_passive_frame(Frame& f) noexcept;
+// A controller report of its return to error active (CAN_ERR_CRTL, ACTIVE).
+void make_error_active_frame(Frame& f) noexcept;
 
 }  // namespace springbok::can

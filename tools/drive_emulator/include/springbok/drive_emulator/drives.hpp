@@ -68,13 +68,16 @@ enum class FaultKind : std::uint8_t {
                   // request since power-on (the host's Pre-operational configuration)
   bus_off,        // an error frame with CAN_ERR_BUSOFF on the drive's bus
   error_passive,  // an error frame CAN_ERR_CRTL / TX passive on the drive's bus
+  error_active,   // an error frame CAN_ERR_CRTL / ACTIVE on the drive's bus (back from error passive)
   wrong_dlc,      // the reply one byte short, for `count` ticks
   unexpected_id,  // MIT: byte 0 = `param`; CiA 402: TPDO1 with node id `param`; for `count` ticks
   no_heartbeat,   // CiA 402: heartbeats stop for good (the PDOs still flow)
-  // Drive properties from power-on (CiA 402; no `at` / `count`, `param` required):
-  rated_torque,        // 0x6076 reads `param` mNm instead of the config's rated_torque_nm (or the
-                       // joint's effort limit); the drive scales 0x6071 / 0x6072 / 0x6077 by it
-  mode_display_delay,  // 0x6061 shows a value written to 0x6060 only `param` ms after the write
+  // Drive properties from power-on (no `at` / `count`, `param` required):
+  rated_torque,        // CiA 402: 0x6076 reads `param` mNm instead of the config's rated_torque_nm (or
+                       // the joint's effort limit); the drive scales 0x6071 / 0x6072 / 0x6077 by it
+  mode_display_delay,  // CiA 402: 0x6061 shows a value written to 0x6060 only `param` ms after the write
+  vendor_error,        // MIT with 8-byte replies: every reply's error byte reads `param` (1..255), from
+                       // the first (a drive that boots with a fault: the host sees it during start-up)
   // Sensors (CAN.md 6.5; `sensor:` instead of `drive:`, ticks are the sensor's samples).
   // Also valid for a sensor: silent (never publishes again), drop (no frames for `count`
   // samples, the counter advances), wrong_dlc (every frame one byte short).
@@ -99,7 +102,7 @@ struct Fault {
   std::uint32_t param = 0;
   std::uint64_t at_sdo = 0;  // emcy (CiA 402): fire after answering this SDO request (1 = the first); 0: at `at`
 };
-// The drive properties of rated_torque / mode_display_delay, not timed events.
+// The drive properties of rated_torque / mode_display_delay / vendor_error, not timed events.
 bool is_property(FaultKind k) noexcept;
 
 struct FaultResult {

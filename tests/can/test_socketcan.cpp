@@ -1,0 +1,98 @@
+// The SocketCAN host's decisions that need no socket (CAN.md 4): what a failed write means
+// for its bus, and what the controller's error frames leave in the bus's diagnostics.
+#include <gtest/gtest.h>
+#include <linux/can/error.h>
+
+#include <cerrno>
+#include <string>
+
+#include "springbok/can/can_hardware.hpp"
+
+namespace springbok::can {
+namespace {
+
+// CAN.md 4 "TX buffer full": ENOBUFS (the device queue) and EAGAIN (the socket's buffer) both
+// drop the rest of the bus's frames for the tick; only ENOBUFS on tx_fault_ticks ticks in a
+// row is a bus fault. A tick whose writes stopped at EAGAIN says nothing of the device queue:
+// it neither extends nor ends an ENOBUFS streak.
+TEST(TxBufferFull, EagainDropsTheRestOfTheTickButNeverFaultsTheBus) {
+  EXPECT_EQ(tx_status_of(ENOBUFS), TxStatus::queue_full);
+  EXPECT_EQ(tx_status_of(ENETDOWN), TxStatus::net_down);
+  EXPECT_EQ(tx_status_of(EIO), TxStatus::error);
+  const TxStatus eagain = tx_status_of(EAGAIN);
+  EXPECT_EQ(eagain, TxStatus::buffer_full);
+  constexpr std::uint32_t kFaultTicks = 3;
+  TxBufferFull rule;
+  const auto tick = [&](TxStatus first_failure) {
+    rule.begin_tick();
+    rule.record(TxStatus::ok);
+    EXPECT_FALSE(rule.dropping());
+    rule.record(first_failure);
+    return rule.end_tick(kFaultTicks);
+  };
+  for (int k = 0; k < 10; ++k) {
+    rule.begin_tick();
+    rule.record(TxStatus::ok);
+    rule.record(eagain);
+    EXPECT_TRUE(rule.dropping()) << k;  // the rest of the tick is dropped
+    EXPECT_FALSE(rule.end_tick(kFaultTicks)) << "EAGAIN on tick " << k << " faulted the bus";
+  }
+  EXPECT_FALSE(tick(TxStatus::queue_full));
+  EXPECT_FALSE(tick(TxStatus::queue_full));
+  EXPECT_FALSE(tick(TxStatus::ok));  // a tick that got through ends the streak
+  EXPECT_FALSE(tick(TxStatus::queue_full));
+  EXPECT_FALSE(tick(TxStatus::queue_full));
+  EXPECT_FALSE(tick(eagain));  // neither extends nor ends it
+  EXPECT_TRUE(tick(TxStatus::queue_full));
+}
+
+Frame error_frame(std::uint32_t classes, std::uint8_t controller, std::uint8_t tx_errors, std::uint8_t rx_errors) {
+  Frame f;
+  f.error = true;
+  f.id = classes;
+  f.len = CAN_ERR_DLC;
+  f.data[1] = controller;
+  f.data[6] = tx_errors;
+  f.data[7] = rx_errors;
+  return f;
+}
+
+// CAN.md 4: CAN_ERR_CNT carries the controller's TX / RX error counters in data[6] / data[7]
+// ("log"): the bus keeps the last ones and its report line shows them; a bus that never
+// reported them (vcan, an older kernel) says so.
+TEST(ErrorFrames, TheLastErrorCountersAreKeptAndReported) {
+  BusConfig bus;
+  bus.name = "arm2";
+  bus.interface = "vcan6";
+  BusDiagnostics d;
+  EXPECT_NE(bus_diagnostics_line(bus, d).find("error_passive=0 tx_error_counter=- rx_error_counter=-\n"),
+            std::string::npos)
+      << bus_diagnostics_line(bus, d);
+
+  const Frame passive = error_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_TX_PASSIVE, 128, 96);
+  const ErrorFrameInfo e = classify_error_frame(passive);
+  EXPECT_TRUE(e.error_passive);
+  ASSERT_TRUE(e.has_counters);
+  EXPECT_EQ(e.tx_errors, 128);
+  EXPECT_EQ(e.rx_errors, 96);
+  EXPECT_EQ(record_error_frame(passive, d), BusFault::none);
+  std::string line = bus_diagnostics_line(bus, d);
+  EXPECT_EQ(line.rfind("can bus arm2 (vcan6): fault=none ", 0), 0u) << line;
+  EXPECT_NE(line.find("error_frames=1 error_passive=1 tx_error_counter=128 rx_error_counter=96\n"), std::string::npos)
+      << line;
+
+  // Back to error active with lower counters: the newest are kept.
+  EXPECT_EQ(record_error_frame(error_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_ACTIVE, 90, 12), d),
+            BusFault::none);
+  line = bus_diagnostics_line(bus, d);
+  EXPECT_NE(line.find("error_frames=2 error_passive=0 tx_error_counter=90 rx_error_counter=12\n"), std::string::npos)
+      << line;
+  // A report without CAN_ERR_CNT leaves them as they were.
+  EXPECT_EQ(record_error_frame(error_frame(CAN_ERR_BUSOFF, 0, 0, 0), d), BusFault::bus_off);
+  line = bus_diagnostics_line(bus, d);
+  EXPECT_NE(line.find("error_frames=3 error_passive=0 tx_error_counter=90 rx_error_counter=12\n"), std::string::npos)
+      << line;
+}
+
+}  // namespace
+}  // namespace springbok::can
