@@ -59,13 +59,14 @@ Frame error_frame(std::uint32_t classes, std::uint8_t controller, std::uint8_t t
 
 // CAN.md 4: CAN_ERR_CNT carries the controller's TX / RX error counters in data[6] / data[7]
 // ("log"): the bus keeps the last ones and its report line shows them; a bus that never
-// reported them (vcan, an older kernel) says so.
+// reported them (vcan, an older kernel) says so. The line also shows what the bus counted of
+// warnings, overflows, error-passive reports and failed writes ("count, log").
 TEST(ErrorFrames, TheLastErrorCountersAreKeptAndReported) {
   BusConfig bus;
   bus.name = "arm2";
   bus.interface = "vcan6";
   BusDiagnostics d;
-  EXPECT_NE(bus_diagnostics_line(bus, d).find("error_passive=0 tx_error_counter=- rx_error_counter=-\n"),
+  EXPECT_NE(bus_diagnostics_line(bus, d).find("warnings=0 overflows=0 error_passive=0 error_passive_events=0 tx_error_counter=- rx_error_counter=-\n"),
             std::string::npos)
       << bus_diagnostics_line(bus, d);
 
@@ -78,20 +79,32 @@ TEST(ErrorFrames, TheLastErrorCountersAreKeptAndReported) {
   EXPECT_EQ(record_error_frame(passive, d), BusFault::none);
   std::string line = bus_diagnostics_line(bus, d);
   EXPECT_EQ(line.rfind("can bus arm2 (vcan6): fault=none ", 0), 0u) << line;
-  EXPECT_NE(line.find("error_frames=1 error_passive=1 tx_error_counter=128 rx_error_counter=96\n"), std::string::npos)
+  EXPECT_NE(line.find("error_frames=1 warnings=0 overflows=0 error_passive=1 error_passive_events=1 tx_error_counter=128 "
+                      "rx_error_counter=96\n"), std::string::npos)
       << line;
 
   // Back to error active with lower counters: the newest are kept.
   EXPECT_EQ(record_error_frame(error_frame(CAN_ERR_CRTL | CAN_ERR_CNT, CAN_ERR_CRTL_ACTIVE, 90, 12), d),
             BusFault::none);
   line = bus_diagnostics_line(bus, d);
-  EXPECT_NE(line.find("error_frames=2 error_passive=0 tx_error_counter=90 rx_error_counter=12\n"), std::string::npos)
+  EXPECT_NE(line.find("error_frames=2 warnings=0 overflows=0 error_passive=0 error_passive_events=1 tx_error_counter=90 "
+                      "rx_error_counter=12\n"), std::string::npos)
       << line;
-  // A report without CAN_ERR_CNT leaves them as they were.
+  // Warning level and a lost frame (CAN.md 4: count, log): counted and in the line. A report
+  // without CAN_ERR_CNT leaves the counters as they were.
+  EXPECT_EQ(record_error_frame(error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_RX_OVERFLOW, 0, 0), d),
+            BusFault::none);
   EXPECT_EQ(record_error_frame(error_frame(CAN_ERR_BUSOFF, 0, 0, 0), d), BusFault::bus_off);
   line = bus_diagnostics_line(bus, d);
-  EXPECT_NE(line.find("error_frames=3 error_passive=0 tx_error_counter=90 rx_error_counter=12\n"), std::string::npos)
+  EXPECT_NE(line.find("error_frames=4 warnings=1 overflows=1 error_passive=0 error_passive_events=1 tx_error_counter=90 "
+                      "rx_error_counter=12\n"),
+            std::string::npos)
       << line;
+  d.short_writes = 2;
+  d.tx_errors = 3;
+  d.rx_budget_exhausted = 4;
+  line = bus_diagnostics_line(bus, d);
+  EXPECT_NE(line.find(" short_writes=2 tx_errors=3 rx_budget_exhausted=4 "), std::string::npos) << line;
 }
 
 }  // namespace

@@ -553,17 +553,17 @@ hal::IoStatus CanHardware::write(const hal::JointCommands& cmd) noexcept {
 
 std::string bus_diagnostics_line(const BusConfig& bus, const BusDiagnostics& d) {
   const auto counter = [&](std::uint8_t c) { return d.have_error_counters ? std::to_string(c) : std::string("-"); };
-  char line[512];
+  const auto n = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
+  char line[768];
   std::snprintf(line, sizeof line,
-                "can bus %s: fault=%s sent=%llu received=%llu tx_dropped=%llu bad_frames=%llu unexpected=%llu "
-                "foreign=%llu duplicates=%llu sensor_frames=%llu error_frames=%llu error_passive=%d "
-                "tx_error_counter=%s rx_error_counter=%s\n",
-                (bus.name + " (" + bus.interface + ")").c_str(), to_string(d.fault),
-                static_cast<unsigned long long>(d.frames_sent), static_cast<unsigned long long>(d.frames_received),
-                static_cast<unsigned long long>(d.tx_dropped), static_cast<unsigned long long>(d.bad_frames),
-                static_cast<unsigned long long>(d.unexpected_frames), static_cast<unsigned long long>(d.foreign_frames),
-                static_cast<unsigned long long>(d.duplicates), static_cast<unsigned long long>(d.sensor_frames),
-                static_cast<unsigned long long>(d.error_frames), d.error_passive ? 1 : 0,
+                "can bus %s: fault=%s sent=%llu received=%llu tx_dropped=%llu short_writes=%llu tx_errors=%llu "
+                "rx_budget_exhausted=%llu bad_frames=%llu unexpected=%llu foreign=%llu duplicates=%llu "
+                "sensor_frames=%llu error_frames=%llu warnings=%llu overflows=%llu error_passive=%d "
+                "error_passive_events=%llu tx_error_counter=%s rx_error_counter=%s\n",
+                (bus.name + " (" + bus.interface + ")").c_str(), to_string(d.fault), n(d.frames_sent),
+                n(d.frames_received), n(d.tx_dropped), n(d.short_writes), n(d.tx_errors), n(d.rx_budget_exhausted),
+                n(d.bad_frames), n(d.unexpected_frames), n(d.foreign_frames), n(d.duplicates), n(d.sensor_frames),
+                n(d.error_frames), n(d.warnings), n(d.overflows), d.error_passive ? 1 : 0, n(d.error_passive_events),
                 counter(d.tx_error_counter).c_str(), counter(d.rx_error_counter).c_str());
   return line;
 }
