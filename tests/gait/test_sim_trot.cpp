@@ -231,6 +231,11 @@ TEST(SimWalk, AVelocityScheduleChangesTheCommand) {
   EXPECT_NE(bad.err.find("controller.params.gait.velocity_schedule[0].velocity[1]: must be in [-0.2, 0.2]"),
             std::string::npos)
       << bad.err;
+  // A change without its time is refused (it was taken as at 0 s), naming the key.
+  std::ofstream(dir / "untimed.yaml") << scenario("{velocity_schedule: [{velocity: [0.1, 0, 0]}]}");
+  const CliResult untimed = run((dir / "untimed.yaml").string(), dir / "untimed");
+  EXPECT_NE(untimed.exit_code, 0);
+  EXPECT_NE(untimed.err.find("controller.params.gait.velocity_schedule[0].at_s"), std::string::npos) << untimed.err;
 }
 
 // The soak's short form (the soak itself: test_trot_soak, label soak): GP1 at M_e 10 under

@@ -91,7 +91,7 @@ WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
         const config::Field e = list[i];
         if (!e.allow_only({"at_s", "velocity"})) continue;
         VelocityChange change{0.0, Vec3::Zero()};
-        e["at_s"].number(change.at_s, 0.0, 1e6);
+        if (e["at_s"].require()) e["at_s"].number(change.at_s, 0.0, 1e6);  // as hand_trajectory's: no default
         gait::TrotParams v = cp.gait.trot;
         if (e["velocity"].require()) (void)params::read_walking_velocity(e["velocity"], v);
         change.velocity = Vec3(v.velocity_x_m_s, v.velocity_y_m_s, v.yaw_rate_rad_s);
