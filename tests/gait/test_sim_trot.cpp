@@ -238,21 +238,27 @@ TEST(SimWalk, AVelocityScheduleChangesTheCommand) {
   EXPECT_NE(untimed.err.find("controller.params.gait.velocity_schedule[0].at_s"), std::string::npos) << untimed.err;
 }
 
+// The shipped trot `name` cut to 12 s, with `random_pushes: {seed: <seed>, <pushes>}`: its
+// summary.json ("" when springbok-sim failed, which is reported).
+std::string summary_with_pushes(const std::string& name, int seed, const std::string& pushes) {
+  std::string yaml = slurp(kScenarios + name + ".yaml");
+  const auto at = yaml.find("duration_s: 30.0");
+  EXPECT_NE(at, std::string::npos) << name;
+  if (at == std::string::npos) return "";
+  yaml.replace(at, 16, "duration_s: 12.0");
+  const fs::path dir = scratch(name + "_pushes_" + std::to_string(seed));
+  std::ofstream(dir / "s.yaml") << yaml + "random_pushes: {seed: " + std::to_string(seed) + ", " + pushes + "}\n";
+  const CliResult r = run((dir / "s.yaml").string(), dir / "out");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  return r.exit_code == 0 ? slurp(dir / "out" / "summary.json") : "";
+}
+
 // The soak's short form (the soak itself: test_trot_soak, label soak): GP1 at M_e 10 under
 // random pushes of up to 80 N, 0.2 s, on the trunk every 2-4 s, 12 s, five seeds.
 TEST(SimTrot, StandsRandomPushesOnTheTrunk) {
-  std::string yaml = slurp(kScenarios + "trot_me10_gp1.yaml");
-  const auto at = yaml.find("duration_s: 30.0");
-  ASSERT_NE(at, std::string::npos);
-  yaml.replace(at, 16, "duration_s: 12.0");
   for (int seed = 3; seed <= 7; ++seed) {
-    const fs::path dir = scratch("trot_pushes_" + std::to_string(seed));
-    std::ofstream(dir / "s.yaml") << yaml + "random_pushes: {seed: " + std::to_string(seed) +
-                                         ", start_s: 3.0, every_s: [2.0, 4.0], duration_s: 0.2, max_force_n: 80, "
-                                         "frames: [trunk]}\n";
-    const CliResult r = run((dir / "s.yaml").string(), dir / "out");
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    const std::string json = slurp(dir / "out" / "summary.json");
+    const std::string json = summary_with_pushes(
+        "trot_me10_gp1", seed, "start_s: 3.0, every_s: [2.0, 4.0], duration_s: 0.2, max_force_n: 80, frames: [trunk]");
     EXPECT_FALSE(json_true(json, "fell")) << "seed " << seed << ": " << json;
     EXPECT_EQ(json_number(json, "qp_failures"), 0.0) << "seed " << seed << ": " << json;
   }
@@ -263,18 +269,11 @@ TEST(SimTrot, StandsRandomPushesOnTheTrunk) {
 // hold (WholeBodyController::fit_arm_to_its_torques), the QP pitched the trunk for the arm and
 // the robot tipped over (at 9.8 s and 10.9 s, without a QP failure); seeds 1, 4, 5 held.
 TEST(SimTrot, StandsPushesOnTheHandTheArmCannotHold) {
-  std::string yaml = slurp(kScenarios + "trot_me0p4_gp1.yaml");
-  const auto at = yaml.find("duration_s: 30.0");
-  ASSERT_NE(at, std::string::npos);
-  yaml.replace(at, 16, "duration_s: 12.0");
   for (int seed = 2; seed <= 3; ++seed) {
-    const fs::path dir = scratch("trot_pushes_hand_" + std::to_string(seed));
-    std::ofstream(dir / "s.yaml") << yaml + "random_pushes: {seed: " + std::to_string(seed) +
-                                         ", start_s: 3.0, every_s: [1.5, 2.5], duration_s: 0.5, max_force_n: 120, "
-                                         "frames: [arm_end_effector_link]}\n";
-    const CliResult r = run((dir / "s.yaml").string(), dir / "out");
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    const std::string json = slurp(dir / "out" / "summary.json");
+    const std::string json =
+        summary_with_pushes("trot_me0p4_gp1", seed,
+                            "start_s: 3.0, every_s: [1.5, 2.5], duration_s: 0.5, max_force_n: 120, "
+                            "frames: [arm_end_effector_link]");
     EXPECT_FALSE(json_true(json, "fell")) << "seed " << seed << ": " << json;
     EXPECT_EQ(json_number(json, "qp_failures"), 0.0) << "seed " << seed << ": " << json;
     EXPECT_GT(json_number(json, "arm_overloaded_s"), 0.2) << "seed " << seed << ": the arm could not hold them";

@@ -73,6 +73,7 @@ double percentile(std::vector<double> v, double fraction) {
 
 WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
     : dt_s_(s.sim.step_s), settle_s_(s.controller_settle_s),
+      idle_columns_(static_cast<int>(std::ranges::count(csv_columns(), ','))),
       data_(std::make_unique<dyn::Data>()) {
   control::ControlParams cp;
   // `estimator` and `gait` are the controller's own parts, every other key the WBC's.
@@ -242,10 +243,6 @@ std::string WbcAdapter::csv_columns() const {
 
 void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   if (!ticked_) {
-    if (idle_columns_ < 0) {
-      const std::string columns = csv_columns();
-      idle_columns_ = static_cast<int>(std::count(columns.begin(), columns.end(), ','));
-    }
     for (int i = 0; i < idle_columns_; ++i) row += ",0";  // wbc_active 0, and zeros in the WBC's columns
     return;
   }

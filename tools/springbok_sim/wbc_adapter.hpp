@@ -76,6 +76,7 @@ class WbcAdapter final : public Controller {
   wbc::WbcParams params_;
   double dt_s_;
   double settle_s_;
+  int idle_columns_;  // csv_columns()'s count: the zeros of a row before the WBC's first tick
   bool step_profile_ = false;                       // only step/constant forces: steady state is scored
   std::optional<sim::ForceProfile> chirp_;          // the first chirp, for the gain estimate
   Vec3 chirp_axis_ = Vec3::UnitX();
@@ -127,7 +128,6 @@ class WbcAdapter final : public Controller {
   std::array<std::uint64_t, kNj> torque_limit_ticks_{};   // |tau| >= kAtLimit of the limit, per joint
   std::uint64_t any_torque_limit_ticks_ = 0;              // ticks with some joint there
   std::uint64_t arm_overloaded_ticks_ = 0;                // ticks the arm yielded to a push it could not hold
-  int idle_columns_ = -1;                                 // csv_columns()'s count (rows before the WBC's first tick)
   double max_speed_ratio_ = 0.0;                          // max |qd| / velocity limit
   int max_speed_joint_ = 0;
   std::uint64_t failed_ticks_ = 0;

@@ -254,9 +254,8 @@ void WholeBodyController::arm_task_rows(const WbcInput& in, const dyn::Data& d, 
 // rt: no alloc
 void WholeBodyController::fit_arm_to_its_torques(const dyn::Data& d, const Vec6& base_acc_desired, const MatArm& m_arm,
                                                  const SmallCholesky<kArmDofs>& llt) noexcept {
-  const VecArm external = d.J_ee.block<6, kArmDofs>(0, kArmCol).transpose() * wrench_ee_world_;
-  const VecArm hold = d.M.block<kArmDofs, 6>(kArmCol, 0) * base_acc_desired + d.nle.segment<kArmDofs>(kArmCol) +
-                      joint_friction_nm_.segment<kArmDofs>(kFirstArmJoint) - external;
+  const VecArm hold =
+      d.M.block<kArmDofs, 6>(kArmCol, 0) * base_acc_desired + known_torque_nm_.segment<kArmDofs>(kFirstArmJoint);
   const VecArm need = hold + m_arm * out_.arm_qdd_desired;
   VecArm fit;
   out_.arm_reference_saturated = false;
@@ -382,16 +381,14 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
   }
   // Torque limits through the actuated rows of eq. 1 (c_j qd_j: the compensated friction):
   //   tau = M_j udot + h_j + c_j qd_j - J_st,j^T F_g - J_e,j^T W_e  in [-tau_max, tau_max].
-  const VecNj external_j = d.J_ee.rightCols<kNj>().transpose() * wrench_ee_world_;
   ain.block<kNj, kNv>(row, 0) = d.M.bottomRows<kNj>();  // column by column: both column-major
   for (int f = 0; f < kFeet; ++f) {
     if (in.state.stance[f]) ain.block<kNj, 3>(row, foot_var(f)) = -contact_[f].jacobian.rightCols<kNj>().transpose();
   }
   for (int j = 0; j < kNj; ++j) {
     const double tau_max = params_.torque_limit_scale * robot::kJoints[j].limits.effort_nm;
-    const double known_nm = d.nle[6 + j] + joint_friction_nm_[j] - external_j[j];
-    lb[row] = -tau_max - known_nm;
-    ub[row] = tau_max - known_nm;
+    lb[row] = -tau_max - known_torque_nm_[j];
+    ub[row] = tau_max - known_torque_nm_[j];
     ++row;
   }
   const double mu = params_.friction_mu / std::sqrt(2.0);  // pyramid inscribed in the cone
@@ -517,6 +514,12 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& 
   out_.external_torque_world_nm = wrench_ee_world_.tail<3>();
   out_.ee_rotation = d.frames[kEeFrame].rotation;
   joint_friction_nm_ = params_.joint_viscous_friction_nms_per_rad.cwiseProduct(in.state.v.tail<kNj>());
+  // The joints' torques besides M udot and the contacts (eq. 19): h + c qd - J_e^T W_e; the
+  // torque rows' bounds (build_qp) and the arm's fit (fit_arm_to_its_torques) both take it.
+  {
+    const VecNj external_nm = d.J_ee.rightCols<kNj>().transpose() * wrench_ee_world_;
+    for (int j = 0; j < kNj; ++j) known_torque_nm_[j] = d.nle[6 + j] + joint_friction_nm_[j] - external_nm[j];
+  }
 
   Vec6 base_acc_desired;
   base_task(in, d, base_acc_desired);

@@ -323,6 +323,7 @@ class WholeBodyController {
   std::array<SwingKinematics, kFeet> swing_{};   // this tick's swing feet
   Vec6 wrench_ee_world_ = Vec6::Zero();
   VecNj joint_friction_nm_ = VecNj::Zero();  // c qd this tick
+  VecNj known_torque_nm_ = VecNj::Zero();   // h + c qd - J_e^T W_e on the joints this tick (tick())
   std::array<std::array<double, 2>, kNj> position_only_bounds_{};  // the acceleration rows without the speed limits
   bool coupling_limited_ = false;  // base_task: the hand spring's pull limited to the push
   WbcOutput out_;
