@@ -23,6 +23,8 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include "springbok/safety/supervisor.hpp"
+
 namespace {
 
 std::string replaced(std::string text, const std::string& from, const std::string& to) {
@@ -119,7 +121,18 @@ TEST_P(TelemetryStream, TheDeployedProgramStreamsPlotJugglerJsonAtTheConfiguredR
                           "qd_arm_joint_7_rad_s", "tau_rh_kfe_joint_nm"}) {
     EXPECT_TRUE(last[key].IsDefined()) << key << " in " << datagrams.back();
   }
-  EXPECT_EQ(last["mode"].as<int>(), 0) << "nobody started it: idle";
+  // Nobody started it: idle. Only a machine too loaded to run the 1 kHz loop may have it in
+  // damping instead, and then for overruns alone (the deployed loop is real time; CI's
+  // shared cores may miss its deadlines): anything else fails.
+  namespace fault = springbok::safety::fault;
+  const auto mode = static_cast<springbok::safety::Mode>(last["mode"].as<int>());
+  const auto faults = last["faults"].as<springbok::safety::FaultMask>();
+  const springbok::safety::FaultMask overruns = fault::kOverrunStreak | fault::kOverrunRate;
+  if (mode == springbok::safety::Mode::damping && faults != 0 && (faults & ~overruns) == 0) {
+    std::printf("note: the loop overran its deadlines on this loaded machine (faults %u): damping, as it must\n", faults);
+  } else {
+    EXPECT_EQ(mode, springbok::safety::Mode::idle) << "faults " << faults << "\n" << output;
+  }
   EXPECT_EQ(last["wbc"].as<int>(), 1);  // the shipped control mode
   EXPECT_NE(output.find("telemetry to 127.0.0.1:" + std::to_string(port)), std::string::npos) << output;
   EXPECT_NE(output.find("dropped=0 send_errors=0"), std::string::npos) << output;
