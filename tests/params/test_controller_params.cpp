@@ -83,6 +83,19 @@ TEST(WbcConfig, BadFieldsAreNamed) {
   EXPECT_EQ(error_of(std::string(kGood) + "contact: {friction_mu: 0.5}\n"), "wbc.contact: duplicate key (line 9)");
 }
 
+// The support limit's margin: 4 cm by default, 0 turns it off, a negative or non-number refused.
+TEST(WbcConfig, TheSupportMarginIsADistanceOrZeroForOff) {
+  const std::string base_ok = "template:\n  base: {mass: 92, damping: 610, stiffness: 1000}\n"
+                              "  ee: {mass: 4, damping: 90, stiffness: 500}\n";
+  EXPECT_DOUBLE_EQ(load(base_ok).support_margin_m, 0.04);
+  EXPECT_DOUBLE_EQ(load(base_ok + "contact: {support_margin: 0.06}\n").support_margin_m, 0.06);
+  EXPECT_DOUBLE_EQ(load(base_ok + "contact: {support_margin: 0}\n").support_margin_m, 0.0);
+  EXPECT_EQ(error_of(base_ok + "contact: {support_margin: -0.01}\n"),
+            "wbc.contact.support_margin: must be in [0, 0.5], got -0.01 (line 4)");
+  EXPECT_EQ(error_of(base_ok + "contact: {support_margin: .nan}\n"),
+            "wbc.contact.support_margin: must be a finite number, got '.nan' (line 4)");
+}
+
 TEST(WbcConfig, TheHandsAccelerationBoundIsANumberOrNone) {
   const std::string base_ok = "template:\n  base: {mass: 92, damping: 610, stiffness: 1000}\n"
                               "  ee: {mass: 0.4, damping: 29, stiffness: 500}\n";

@@ -129,6 +129,52 @@ TEST(SimWbc, APushTheArmCannotHoldLeavesTheRobotStanding) {
   }
 }
 
+// A push whose moment takes the robot toward tipping: the template's base compliance (K_b 1000)
+// moved the trunk, and with it the centre of mass, toward the edge of the feet the push tips
+// the robot over. 100 N along y on the bent arm took the right feet to their minimum force with
+// the base 5.6 cm over, and the robot rolled over at 3.3 s; 150 N along x fell at 3.1 s, 100 N
+// along y on the straight arm at 2.4 s. The support limit (WholeBodyController::support_limit)
+// holds the base back so that the static centre of pressure stays 4 cm inside the feet's
+// polygon: all three stand. With contact.support_margin 0 (the limit off) the first falls.
+TEST(SimWbc, APushTowardTippingLeavesTheRobotStanding) {
+  const std::string bent = "[0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0.6, 0, 1.9, 0, 0.9, 0]";
+  for (const auto& [name, arm, axis, force, margin] :
+       {std::tuple{"bent_y100", bent.c_str(), "[0, 1, 0]", "100", ""},
+        std::tuple{"bent_x150", bent.c_str(), "[1, 0, 0]", "150", ""},
+        std::tuple{"straight_y100", "stance", "[0, 1, 0]", "100", ""},
+        std::tuple{"bent_y100_off", bent.c_str(), "[0, 1, 0]", "100", ", support_margin: 0"}}) {
+    const fs::path dir = scratch(std::string("wbc_tipping_") + name);
+    const std::string text = std::string("duration_s: 5.0\n") +
+                             "initial:\n"
+                             "  joint_positions_rad: " + arm + "\n"
+                             "  feet_clearance_m: 0.0\n"
+                             "controller:\n"
+                             "  type: wbc\n"
+                             "  settle_s: 0.5\n"
+                             "  params:\n"
+                             "    template:\n"
+                             "      base: {mass: 92, damping: 610, stiffness: 1000}\n"
+                             "      ee: {mass: 4, damping: 90, stiffness: 500}\n"
+                             "    contact: {foot_radius: 0.02175" + margin + "}\n"
+                             "external_wrenches:\n"
+                             "  - {frame: arm_end_effector_link, axis: " + axis + ", profile: step, amplitude: " + force +
+                             ", start_s: 1.0}\n";
+    const CliResult r = run(write_file(dir, "push.yaml", text).string(), dir / "out");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const std::string json = slurp(dir / "out" / "summary.json");
+    if (std::string(margin).empty()) {
+      EXPECT_FALSE(json_true(json, "fell")) << name;
+      EXPECT_EQ(json_number(json, "qp_failures"), 0.0) << name;
+      EXPECT_NE(json.find("\"supervisor\": {\"mode\": \"control\", \"faults\": 0}"), std::string::npos) << name;
+      EXPECT_GT(json_number(json, "support_limited_s"), 0.5) << name << ": the limit held the base";
+      EXPECT_LE(member(json, "peak_deviation", "base_z"), 0.1) << name;
+    } else {
+      EXPECT_TRUE(json_true(json, "fell")) << name << ": without the limit";
+      EXPECT_EQ(json_number(json, "support_limited_s"), 0.0) << name;
+    }
+  }
+}
+
 // The rotational template (beyond the paper): the shipped 5 N m torque step about y at the hand
 // (I_e 0.4 kg m^2), cut to 4 s: trunk and hand orientations follow the template driven by the
 // measured wrist torque (measured 0.05 % NRMSE, steady state within 0.01 % of T/K); the

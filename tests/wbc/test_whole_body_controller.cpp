@@ -338,6 +338,90 @@ TEST_F(Fixture, AnArmReferenceBeyondItsTorquesIsCutToWhatTheyGive) {
   EXPECT_LT(dynamics_residual(out, wrench).cwiseAbs().maxCoeff(), 1e-6);
 }
 
+// The support limit: the static centre of pressure under gravity and the hand's wrench, and
+// how far it is inside the stance feet's polygon, against an independent computation (the
+// centre of mass from dyn::center_of_mass, the polygon's edges in the feet's known
+// counter-clockwise order, a lateral push moving the CoP by (p_s,z - z_g) F_y / (m g));
+// within support_margin_m of an edge, and only then, the base is pushed back along the
+// edge's inward normal, in proportion to how far inside the margin the CoP is; only after
+// the stance has held 250 ticks, never while a foot's force ramps or on two feet.
+TEST_F(Fixture, TheSupportLimitHoldsTheBaseBackFromTheEdgeAPushTipsItOver) {
+  dyn::Data other;
+  const Vec3 com = dyn::center_of_mass(model, other, in.state.q);
+  const double weight_n = total_mass_kg() * kGravity_m_s2;
+  const std::array<int, 4> ccw = {0, 2, 3, 1};  // lf, lh, rh, rf
+  double ground_z = 0.0;
+  for (int f = 0; f < kFeet; ++f) ground_z += data->frames[kFootFrames[f]].translation.z() / kFeet;
+  // Signed distance of a point inside the polygon (min over its edges), and that edge's normal.
+  auto inside = [&](const Eigen::Vector2d& p, Eigen::Vector2d& normal) {
+    double best = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d a = data->frames[kFootFrames[ccw[k]]].translation.head<2>();
+      const Eigen::Vector2d b = data->frames[kFootFrames[ccw[(k + 1) % 4]]].translation.head<2>();
+      const Eigen::Vector2d n = Eigen::Vector2d(a.y() - b.y(), b.x() - a.x()).normalized();
+      if (n.dot(p - a) < best) best = n.dot(p - a), normal = n;
+    }
+    return best;
+  };
+  Eigen::Vector2d normal;
+  const double at_rest_m = inside(com.head<2>(), normal);
+  ASSERT_GT(at_rest_m, params.support_margin_m);
+  for (int t = 0; t < 249; ++t) {
+    const wbc::WbcOutput& out = tick();
+    ASSERT_FALSE(out.support_limited);
+    ASSERT_TRUE(std::isinf(out.support_distance_m)) << "tick " << t << ": the stance has not held long enough";
+  }
+  const wbc::WbcOutput& rest = tick();
+  EXPECT_NEAR(rest.support_distance_m, at_rest_m, 1e-9);
+  EXPECT_FALSE(rest.support_limited);
+
+  // A lateral push at the wrist (+y): the CoP moves toward the left edge (lf - lh).
+  const double lever_m = data->frames[kWristFtFrame].translation.z() - ground_z;
+  const Eigen::Vector2d left_normal = Eigen::Vector2d(0.0, -1.0);
+  std::array<double, 2> pushed_n{}, distance_m{};
+  for (int k = 0; k < 2; ++k) {
+    const double target_m = params.support_margin_m - 0.01 * (k + 1);  // 1 and 2 cm inside the margin
+    // The push that puts the CoP target_m inside the left edge.
+    const Eigen::Vector2d a = data->frames[kFootFrames[0]].translation.head<2>();
+    const Eigen::Vector2d b = data->frames[kFootFrames[2]].translation.head<2>();
+    const Eigen::Vector2d n = Eigen::Vector2d(a.y() - b.y(), b.x() - a.x()).normalized();
+    ASSERT_LT(n.y(), -0.99) << "the left edge runs along x";
+    const double fy = (n.dot(com.head<2>() - a) - target_m) / (-n.y()) * weight_n / lever_m;
+    in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(0.0, fy, 0.0);
+    std::size_t allocations = 0;
+    const wbc::WbcOutput out = tick_counting_allocations(allocations);
+    EXPECT_EQ(allocations, 0u);
+    ASSERT_EQ(out.qp_status, qp::Status::optimal);
+    EXPECT_NEAR(out.support_distance_m, target_m, 1e-6) << fy << " N";
+    EXPECT_TRUE(out.support_limited);
+    // At rest in the template (no displacement yet): the desired base force is the limit's
+    // push alone, along the left edge's inward normal.
+    EXPECT_NEAR(out.base_wrench_desired.x(), 0.0, 1e-9);
+    EXPECT_LT(out.base_wrench_desired.y(), -1.0);
+    EXPECT_NEAR(Eigen::Vector2d(out.base_wrench_desired.x(), out.base_wrench_desired.y()).normalized().dot(left_normal), 1.0, 1e-12);
+    pushed_n[static_cast<std::size_t>(k)] = -out.base_wrench_desired.y();
+    distance_m[static_cast<std::size_t>(k)] = out.support_distance_m;
+  }
+  EXPECT_NEAR(pushed_n[1] / pushed_n[0],
+              (params.support_margin_m - distance_m[1]) / (params.support_margin_m - distance_m[0]), 1e-9);
+
+  // The same push while a foot's force ramps (stepping), on two feet, or right after a stance
+  // change: no limit.
+  in.normal_force_cap_n[1] = 200.0;
+  EXPECT_FALSE(tick().support_limited);
+  in.normal_force_cap_n[1] = std::numeric_limits<double>::infinity();
+  ASSERT_TRUE(tick().support_limited);
+  in.state.stance = {true, false, false, true};
+  EXPECT_FALSE(tick().support_limited);
+  in.state.stance = kAllFeet;
+  EXPECT_FALSE(tick().support_limited) << "the stance changed a tick ago";
+  // Off: support_margin_m 0.
+  params.support_margin_m = 0.0;
+  WholeBodyController off(params);
+  off.set_reference(in.state.q, *data);
+  for (int t = 0; t < 300; ++t) ASSERT_FALSE(tick(off).support_limited);
+}
+
 TEST_F(Fixture, SwingFootCarriesNoForceAndTracksItsTarget) {
   in.state.stance = {true, false, false, true};  // trot pair LF + RH on the ground
   for (int f : {1, 2}) {

@@ -237,7 +237,7 @@ std::string WbcAdapter::csv_columns() const {
   }
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",te_{}_nm", a);
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",hand_rest_r{}_rad", a);
-  h += ",arm_reference_saturated,arm_overloaded,hand_coupling_limited";
+  h += ",arm_reference_saturated,arm_overloaded,hand_coupling_limited,support_limited,support_distance_m";
   return h;
 }
 
@@ -322,6 +322,7 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
 
   if (at_limit) ++any_torque_limit_ticks_;
   if (o.arm_overloaded) ++arm_overloaded_ticks_;
+  if (o.support_limited) ++support_limited_ticks_;
 
   row += ",1";
   for (int a = 0; a < 6; ++a) put(row, s.measured[a]);
@@ -355,6 +356,8 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   row += o.arm_reference_saturated ? ",1" : ",0";
   row += o.arm_overloaded ? ",1" : ",0";
   row += o.hand_coupling_limited ? ",1" : ",0";
+  row += o.support_limited ? ",1" : ",0";
+  put(row, std::isfinite(o.support_distance_m) ? o.support_distance_m : -1.0);
 }
 
 std::string WbcAdapter::summary_fields() const {
@@ -473,6 +476,7 @@ std::string WbcAdapter::summary_fields() const {
                    static_cast<double>(any_torque_limit_ticks_) * dt_s_, static_cast<double>(*most_at_limit) * dt_s_,
                    robot::kJoints[static_cast<std::size_t>(most_at_limit - torque_limit_ticks_.begin())].name);
   j += fmt::format("  \"arm_overloaded_s\": {:.6g},\n", static_cast<double>(arm_overloaded_ticks_) * dt_s_);
+  j += fmt::format("  \"support_limited_s\": {:.6g},\n", static_cast<double>(support_limited_ticks_) * dt_s_);
   j += fmt::format("  \"max_joint_speed_ratio\": {:.6g},\n", max_speed_ratio_);
   j += fmt::format("  \"max_joint_speed_joint\": \"{}\",\n", robot::kJoints[static_cast<std::size_t>(max_speed_joint_)].name);
   j += fmt::format("  \"nrmse\": {},\n", json_axes(nrmse));

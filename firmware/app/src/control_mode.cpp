@@ -107,6 +107,7 @@ void ControlMode::telemetry(TelemetryRecord& r) const noexcept {
   r.qp_status = static_cast<std::uint8_t>(o.qp_status);
   r.qp_iterations = o.qp_iterations;
   r.arm_overloaded = o.arm_overloaded;
+  r.support_limited = o.support_limited;
   put(r.base_rest_m, ref.base_position_m);
   put(r.hand_rest_m, ref.ee_position_m);
   put(r.base_displacement_m, o.base_displacement_m);

@@ -125,8 +125,9 @@ wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
   w["reg_slack"].number(p.reg_slack, 1e-6, 1e9);
 
   const Field c = f["contact"];
-  c.allow_only({"friction_mu", "normal_force_min", "normal_force_max", "foot_radius"});
+  c.allow_only({"friction_mu", "normal_force_min", "normal_force_max", "foot_radius", "support_margin"});
   c["foot_radius"].number(p.foot_contact_radius_m, 0.0, 0.5);
+  c["support_margin"].number(p.support_margin_m, 0.0, 0.5);
   c["friction_mu"].number(p.friction_mu, kTiny, 5.0);
   c["normal_force_min"].number(p.normal_force_min_n, 0.0, 1e4);
   c["normal_force_max"].number(p.normal_force_max_n, 0.0, 1e5);

@@ -54,6 +54,7 @@ struct TelemetryRecord {
   std::uint8_t qp_status = 0;        // qp::Status
   std::int32_t qp_iterations = 0;
   bool arm_overloaded = false;       // the arm yields to a push it cannot hold (wbc::WbcOutput)
+  bool support_limited = false;      // the base held back from its support's edge (wbc::WbcOutput)
   Triple base_position_m{};          // estimated
   std::array<double, 4> base_quaternion_xyzw{0.0, 0.0, 0.0, 1.0};
   Triple base_rpy_rad{};

@@ -21,7 +21,9 @@
 //   weights: {base_force: 1, base_torque: 1, arm: 100, reg_acceleration: 1e-4,
 //             reg_force: 1e-6, reg_slack: 1000}
 //   contact: {friction_mu: 0.6, normal_force_min: 5, normal_force_max: 1500,
-//             foot_radius: 0.02175}     # foot Jacobians at the ground contact point (0: centre)
+//             foot_radius: 0.02175,     # foot Jacobians at the ground contact point (0: centre)
+//             support_margin: 0.04}     # m: the push's centre of pressure kept this far inside
+//                                       # the feet while standing (0: off; WbcParams)
 //   limits: {joint_horizon_s: 0.05, torque_scale: 1.0}
 //   swing: {kp: 400, kd: 40}
 //   joint_friction: {viscous: 0}    # N m s/rad, compensated: one number or 19 (kJoints' order)

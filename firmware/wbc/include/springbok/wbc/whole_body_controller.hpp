@@ -124,6 +124,9 @@ struct WbcParams {
   // ground forces act there. 0 keeps the frame origin (the sphere centre), which
   // leaves the base 4-8 % past its static displacement under a horizontal push.
   double foot_contact_radius_m = kFootRadius_m;
+  // The support limit (whole_body_controller.cpp, support_limit): the static centre of
+  // pressure kept this far inside the stance feet's polygon [m]; 0 turns it off.
+  double support_margin_m = 0.04;
 
   // Joint-acceleration bounds that stop at a limit within this horizon (eq. 17). A knee
   // arrives at touch-down at 8-10 rad/s: 0.2 s together with "stance feet do not
@@ -225,6 +228,11 @@ struct WbcOutput {
   // The hand spring's pull on the base limited to the push (from an overload of the arm until
   // the hand is back within the spring's reach: whole_body_controller.cpp, base_task).
   bool hand_coupling_limited = false;
+  // The base held back from the edge of its support (whole_body_controller.cpp, support_limit),
+  // and how far inside the stance feet's polygon the centre of pressure is [m] (infinity: not
+  // computed, fewer than three feet in stance or the limit off).
+  bool support_limited = false;
+  double support_distance_m = std::numeric_limits<double>::infinity();
   // What the tasks asked for, for logs and plots.
   Vec6 base_wrench_desired = Vec6::Zero();     // [F_b^d; T_b^d], world
   // The wrench the solution renders on the template's base (the base task's rows at
@@ -285,6 +293,7 @@ class WholeBodyController {
 
  private:
   void base_task(const WbcInput& in, const dyn::Data& d, Vec6& base_acc_desired) noexcept;
+  void support_limit(const WbcInput& in, const dyn::Data& d, const Vec3& base_vel_world, Vec3& force) noexcept;
   void arm_task(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired) noexcept;
   template <int kTask>
   void arm_task_rows(const WbcInput& in, const dyn::Data& d, const Vec6& base_acc_desired,
@@ -326,6 +335,7 @@ class WholeBodyController {
   VecNj known_torque_nm_ = VecNj::Zero();   // h + c qd - J_e^T W_e on the joints this tick (tick())
   std::array<std::array<double, 2>, kNj> position_only_bounds_{};  // the acceleration rows without the speed limits
   bool coupling_limited_ = false;  // base_task: the hand spring's pull limited to the push
+  int stance_ticks_ = 0;           // ticks the stance has held (support_limit), saturating
   WbcOutput out_;
   std::uint64_t qp_failures_ = 0;
 };
