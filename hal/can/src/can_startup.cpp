@@ -544,6 +544,47 @@ LifecycleResult CanHardware::recover_bus(int b) {
   return LifecycleResult::success();
 }
 
+// CAN.md 4.4 step 2 for one bus: MIT exit motor mode (`...FD`) to every MIT drive; CiA 402
+// controlword 0x0007 (disable operation), then 0x0006 (shutdown), each in RPDO1 followed by a
+// SYNC one tick apart, then NMT enter pre-operational (`80 0`). Its enabled drives become ready and
+// nothing more is sent for them. A faulted or closed bus cannot be reached: its drives rely on their
+// own timeouts (CAN_TIMEOUT, 0x6007, 4.4 step 3).
+void CanHardware::disable_bus(int b) noexcept {
+  Bus& bus = buses_[static_cast<std::size_t>(b)];
+  if (!bus.socket.is_open() || bus.diag.fault != BusFault::none) return;
+  const std::int64_t period_ns = 1000LL * config_.timing.tick_us;
+  for (const std::uint16_t cw : {cia402::controlword::disable_operation, cia402::controlword::shutdown}) {
+    if (!bus.any_cia) break;
+    for (int k = 0; k < bus.count; ++k) {
+      const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+      if (jr.cfg.protocol != Protocol::cia402) continue;
+      Frame f;
+      cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{cw, 0}, f);
+      send_now(b, f);
+    }
+    Frame sync;
+    cia402::encode_sync(sync);
+    send_now(b, sync);
+    sleep_until_ns(monotonic_ns() + period_ns);
+  }
+  for (int k = 0; k < bus.count; ++k) {
+    JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    if (jr.cfg.protocol == Protocol::mit) {
+      Frame f;
+      mit::encode_special(jr.cfg.drive_id, mit::Special::exit_motor_mode, f);
+      send_now(b, f);
+    }
+    if (jr.status.state == hal::DriveState::enabled) jr.status.state = hal::DriveState::ready;
+    jr.has_pending = false;
+    jr.awaiting = false;
+  }
+  if (bus.any_cia) {
+    Frame f;
+    cia402::encode_nmt(cia402::NmtCommand::enter_pre_operational, 0, f);
+    send_now(b, f);
+  }
+}
+
 void CanHardware::deactivate() noexcept {
   if (!active_) return;
   // 1. Damping: tau = -D qd until slow or T_damp (CAN.md 4.4).
@@ -567,40 +608,7 @@ void CanHardware::deactivate() noexcept {
     sleep_until_ns(next);
   }
   // 2. Disable. 3. Stop sending.
-  for (int b = 0; b < bus_count_; ++b) {
-    Bus& bus = buses_[static_cast<std::size_t>(b)];
-    if (!bus.socket.is_open() || bus.diag.fault != BusFault::none) continue;
-    for (const std::uint16_t cw : {cia402::controlword::disable_operation, cia402::controlword::shutdown}) {
-      if (!bus.any_cia) break;
-      for (int k = 0; k < bus.count; ++k) {
-        const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
-        if (jr.cfg.protocol != Protocol::cia402) continue;
-        Frame f;
-        cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{cw, 0}, f);
-        send_now(b, f);
-      }
-      Frame sync;
-      cia402::encode_sync(sync);
-      send_now(b, sync);
-      sleep_until_ns(monotonic_ns() + period_ns);
-    }
-    for (int k = 0; k < bus.count; ++k) {
-      JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
-      if (jr.cfg.protocol == Protocol::mit) {
-        Frame f;
-        mit::encode_special(jr.cfg.drive_id, mit::Special::exit_motor_mode, f);
-        send_now(b, f);
-      }
-      if (jr.status.state == hal::DriveState::enabled) jr.status.state = hal::DriveState::ready;
-      jr.has_pending = false;
-      jr.awaiting = false;
-    }
-    if (bus.any_cia) {
-      Frame f;
-      cia402::encode_nmt(cia402::NmtCommand::enter_pre_operational, 0, f);
-      send_now(b, f);
-    }
-  }
+  for (int b = 0; b < bus_count_; ++b) disable_bus(b);
   // Let the last replies arrive so they do not count against a later start-up.
   pump_until(monotonic_ns() + 20000000LL, [] { return false; });
   active_ = false;

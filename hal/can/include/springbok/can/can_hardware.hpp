@@ -218,6 +218,8 @@ class CanHardware final : public hal::Hardware {
   hal::LifecycleResult enable_mit(int b);
   hal::LifecycleResult start_cia402(int b);
   hal::LifecycleResult enable_cia402(int b);
+  // CAN.md 4.4 step 2 on one bus (not real-time: waits a tick between the CiA 402 steps).
+  void disable_bus(int b) noexcept;
   hal::LifecycleResult configure_node(int j);
   // A failure naming the first of `drives` that sent a fault code since its start-up began.
   hal::LifecycleResult startup_fault(const std::vector<int>& drives, const char* during);
