@@ -384,6 +384,10 @@ int main(int argc, char** argv) {
                   cfg.config.buses[b].name.c_str(), static_cast<unsigned long long>(d->tick()),
                   static_cast<unsigned long long>(d->frames_in()), static_cast<unsigned long long>(d->replies_out()),
                   d->enabled() ? 1 : 0, d->model().q_rad, d->model().tau_nm);
+      if (const auto* c = dynamic_cast<const emu::Cia402Drive*>(d.get()); c != nullptr) {
+        std::printf("cia402 drive %d statusword 0x%04X nmt 0x%02X\n", d->config().drive_id, c->status_word(),
+                    c->nmt_state());
+      }
       if (const auto* mit = dynamic_cast<const emu::MitDrive*>(d.get()); mit != nullptr && cfg.config.buses[b].fd) {
         std::printf("fd_bus drive %d classic_frames %llu\n", d->config().drive_id,
                     static_cast<unsigned long long>(mit->classic_frames()));

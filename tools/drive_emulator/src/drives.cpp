@@ -47,6 +47,7 @@ const char* to_string(FaultKind k) noexcept {
     case FaultKind::no_heartbeat: return "no_heartbeat";
     case FaultKind::rated_torque: return "rated_torque";
     case FaultKind::mode_display_delay: return "mode_display_delay";
+    case FaultKind::enable_blocked: return "enable_blocked";
     case FaultKind::vendor_error: return "vendor_error";
     case FaultKind::emcy: return "emcy";
     case FaultKind::bus_off: return "bus_off";
@@ -65,7 +66,8 @@ const char* to_string(FaultKind k) noexcept {
 }
 
 bool is_property(FaultKind k) noexcept {
-  return k == FaultKind::rated_torque || k == FaultKind::mode_display_delay || k == FaultKind::vendor_error;
+  return k == FaultKind::rated_torque || k == FaultKind::mode_display_delay || k == FaultKind::vendor_error ||
+         k == FaultKind::enable_blocked;
 }
 
 const char* to_string(SensorId s) noexcept {
@@ -114,8 +116,16 @@ void Drive::step_joint(const DriveLaw& law, double tau_nm) {
 }
 
 bool Drive::active(const Fault& flt) const noexcept {
-  if (tick_ < flt.at_tick) return false;
+  if (flt.at_frame != 0 || tick_ < flt.at_tick) return false;  // at_frame: take_frame() unplugs
   return flt.kind == FaultKind::silent || flt.kind == FaultKind::no_heartbeat || tick_ < flt.at_tick + flt.count;
+}
+
+bool Drive::take_frame() noexcept {
+  ++frames_addressed_;
+  for (const Fault& flt : faults_) {
+    if (flt.kind == FaultKind::silent && flt.at_frame != 0 && frames_addressed_ >= flt.at_frame) unplugged_ = true;
+  }
+  return !unplugged_;
 }
 
 void Drive::emit(const Frame& f, std::vector<Frame>& out) {
@@ -210,6 +220,7 @@ void MitDrive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Frame>&
     ++classic_frames_;
     return;
   }
+  if (!take_frame()) return;
   ++frames_in_;
   last_rx_ns_ = now_ns;
   sync_from_motion();
@@ -258,6 +269,7 @@ Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vec
   for (const Fault& flt : faults_) {
     if (flt.kind == FaultKind::rated_torque) rated_torque_mnm_ = flt.param;
     if (flt.kind == FaultKind::mode_display_delay) mode_display_delay_ms_ = flt.param;
+    if (flt.kind == FaultKind::enable_blocked) enable_blocked_ = true;
   }
   reset_communication();
   next_heartbeat_ns_ = now_ns;
@@ -313,9 +325,13 @@ void Cia402Drive::step_state_machine() {
       else if ((cw & 0x02) == 0 || (cw & 0x86) == 0x02) state_ = St::switch_on_disabled;
       break;
     case St::switched_on:
-      if ((cw & 0x8F) == 0x0F) state_ = St::enabled;
-      else if ((cw & 0x87) == 0x06) state_ = St::ready;
-      else if ((cw & 0x02) == 0 || (cw & 0x86) == 0x02) state_ = St::switch_on_disabled;
+      if ((cw & 0x8F) == 0x0F) {
+        if (!enable_blocked_) state_ = St::enabled;
+      } else if ((cw & 0x87) == 0x06) {
+        state_ = St::ready;
+      } else if ((cw & 0x02) == 0 || (cw & 0x86) == 0x02) {
+        state_ = St::switch_on_disabled;
+      }
       break;
     case St::enabled:
       if ((cw & 0x8F) == 0x07) state_ = St::switched_on;
@@ -324,7 +340,7 @@ void Cia402Drive::step_state_machine() {
       else if ((cw & 0x86) == 0x02) state_ = St::quick_stop;
       break;
     case St::quick_stop:
-      if ((cw & 0x8F) == 0x0F) state_ = St::enabled;
+      if ((cw & 0x8F) == 0x0F && !enable_blocked_) state_ = St::enabled;
       else if ((cw & 0x02) == 0) state_ = St::switch_on_disabled;
       break;
   }
@@ -598,6 +614,7 @@ void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Fram
     c4::NmtCommand cs{};
     std::uint8_t node = 0;
     if (c4::decode_nmt(f, cs, node) != can::FrameStatus::ok || (node != 0 && node != n)) return;
+    if (!take_frame()) return;
     ++frames_in_;
     switch (cs) {
       case c4::NmtCommand::start: nmt_ = 0x05; break;
@@ -617,11 +634,13 @@ void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Fram
   }
   if (f.id == c4::cob::sync) {
     if (f.len != 0) return;
+    if (!take_frame()) return;
     ++frames_in_;
     on_sync(out);
     return;
   }
   if (f.id == c4::cob::sdo_request + n) {
+    if (!take_frame()) return;
     ++frames_in_;
     if (nmt_ == 0x04) return;  // Stopped: no SDO
     handle_sdo(f, out);
@@ -630,6 +649,7 @@ void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Fram
   for (int k = 0; k < 4; ++k) {
     const Pdo& p = rpdo_[k];
     if ((p.cob_id & c4::kPdoInvalid) != 0 || f.id != (p.cob_id & 0x7FF)) continue;
+    if (!take_frame()) return;
     ++frames_in_;
     if (nmt_ != 0x05) return;
     int bit = 0;
@@ -653,7 +673,7 @@ bool Cia402Drive::cyclic(const Frame& f) const noexcept {
 }
 
 void Cia402Drive::on_time(std::int64_t now_ns, std::vector<Frame>& out) {
-  if (nmt_ == 0x00 || heartbeat_ms_ == 0 || now_ns < next_heartbeat_ns_) return;
+  if (nmt_ == 0x00 || unplugged_ || heartbeat_ms_ == 0 || now_ns < next_heartbeat_ns_) return;
   for (const Fault& flt : faults_) {
     if ((flt.kind == FaultKind::silent || flt.kind == FaultKind::no_heartbeat) && active(flt)) return;
   }
