@@ -18,6 +18,7 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <map>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -458,6 +459,91 @@ TEST(Hil, MitVendorErrorDuringStartUpFailsItNamingTheDriveAndTheCode) {
   EXPECT_NE(r.message.find("error code 0x15"), std::string::npos) << r.message;
   EXPECT_EQ(hw.joint(7).status.state, hal::DriveState::fault);
   EXPECT_EQ(hw.joint(7).status.fault_code, 0x15);
+}
+
+// What the emulator's summary says of each drive at its end: enabled (MIT motor mode / CiA 402
+// Operation enabled) and, for a CiA 402 drive, its statusword and NMT state.
+struct EmulatedDrive {
+  int enabled = -1;
+  unsigned statusword = 0, nmt = 0;
+};
+std::map<int, EmulatedDrive> emulated_drives(const std::string& summary) {
+  std::map<int, EmulatedDrive> out;
+  std::istringstream in(summary);
+  for (std::string line; std::getline(in, line);) {
+    int id = 0;
+    unsigned sw = 0, nmt = 0;
+    if (std::sscanf(line.c_str(), "cia402 drive %d statusword 0x%x nmt 0x%x", &id, &sw, &nmt) == 3) {
+      out[id].statusword = sw;
+      out[id].nmt = nmt;
+    } else if (std::sscanf(line.c_str(), "drive %d", &id) == 1) {
+      const auto at = line.find(" enabled ");
+      if (at != std::string::npos) out[id].enabled = std::atoi(line.c_str() + at + 9);
+    }
+  }
+  return out;
+}
+
+// CAN.md 4.4 step 2 after a failed activate(): drive 10 (bus rh, vcan3) is unplugged after the
+// start-up's presence check and zero command (its third frame), so its enter-motor-mode goes
+// unanswered after buses lf, rf and lh were enabled and while rh's other drives enter motor mode.
+// activate() fails naming the drive, and no drive is left in motor mode.
+TEST(Hil, FailedActivateLeavesNoMitDriveInMotorMode) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("mit_classic7.yaml");
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "faults: [{kind: silent, drive: 10, at_frame: 3}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  const hal::LifecycleResult a = hw.activate();
+  EXPECT_FALSE(a.ok);
+  EXPECT_NE(a.message.find("no reply to enter-motor-mode within 200 ms: drive 10 (joint rh_haa_joint, mit) on bus 'rh' (vcan3)"),
+            std::string::npos)
+      << a.message;
+  EXPECT_NE(a.message.find("every drive on bus 'lf' (vcan0), 'rf' (vcan1), 'lh' (vcan2), 'rh' (vcan3) disabled again "
+                           "(CAN.md 4.4 step 2)"),
+            std::string::npos)
+      << a.message;
+  for (int j = 0; j < kNj; ++j) EXPECT_NE(hw.joint(j).status.state, hal::DriveState::enabled) << j;
+  EXPECT_EQ(hw.write(hal::JointCommands{}), hal::IoStatus::error) << "not active";
+  const std::string summary = emu.stop();
+  const std::map<int, EmulatedDrive> drives = emulated_drives(summary);
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj)) << summary;
+  for (const auto& [id, d] : drives) EXPECT_EQ(d.enabled, 0) << "drive " << id << "\n" << summary;
+}
+
+// The same for CiA 402: drive 10's power stage cannot be enabled (enable_blocked: it stays
+// Switched on), so the state machine walk fails on bus rh after lf, rf and lh reached Operation
+// enabled. Every node walked is disabled (0x0007, 0x0006: Ready to switch on) and pre-operational
+// (NMT 80 0); the buses after rh were never walked.
+TEST(Hil, FailedActivateLeavesNoCia402DriveOperationEnabled) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: enable_blocked, drive: 10}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  const hal::LifecycleResult a = hw.activate();
+  EXPECT_FALSE(a.ok);
+  EXPECT_NE(a.message.find("drive 10 (joint rh_haa_joint, cia402) on bus 'rh' (vcan3) stuck in 'switched on'"),
+            std::string::npos)
+      << a.message;
+  EXPECT_NE(a.message.find("every drive on bus 'lf' (vcan0), 'rf' (vcan1), 'lh' (vcan2), 'rh' (vcan3) disabled again"),
+            std::string::npos)
+      << a.message;
+  for (int j = 0; j < kNj; ++j) EXPECT_NE(hw.joint(j).status.state, hal::DriveState::enabled) << j;
+  const std::string summary = emu.stop();
+  const std::map<int, EmulatedDrive> drives = emulated_drives(summary);
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj)) << summary;
+  for (const auto& [id, d] : drives) {
+    EXPECT_EQ(d.enabled, 0) << "drive " << id << "\n" << summary;
+    EXPECT_EQ(d.nmt, 0x7Fu) << "drive " << id << ": pre-operational";
+    // Walked (buses lf .. rh, drives 1..12): shut down to Ready to switch on; the others never left
+    // Switch on disabled.
+    EXPECT_EQ(d.statusword, id <= 12 ? 0x0231u : 0x0250u) << "drive " << id;
+  }
 }
 
 TEST(Hil, BusOffFaultsTheBusAndNeedsAnOperatorRecovery) {

@@ -165,11 +165,39 @@ LifecycleResult CanHardware::activate() {
   if (!configured_) return LifecycleResult::failure("activate: configure() has not succeeded");
   if (active_) return LifecycleResult::success();
   for (int b = 0; b < bus_count_; ++b) {
-    if (LifecycleResult r = enable_bus(b); !r.ok) return r;
+    if (LifecycleResult r = enable_bus(b); !r.ok) return disable_after_failed_enable(0, b, std::move(r));
   }
   active_ = true;
   last_send_ns_ = monotonic_ns();
   return LifecycleResult::success();
+}
+
+// A failed enable leaves no drive enabled: buses first..last were enabled, or were being enabled
+// when `failure` happened (some of the failing bus's drives may be in motor mode / Operation
+// enabled already), so each is disabled as in CAN.md 4.4 step 2. No damping first: the drives
+// were enabled a moment ago, at rest, with zero torque (4.2 step 2) or none (4.3 step 4). A bus
+// that is faulted or closed cannot be reached, and the message says so.
+LifecycleResult CanHardware::disable_after_failed_enable(int first, int last, LifecycleResult failure) {
+  std::string disabled, unreachable;
+  for (int b = first; b <= last; ++b) {
+    const Bus& bus = buses_[static_cast<std::size_t>(b)];
+    if (bus.count == 0) continue;  // sensors only
+    const BusConfig& bc = config_.buses[static_cast<std::size_t>(b)];
+    const std::string name = "'" + bc.name + "' (" + bc.interface + ")";
+    if (!bus.socket.is_open() || bus.diag.fault != BusFault::none) {
+      unreachable += (unreachable.empty() ? "" : ", ") + name + ": " + to_string(bus.diag.fault);
+      continue;
+    }
+    disable_bus(b);
+    disabled += (disabled.empty() ? "" : ", ") + name;
+  }
+  // Let the drives' answers arrive so they do not count against a later start-up.
+  pump_until(monotonic_ns() + 20000000LL, [] { return false; });
+  if (!disabled.empty()) failure.message += "; every drive on bus " + disabled + " disabled again (CAN.md 4.4 step 2)";
+  if (!unreachable.empty()) {
+    failure.message += "; not reachable, its drives rely on their own timeouts: bus " + unreachable;
+  }
+  return failure;
 }
 
 // ---- MIT mode (CAN.md 4.2) ---------------------------------------------------------------------
@@ -264,11 +292,19 @@ LifecycleResult CanHardware::enable_mit(int b) {
     return true;
   };
   const bool ok = all_sent && pump_until(after_ms(config_.timing.mit_presence_timeout_ms), all_replied);
+  std::string missing;
+  for (int j : drives) {
+    if (joints_[static_cast<std::size_t>(j)].replies_this_tick == 0) missing += (missing.empty() ? "" : "; ") + drive_name(j);
+  }
   for (int k = 0; k < bus.count; ++k) joints_[static_cast<std::size_t>(bus.joints[k])].replies_this_tick = 0;
   if (LifecycleResult r = startup_fault(drives, "enable"); !r.ok) return r;
+  if (!all_sent) {
+    return LifecycleResult::failure("MIT enable: enter-motor-mode could not be sent on bus '" +
+                                    config_.buses[static_cast<std::size_t>(b)].name + "'");
+  }
   if (!ok) {
-    return LifecycleResult::failure("MIT enable: a drive on bus '" + config_.buses[static_cast<std::size_t>(b)].name +
-                                    "' did not answer enter-motor-mode");
+    return LifecycleResult::failure("MIT enable: no reply to enter-motor-mode within " +
+                                    std::to_string(config_.timing.mit_presence_timeout_ms) + " ms: " + missing);
   }
   return LifecycleResult::success();
 }
@@ -539,7 +575,7 @@ LifecycleResult CanHardware::recover_bus(int b) {
   if (LifecycleResult r = open_bus(b); !r.ok) return r;
   if (LifecycleResult r = start_bus(b); !r.ok) return r;
   if (active_) {
-    if (LifecycleResult r = enable_bus(b); !r.ok) return r;
+    if (LifecycleResult r = enable_bus(b); !r.ok) return disable_after_failed_enable(b, b, std::move(r));
   }
   return LifecycleResult::success();
 }

@@ -150,7 +150,9 @@ class CanHardware final : public hal::Hardware {
   // Validates the layout (refusing a bus above the load limit), opens the sockets,
   // finds every drive and configures it (CAN.md 4.2 steps 1-3, 4.3 steps 1-2).
   hal::LifecycleResult configure() override;
-  // Enables every drive (MIT enter motor mode; CiA 402 NMT start and the state machine).
+  // Enables every drive (MIT enter motor mode; CiA 402 NMT start and the state machine). When it
+  // fails on a bus, every drive it enabled (that bus's included) is disabled again as in CAN.md
+  // 4.4 step 2 before it returns: a failed activate() leaves no drive enabled.
   hal::LifecycleResult activate() override;
   // rt: no alloc; bounded wait (rx deadline).
   hal::IoStatus read(hal::Measurements& out) noexcept override;
@@ -162,7 +164,8 @@ class CanHardware final : public hal::Hardware {
   // "can bus lf (vcan0): fault=none bad_frames=0 ..." per bus, "can sensor imu: ..." per sensor.
   std::string diagnostics_report() const override;
 
-  // Operator recovery after a bus fault: reopen, re-run start-up and enable for that bus.
+  // Operator recovery after a bus fault: reopen, re-run start-up and enable for that bus (disabled
+  // again when its enable fails, as in activate()).
   hal::LifecycleResult recover_bus(int bus);
 
   const CanConfig& config() const noexcept { return config_; }
@@ -220,6 +223,8 @@ class CanHardware final : public hal::Hardware {
   hal::LifecycleResult enable_cia402(int b);
   // CAN.md 4.4 step 2 on one bus (not real-time: waits a tick between the CiA 402 steps).
   void disable_bus(int b) noexcept;
+  // After enable_bus failed on bus `last`: disables buses first..last, returns `failure` saying so.
+  hal::LifecycleResult disable_after_failed_enable(int first, int last, hal::LifecycleResult failure);
   hal::LifecycleResult configure_node(int j);
   // A failure naming the first of `drives` that sent a fault code since its start-up began.
   hal::LifecycleResult startup_fault(const std::vector<int>& drives, const char* during);
