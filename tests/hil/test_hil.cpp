@@ -665,7 +665,7 @@ TEST(Hil, TransientFaultsAreCountedNotFatal) {
                "  - {kind: duplicate, drive: 4, at: 20, count: 3}\n"
                "  - {kind: corrupt, drive: 8, at: 30, count: 1}\n"
                "  - {kind: wrong_dlc, drive: 10, at: 30, count: 2}\n"
-               "  - {kind: unexpected_id, drive: 13, at: 30, count: 2, param: 5}\n"
+               "  - {kind: unexpected_id, drive: 13, at: 30, count: 2, param: 100}\n"
                "  - {kind: delay, drive: 16, at: 40, count: 1, param: 2}\n"
                "  - {kind: error_passive, drive: 19, at: 25}\n"
                "  - {kind: error_active, drive: 19, at: 60}\n");
@@ -698,9 +698,93 @@ TEST(Hil, TransientFaultsAreCountedNotFatal) {
   EXPECT_GE(hw.diagnostics(2).bad_frames, 1u);               // drive 8: implausible position jump
   EXPECT_GE(last.drives[7].missed_total, 1u);
   EXPECT_GE(hw.diagnostics(3).bad_frames, 2u);               // drive 10: DLC 5
-  EXPECT_GE(hw.diagnostics(4).foreign_frames, 2u);           // drive 13 answering as drive 5 (bus rf)
+  EXPECT_GE(hw.diagnostics(4).unexpected_frames, 2u);        // drive 13 answering as drive 100: no drive of the robot
+  EXPECT_EQ(hw.diagnostics(4).foreign_frames, 0u);
   EXPECT_GE(last.drives[15].missed_total, 1u);               // drive 16 delayed by 2 ticks
   EXPECT_EQ(hw.diagnostics(6).fault, BusFault::none);        // bus arm2 was only degraded
+}
+
+// CAN.md 4.1: "a valid frame with an id of another bus is a configuration fault". From its cyclic
+// tick 30 drive 13 (bus arm0, vcan4) answers naming drive 5 (bus rf) in byte 0: the frame passes
+// arm0's CAN_RAW_FILTER (its CAN id is drive 13's reply id, 0x10D) and would be taken for a reply.
+// The bus faults: its drives are lost (the supervisor's drive-lost fault, damping), read()
+// reports an error, the diagnostics name the bus, the drive and the id; the other buses go on.
+// The bus still carries frames: deactivate() disables its drives too.
+TEST(Hil, AFrameNamingADriveOfAnotherBusFaultsItsBus) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("mit_classic7.yaml");
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "faults: [{kind: unexpected_id, drive: 13, at: 30, count: 5, param: 5}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  ASSERT_TRUE(hw.configure().ok);
+  ASSERT_TRUE(hw.activate().ok);
+  int error_at = -1;
+  hal::Measurements last;
+  hal::IoStatus last_status{};
+  run_ticks(hw, 80, [&](int k, const hal::Measurements& m, hal::IoStatus s) {
+    if (error_at < 0 && s == hal::IoStatus::error) error_at = k;
+    last = m;
+    last_status = s;
+  });
+  EXPECT_GE(error_at, 30);
+  EXPECT_LE(error_at, 32);
+  EXPECT_EQ(last_status, hal::IoStatus::error);
+  const BusDiagnostics& d = hw.diagnostics(4);
+  EXPECT_EQ(d.fault, BusFault::foreign_drive);
+  EXPECT_GE(d.foreign_frames, 1u);
+  EXPECT_EQ(d.foreign_drive_id, 5);
+  EXPECT_EQ(d.foreign_can_id, 0x10Du);
+  for (int j = 12; j < 15; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::lost) << j;
+  for (int j = 0; j < kNj; ++j) {
+    if (j < 12 || j >= 15) {
+      EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
+    }
+  }
+  for (int b = 0; b < hw.bus_count(); ++b) {
+    if (b != 4) {
+      EXPECT_EQ(hw.diagnostics(b).fault, BusFault::none) << b;
+    }
+  }
+  const std::string report = hw.diagnostics_report();
+  EXPECT_NE(report.find("can bus arm0 (vcan4): fault=configuration fault: a frame of a drive configured on another bus"),
+            std::string::npos)
+      << report;
+  EXPECT_NE(report.find(" foreign_drive=5 foreign_id=0x10D "), std::string::npos) << report;
+  hw.deactivate();
+  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+  for (const auto& [id, dr] : drives) EXPECT_EQ(dr.enabled, 0) << "drive " << id;
+}
+
+// The same fault met during start-up stops it: a reply naming drive 5 (bus rf) arrives on bus arm0
+// between configure() and activate() (sent here, in drive 13's reply id). activate() fails naming
+// the bus, the id and the drive, and leaves no drive enabled.
+TEST(Hil, AFrameNamingADriveOfAnotherBusFailsStartUp) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("mit_classic7.yaml");
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  SocketCanBus arm0;
+  ASSERT_EQ(arm0.open("vcan4", false, {}, false), "");
+  mit::Reply reply;
+  reply.drive_id = 5;
+  Frame f;
+  mit::encode_reply(0x10D, reply, cfg.buses[1].drives[1].mit_ranges, false, f);
+  ASSERT_EQ(arm0.send(f), TxStatus::ok);
+  const hal::LifecycleResult a = hw.activate();
+  EXPECT_FALSE(a.ok);
+  EXPECT_NE(a.message.find("bus 'arm0' (vcan4): configuration fault: a frame of a drive configured on another bus "
+                           "(CAN.md 4.1): CAN id 0x10D naming drive 5 (joint rf_hfe_joint, mit) on bus 'rf' (vcan1)"),
+            std::string::npos)
+      << a.message;
+  EXPECT_NE(a.message.find("'arm0' (vcan4) disabled again"), std::string::npos) << a.message;
+  for (int j = 0; j < kNj; ++j) EXPECT_NE(hw.joint(j).status.state, hal::DriveState::enabled) << j;
+  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+  for (const auto& [id, dr] : drives) EXPECT_EQ(dr.enabled, 0) << "drive " << id;
 }
 
 // The deployed binary as a child process; stdout and stderr into one file.

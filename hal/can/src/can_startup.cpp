@@ -123,6 +123,21 @@ LifecycleResult CanHardware::configure() {
   return LifecycleResult::success();
 }
 
+// A fault the bus latched since it was opened (an error frame, a frame of another bus's drive):
+// start-up does not go on with that bus. Not real-time.
+LifecycleResult CanHardware::bus_fault_failure(int b, const char* during) const {
+  const BusDiagnostics& d = buses_[static_cast<std::size_t>(b)].diag;
+  if (d.fault == BusFault::none) return LifecycleResult::success();
+  const BusConfig& bc = config_.buses[static_cast<std::size_t>(b)];
+  std::string why = std::string("CAN ") + during + ": bus '" + bc.name + "' (" + bc.interface + "): " + to_string(d.fault);
+  if (d.fault == BusFault::foreign_drive) {
+    const int other = find_foreign_joint(b, d.foreign_drive_id);
+    why += ": CAN id " + hex(d.foreign_can_id, 3) + " naming " +
+           (other >= 0 ? drive_name(other) : "drive " + std::to_string(d.foreign_drive_id));
+  }
+  return LifecycleResult::failure(why);
+}
+
 LifecycleResult CanHardware::start_bus(int b) {
   const Bus& bus = buses_[static_cast<std::size_t>(b)];
   if (bus.any_mit) {
@@ -131,17 +146,19 @@ LifecycleResult CanHardware::start_bus(int b) {
   if (bus.any_cia) {
     if (LifecycleResult r = start_cia402(b); !r.ok) return r;
   }
-  return LifecycleResult::success();
+  return bus_fault_failure(b, "start-up");
 }
 
 LifecycleResult CanHardware::enable_bus(int b) {
   const Bus& bus = buses_[static_cast<std::size_t>(b)];
+  if (LifecycleResult r = bus_fault_failure(b, "enable"); !r.ok) return r;
   if (bus.any_mit) {
     if (LifecycleResult r = enable_mit(b); !r.ok) return r;
   }
   if (bus.any_cia) {
     if (LifecycleResult r = enable_cia402(b); !r.ok) return r;
   }
+  if (LifecycleResult r = bus_fault_failure(b, "enable"); !r.ok) return r;
   // The first cyclic command, sent by the first read before the loop's first write: damping
   // (CAN.md 4.2 step 5, 4.3 step 5), never zero torque.
   hal::JointCommands damping;
@@ -176,7 +193,8 @@ LifecycleResult CanHardware::activate() {
 // when `failure` happened (some of the failing bus's drives may be in motor mode / Operation
 // enabled already), so each is disabled as in CAN.md 4.4 step 2. No damping first: the drives
 // were enabled a moment ago, at rest, with zero torque (4.2 step 2) or none (4.3 step 4). A bus
-// that is faulted or closed cannot be reached, and the message says so.
+// whose fault stops it carrying frames (bus-off, ENETDOWN, ...) or that is closed cannot be
+// reached, and the message says so.
 LifecycleResult CanHardware::disable_after_failed_enable(int first, int last, LifecycleResult failure) {
   std::string disabled, unreachable;
   for (int b = first; b <= last; ++b) {
@@ -184,7 +202,7 @@ LifecycleResult CanHardware::disable_after_failed_enable(int first, int last, Li
     if (bus.count == 0) continue;  // sensors only
     const BusConfig& bc = config_.buses[static_cast<std::size_t>(b)];
     const std::string name = "'" + bc.name + "' (" + bc.interface + ")";
-    if (!bus.socket.is_open() || bus.diag.fault != BusFault::none) {
+    if (!bus.socket.is_open() || !bus_reachable(bus.diag.fault)) {
       unreachable += (unreachable.empty() ? "" : ", ") + name + ": " + to_string(bus.diag.fault);
       continue;
     }
@@ -584,10 +602,11 @@ LifecycleResult CanHardware::recover_bus(int b) {
 // controlword 0x0007 (disable operation), then 0x0006 (shutdown), each in RPDO1 followed by a
 // SYNC one tick apart, then NMT enter pre-operational (`80 0`). Its enabled drives become ready and
 // nothing more is sent for them. A faulted or closed bus cannot be reached: its drives rely on their
-// own timeouts (CAN_TIMEOUT, 0x6007, 4.4 step 3).
+// own timeouts (CAN_TIMEOUT, 0x6007, 4.4 step 3); a bus with a configuration fault still carries
+// frames and is disabled like a healthy one.
 void CanHardware::disable_bus(int b) noexcept {
   Bus& bus = buses_[static_cast<std::size_t>(b)];
-  if (!bus.socket.is_open() || bus.diag.fault != BusFault::none) return;
+  if (!bus.socket.is_open() || !bus_reachable(bus.diag.fault)) return;
   const std::int64_t period_ns = 1000LL * config_.timing.tick_us;
   for (const std::uint16_t cw : {cia402::controlword::disable_operation, cia402::controlword::shutdown}) {
     if (!bus.any_cia) break;

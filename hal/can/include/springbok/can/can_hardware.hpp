@@ -13,8 +13,9 @@
 //   write(c) stores c, encoded, for the next read(). No I/O.
 // A drive whose reply is missing more than `missed_replies_lost` ticks in a row
 // (age > N_stale, CAN.md 4.1) is DriveState::lost; an EMCY, a fault bit or a vendor error code latches
-// DriveState::fault. Bus-off, ENETDOWN or ENOBUFS on tx_fault_ticks ticks in a
-// row fault the bus: its drives are lost, read() returns IoStatus::error, and
+// DriveState::fault. Bus-off, ENETDOWN, ENOBUFS on tx_fault_ticks ticks in a row, or a
+// valid frame naming a drive configured on another bus (a configuration fault, CAN.md 4.1)
+// fault the bus: its drives are lost, read() returns IoStatus::error, and
 // nothing resumes by itself: recovery is an operator action (restart the
 // controller, then recover_bus(), which re-runs that bus's start-up). A bus whose
 // controller reports error passive is only degraded (its bit in m.degraded_buses,
@@ -45,8 +46,14 @@
 
 namespace springbok::can {
 
-enum class BusFault : std::uint8_t { none = 0, bus_off, restarted, net_down, tx_queue_full, socket_error, no_ack };
+// foreign_drive: a valid frame naming a drive configured on another bus arrived on this one (CAN.md
+// 4.1): a configuration (or wiring) fault. The bus still carries frames (bus_reachable()).
+enum class BusFault : std::uint8_t {
+  none = 0, bus_off, restarted, net_down, tx_queue_full, socket_error, no_ack, foreign_drive
+};
 const char* to_string(BusFault f) noexcept;
+// Whether frames can still be sent on a bus with this fault (to disable its drives, CAN.md 4.4).
+bool bus_reachable(BusFault f) noexcept;
 
 struct BusDiagnostics {
   std::uint64_t frames_sent = 0;
@@ -61,6 +68,8 @@ struct BusDiagnostics {
   std::uint64_t bad_frames = 0;          // wrong DLC, undecodable, implausible
   std::uint64_t unexpected_frames = 0;   // an id / drive id that is no drive of this bus
   std::uint64_t foreign_frames = 0;      // a valid frame of a drive on another bus: configuration fault
+  std::uint8_t foreign_drive_id = 0;     // the first such frame: the drive it named (0: none yet) ...
+  std::uint32_t foreign_can_id = 0;      // ... and its CAN id
   std::uint64_t duplicates = 0;          // more than one reply per command
   std::uint64_t sensor_frames = 0;       // frames of a sensor configured on this bus (see the sensor's diagnostics)
   std::uint64_t rx_budget_exhausted = 0; // ticks on which the per-tick receive budget ran out (frames left queued)
@@ -75,6 +84,10 @@ struct BusDiagnostics {
 // Counts an error frame into its bus's diagnostics (CAN.md 4, "Error frames"); returns the
 // bus fault it means (bus-off, controller restarted) or BusFault::none. rt: no alloc
 BusFault record_error_frame(const Frame& f, BusDiagnostics& d) noexcept;
+// Counts a valid frame naming drive `drive_id`, which is configured on another bus, into its bus's
+// diagnostics (the first one's drive and CAN id kept); returns the bus fault it is (CAN.md 4.1: a
+// configuration fault). rt: no alloc
+BusFault record_foreign_frame(const Frame& f, std::uint8_t drive_id, BusDiagnostics& d) noexcept;
 // The bus's line of CanHardware::diagnostics_report(): "can bus lf (vcan0): fault=none ...".
 std::string bus_diagnostics_line(const BusConfig& bus, const BusDiagnostics& d);
 
@@ -241,7 +254,10 @@ class CanHardware final : public hal::Hardware {
   void process_error_frame(int b, const Frame& f) noexcept;
   bool accept_position(int j, double q_rad) noexcept;
   int find_joint(int b, std::uint8_t drive_id, Protocol p) const noexcept;
-  void count_unknown(int b, std::uint8_t drive_id) noexcept;
+  // The joint of drive `drive_id` when it is configured on a bus other than `b`, else -1.
+  int find_foreign_joint(int b, std::uint8_t drive_id) const noexcept;
+  // A failure naming bus `b` and its latched fault (success when it has none). Not real-time.
+  hal::LifecycleResult bus_fault_failure(int b, const char* during) const;
   void latch_fault(int j, std::uint16_t code) noexcept;
   void fault_bus(int b, BusFault why) noexcept;
   bool replies_complete() const noexcept;
