@@ -258,6 +258,33 @@ TEST(Hil, MissingDriveStopsStartUpNamingIt) {
   EXPECT_NE(c.message.find("drive 20 (joint arm_joint_7, mit) on bus 'arm2' (vcan6)"), std::string::npos) << c.message;
 }
 
+// CAN.md 4.2 step 3: MIT start-up checks the drives' positions against the joint limits and the
+// expected pose (can.start_pose). The emulated joints start in the stance, which the config
+// expects, but for arm joint 4 (drive 16, bus arm1): expected at 0.5 rad, more than the tolerance
+// (0.3 rad) from where it is, though within its limits. configure() fails naming the joint, its
+// position and the expected one, and only it; at 0.25 rad from the expected pose it starts.
+TEST(Hil, MitStartUpRefusesAJointOffTheExpectedPose) {
+  REQUIRE_VCAN(7);
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "");
+  ASSERT_TRUE(emu.ready());
+  CanConfig cfg = load("mit_classic7.yaml");
+  ASSERT_DOUBLE_EQ(cfg.start_pose.tolerance_rad, 0.3);
+  cfg.start_pose.q_rad[15] = 0.5;
+  {
+    CanHardware hw(cfg);
+    const hal::LifecycleResult c = hw.configure();
+    EXPECT_FALSE(c.ok);
+    const std::string head =
+        "MIT start-up: position off the expected start pose (can.start_pose, tolerance 0.300000 rad): drive 16 (joint "
+        "arm_joint_4, mit) on bus 'arm1' (vcan5) at -0.000191 rad, expected 0.500000 rad";
+    EXPECT_EQ(c.message, head) << c.message;
+  }
+  cfg.start_pose.q_rad[15] = 0.25;
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  EXPECT_TRUE(c.ok) << c.message;
+}
+
 TEST(Hil, SilentDriveIsLostAfterTheConfiguredTicks) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("mit_classic7.yaml");

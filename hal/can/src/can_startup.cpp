@@ -272,8 +272,9 @@ LifecycleResult CanHardware::start_mit(int b) {
     return LifecycleResult::failure("MIT start-up: a drive on bus '" + config_.buses[static_cast<std::size_t>(b)].name +
                                     "' did not answer the zero command");
   }
-  // 3. Positions within the joint limits.
-  std::string outside;
+  // 3. Positions within the joint limits and at the expected pose (can.start_pose).
+  std::string outside, off_pose;
+  const StartPose& pose = config_.start_pose;
   mit_joints([&](int j) {
     JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
     jr.replies_this_tick = 0;
@@ -282,10 +283,17 @@ LifecycleResult CanHardware::start_mit(int b) {
     if (lim.bounded && (jr.q_rad < lim.lower_rad - m || jr.q_rad > lim.upper_rad + m)) {
       outside += (outside.empty() ? "" : "; ") + drive_name(j) + " at " + std::to_string(jr.q_rad) + " rad, limits [" +
                  std::to_string(lim.lower_rad) + ", " + std::to_string(lim.upper_rad) + "]";
+    } else if (!at_start_pose(pose, j, jr.q_rad)) {
+      off_pose += (off_pose.empty() ? "" : "; ") + drive_name(j) + " at " + std::to_string(jr.q_rad) +
+                  " rad, expected " + std::to_string(pose.q_rad[static_cast<std::size_t>(j)]) + " rad";
     }
     jr.status.state = hal::DriveState::ready;
   });
   if (!outside.empty()) return LifecycleResult::failure("MIT start-up: position outside the joint limits: " + outside);
+  if (!off_pose.empty()) {
+    return LifecycleResult::failure("MIT start-up: position off the expected start pose (can.start_pose, tolerance " +
+                                    std::to_string(pose.tolerance_rad) + " rad): " + off_pose);
+  }
   return LifecycleResult::success();
 }
 
