@@ -525,6 +525,45 @@ TEST(DriveEmulator, Cia402EnableBlockedStaysSwitchedOn) {
   EXPECT_NE(error("faults: [{kind: enable_blocked, drive: 10, at: 3}]").find("faults[0].at"), std::string::npos);
 }
 
+// CAN.md 4.3 step 1 as the host sees a drive: its stored producer heartbeat time is what power-on
+// and NMT reset communication restore (0: silent until the host writes 0x1017); each reset is
+// counted and answered with a boot-up frame.
+TEST(DriveEmulator, Cia402StoredHeartbeatAndNmtResets) {
+  const can::DriveConfig cfg = can::default_drive(2, can::Protocol::cia402);  // node 3
+  {
+    Cia402Drive silent(cfg, make_joint_model(2, 0.0), {}, 0);
+    std::vector<Frame> out;
+    silent.boot(0, out);
+    out.clear();
+    silent.on_time(1000000000, out);
+    EXPECT_TRUE(out.empty()) << "no heartbeat before 0x1017 is written";
+  }
+  Cia402Drive drive(cfg, make_joint_model(2, 0.0), {}, 0, 100);
+  EXPECT_FALSE(drive.powered());
+  std::vector<Frame> out;
+  drive.boot(0, out);
+  EXPECT_TRUE(drive.powered());
+  out.clear();
+  drive.on_time(100000000, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].id, 0x703u);
+  EXPECT_EQ(bytes(out[0]), (std::vector<int>{0x7F}));  // pre-operational
+  EXPECT_EQ(sdo(drive, 3, {c4::SdoRequest::Kind::write, c4::object::producer_heartbeat, 0, 10, 2}, 100000000).size(), 1u);
+  Frame f;
+  c4::encode_nmt(c4::NmtCommand::reset_communication, 3, f);
+  out.clear();
+  drive.on_frame(f, 110000000, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(bytes(out[0]), (std::vector<int>{0x00}));  // boot-up
+  EXPECT_EQ(drive.nmt_resets(), 1u);
+  EXPECT_EQ(sdo_read(drive, 3, c4::object::producer_heartbeat, 110000000), 100u);  // the stored value again
+  c4::encode_nmt(c4::NmtCommand::reset_communication, 4, f);  // another node's
+  drive.on_frame(f, 120000000, out);
+  c4::encode_nmt(c4::NmtCommand::reset_node, 0, f);  // every node's
+  drive.on_frame(f, 130000000, out);
+  EXPECT_EQ(drive.nmt_resets(), 2u);
+}
+
 // CAN.md 4 / 5: the controller's error-passive report and its return to error active, as
 // error frames on the drive's bus at the scripted cyclic ticks.
 TEST(DriveEmulator, ErrorPassiveThenErrorActiveReports) {

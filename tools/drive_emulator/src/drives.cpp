@@ -260,8 +260,9 @@ void MitDrive::on_time(std::int64_t now_ns, std::vector<Frame>&) {
 }
 
 // ---- CiA 402 ----------------------------------------------------------------------------------------
-Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns)
-    : Drive(cfg, false, model, std::move(faults)) {
+Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns,
+                         std::uint16_t stored_heartbeat_ms)
+    : Drive(cfg, false, model, std::move(faults)), stored_heartbeat_ms_(stored_heartbeat_ms) {
   // 0x6076: the config's rated torque, else the joint's effort limit, unless the script says otherwise.
   const double rated_nm = cfg_.rated_torque_nm > 0.0 ? cfg_.rated_torque_nm
                                                      : robot::kJoints[static_cast<std::size_t>(cfg_.joint)].limits.effort_nm;
@@ -277,7 +278,7 @@ Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vec
 
 void Cia402Drive::reset_communication() {
   const std::uint8_t n = cfg_.drive_id;
-  heartbeat_ms_ = 0;
+  heartbeat_ms_ = stored_heartbeat_ms_;
   error_behaviour_ = 1;
   cycle_period_us_ = 0;
   // Vendor defaults: event-driven PDOs with the drive's own mapping (the host must re-map and disable).
@@ -621,11 +622,13 @@ void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Fram
       case c4::NmtCommand::stop: nmt_ = 0x04; break;
       case c4::NmtCommand::enter_pre_operational: nmt_ = 0x7F; break;
       case c4::NmtCommand::reset_node:
+        ++nmt_resets_;
         state_ = St::switch_on_disabled;
         mode_ = mode_before_ = 0;
         mode_display_at_ns_ = 0;
         [[fallthrough]];
       case c4::NmtCommand::reset_communication:
+        if (cs == c4::NmtCommand::reset_communication) ++nmt_resets_;
         reset_communication();
         boot(now_ns, out);
         break;

@@ -203,7 +203,10 @@ class MitDrive final : public Drive {
 // SYNC-driven TPDOs, the state machine, CST, EMCY.
 class Cia402Drive final : public Drive {
  public:
-  Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns);
+  // `stored_heartbeat_ms`: the drive's stored producer heartbeat time, 0x1017 after power-on and
+  // after NMT reset communication (0: no heartbeat until the host writes 0x1017).
+  Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns,
+              std::uint16_t stored_heartbeat_ms = 0);
   void on_frame(const can::Frame& f, std::int64_t now_ns, std::vector<can::Frame>& out) override;
   void on_time(std::int64_t now_ns, std::vector<can::Frame>& out) override;
   bool cyclic(const can::Frame& f) const noexcept override;
@@ -211,6 +214,9 @@ class Cia402Drive final : public Drive {
   void boot(std::int64_t now_ns, std::vector<can::Frame>& out);
   std::uint16_t status_word() const noexcept;
   std::uint8_t nmt_state() const noexcept { return nmt_; }
+  bool powered() const noexcept { return nmt_ != 0x00; }  // boot() was called
+  // NMT reset node / reset communication commands taken since power-on.
+  std::uint64_t nmt_resets() const noexcept { return nmt_resets_; }
 
  private:
   struct Pdo {
@@ -237,6 +243,8 @@ class Cia402Drive final : public Drive {
   std::uint16_t controlword_ = 0, applied_controlword_ = 0;
   std::int16_t target_torque_ = 0, applied_target_torque_ = 0;
   std::uint16_t heartbeat_ms_ = 0;
+  std::uint16_t stored_heartbeat_ms_ = 0;  // 0x1017 after power-on and reset communication
+  std::uint64_t nmt_resets_ = 0;
   std::int64_t next_heartbeat_ns_ = 0;
   std::int8_t mode_ = 0;
   // 0x6061: shows mode_ from mode_display_at_ns_ on, mode_before_ until then (mode_display_delay).
