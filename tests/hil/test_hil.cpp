@@ -36,6 +36,10 @@ namespace springbok::can {
 namespace {
 
 const std::string kConfigDir = std::string(SPRINGBOK_SOURCE_DIR) + "/tests/hil/config/";
+// The CiA 402 drives as on a robot whose drives were powered before the host started: their stored
+// producer heartbeat time 100 ms, so the host hears they are up, resets them and sees them boot
+// (CAN.md 4.3 step 1). Their power-on boot-up went out before the host listened.
+const std::vector<std::string> kCia402DrivesUp{"--cia402-heartbeat-ms", "100"};
 
 bool have_vcan(int buses) {
   for (int b = 0; b < buses; ++b) {
@@ -221,7 +225,7 @@ TEST(Hil, BringUpAll19DrivesMit) {
 
 TEST(Hil, BringUpAll19DrivesCia402) {
   REQUIRE_VCAN(7);
-  bring_up_all("cia402_classic7.yaml");
+  bring_up_all("cia402_classic7.yaml", kCia402DrivesUp);
 }
 
 TEST(Hil, BringUpAll19DrivesMitWithCanFdArm) {
@@ -341,7 +345,8 @@ TEST(Hil, AJointIsLostOnlyWhenItsAgeExceedsNStale) {
 TEST(Hil, EmcyLatchesTheDriveFault) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("cia402_classic7.yaml");
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: emcy, drive: 8, at: 40, param: 0x2310}]\n");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: emcy, drive: 8, at: 40, param: 0x2310}]\n",
+               kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();
@@ -371,7 +376,8 @@ TEST(Hil, Cia402TorquesAreScaledByTheDrivesRatedTorque) {
   REQUIRE_VCAN(7);
   CanConfig cfg = load("cia402_classic7.yaml");
   cfg.buses[4].drives[0].rated_torque_nm = 39.0;  // what the config expects, not what the drive says
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: rated_torque, drive: 13, param: 150000}]\n");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: rated_torque, drive: 13, param: 150000}]\n",
+               kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();
@@ -423,7 +429,8 @@ TEST(Hil, Cia402StartUpWaitsForTheModeDisplay) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("cia402_classic7.yaml");
   Emulator emu(kConfigDir + "cia402_classic7.yaml",
-               "faults: [{kind: mode_display_delay, drive: 8, param: 30}, {kind: mode_display_delay, drive: 17, param: 5}]\n");
+               "faults: [{kind: mode_display_delay, drive: 8, param: 30}, {kind: mode_display_delay, drive: 17, param: 5}]\n",
+               kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();
@@ -438,7 +445,8 @@ TEST(Hil, Cia402StartUpWaitsForTheModeDisplay) {
 TEST(Hil, Cia402ModeDisplayThatNeverFollowsFailsStartUpNamingTheDrive) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("cia402_classic7.yaml");
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: mode_display_delay, drive: 8, param: 60000}]\n");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: mode_display_delay, drive: 8, param: 60000}]\n",
+               kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();
@@ -453,7 +461,8 @@ TEST(Hil, Cia402ModeDisplayThatNeverFollowsFailsStartUpNamingTheDrive) {
 TEST(Hil, Cia402EmcyDuringStartUpFailsItNamingTheDriveAndTheCode) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("cia402_classic7.yaml");
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: emcy, drive: 8, at_sdo: 3, param: 0x3210}]\n");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: emcy, drive: 8, at_sdo: 3, param: 0x3210}]\n",
+               kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   hal::LifecycleResult r = hw.configure();
@@ -493,6 +502,7 @@ TEST(Hil, MitVendorErrorDuringStartUpFailsItNamingTheDriveAndTheCode) {
 struct EmulatedDrive {
   int enabled = -1;
   unsigned statusword = 0, nmt = 0;
+  unsigned long long nmt_resets = 0;  // NMT reset node / reset communication taken
 };
 std::map<int, EmulatedDrive> emulated_drives(const std::string& summary) {
   std::map<int, EmulatedDrive> out;
@@ -500,9 +510,11 @@ std::map<int, EmulatedDrive> emulated_drives(const std::string& summary) {
   for (std::string line; std::getline(in, line);) {
     int id = 0;
     unsigned sw = 0, nmt = 0;
-    if (std::sscanf(line.c_str(), "cia402 drive %d statusword 0x%x nmt 0x%x", &id, &sw, &nmt) == 3) {
+    unsigned long long resets = 0;
+    if (std::sscanf(line.c_str(), "cia402 drive %d statusword 0x%x nmt 0x%x nmt_resets %llu", &id, &sw, &nmt, &resets) == 4) {
       out[id].statusword = sw;
       out[id].nmt = nmt;
+      out[id].nmt_resets = resets;
     } else if (std::sscanf(line.c_str(), "drive %d", &id) == 1) {
       const auto at = line.find(" enabled ");
       if (at != std::string::npos) out[id].enabled = std::atoi(line.c_str() + at + 9);
@@ -547,7 +559,7 @@ TEST(Hil, FailedActivateLeavesNoMitDriveInMotorMode) {
 TEST(Hil, FailedActivateLeavesNoCia402DriveOperationEnabled) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("cia402_classic7.yaml");
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: enable_blocked, drive: 10}]\n");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: enable_blocked, drive: 10}]\n", kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();
@@ -571,6 +583,68 @@ TEST(Hil, FailedActivateLeavesNoCia402DriveOperationEnabled) {
     // Switch on disabled.
     EXPECT_EQ(d.statusword, id <= 12 ? 0x0231u : 0x0250u) << "drive " << id;
   }
+}
+
+// CAN.md 4.3 step 1: "Wait for the boot-up frame (0x700+n, 00) up to 5 s; if the node is already
+// up (heartbeats seen), send NMT reset communication (82 n) and wait for its boot-up." Drives
+// powered before the host, heartbeats on (stored 0x1017: 100 ms): each node is reset once, boots
+// again and the robot starts.
+TEST(Hil, Cia402NodesHeardUpAreResetOnceAndBootAgain) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "", kCia402DrivesUp);
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  const hal::LifecycleResult a = hw.activate();
+  ASSERT_TRUE(a.ok) << a.message;
+  hw.deactivate();
+  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+  for (const auto& [id, d] : drives) EXPECT_EQ(d.nmt_resets, 1u) << "drive " << id;
+}
+
+// Drives powered 1.5 s after the host started listening (their boot-up is the first they say):
+// the host waits for it and resets none, including the nodes of the buses after the first, which
+// boot while the first bus starts.
+TEST(Hil, Cia402NodesBootingAfterTheHostStartedAreAwaitedNotReset) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  ASSERT_GT(cfg.timing.boot_timeout_ms, 1500u);
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "", {"--cia402-boot-after-ms", "1500"});
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  const hal::LifecycleResult a = hw.activate();
+  ASSERT_TRUE(a.ok) << a.message;
+  hw.deactivate();
+  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+  for (const auto& [id, d] : drives) EXPECT_EQ(d.nmt_resets, 0u) << "drive " << id;
+}
+
+// Drives powered before the host and silent (stored 0x1017: 0, no heartbeat): the host missed their
+// boot-up and nothing says they are up, so none is reset (CAN.md 4.3 step 1 resets only a node
+// heard up); start-up fails after boot_timeout_ms naming the first bus's nodes.
+TEST(Hil, Cia402NodesNeitherBootingNorHeardAreNotResetAndStopStartUp) {
+  REQUIRE_VCAN(7);
+  CanConfig cfg = load("cia402_classic7.yaml");
+  cfg.timing.boot_timeout_ms = 1000;
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  EXPECT_FALSE(c.ok);
+  EXPECT_EQ(c.message,
+            "CiA 402 start-up on bus 'lf': no boot-up within 1000 ms: drive 1 (joint lf_haa_joint, cia402) on bus 'lf' "
+            "(vcan0): neither boot-up nor heartbeat; drive 2 (joint lf_hfe_joint, cia402) on bus 'lf' (vcan0): neither "
+            "boot-up nor heartbeat; drive 3 (joint lf_kfe_joint, cia402) on bus 'lf' (vcan0): neither boot-up nor "
+            "heartbeat");
+  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+  for (const auto& [id, d] : drives) EXPECT_EQ(d.nmt_resets, 0u) << "drive " << id;
 }
 
 TEST(Hil, BusOffFaultsTheBusAndNeedsAnOperatorRecovery) {
@@ -656,7 +730,8 @@ TEST(Hil, Cia402HeartbeatLossMarksTheDriveLostWhilePdosFlow) {
   REQUIRE_VCAN(7);
   CanConfig cfg = load("cia402_classic7.yaml");
   cfg.timing.heartbeat_lost_periods = 3;  // 300 ms at the 100 ms producer heartbeat time
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: no_heartbeat, drive: 5, at: 20}]\n");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: no_heartbeat, drive: 5, at: 20}]\n",
+               kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();

@@ -242,7 +242,11 @@ void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
         return;
       }
       jr.last_heartbeat_tick = tick_;
-      if (st == cia402::NmtState::boot_up) jr.booted = true;
+      if (st == cia402::NmtState::boot_up) {
+        jr.booted = true;
+      } else {
+        jr.heartbeat_seen = true;
+      }
       // A drive that rebooted or left Operational no longer follows the PDOs.
       if (jr.status.state == hal::DriveState::enabled && st != cia402::NmtState::operational) {
         jr.status.state = hal::DriveState::lost;

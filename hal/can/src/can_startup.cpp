@@ -77,6 +77,12 @@ LifecycleResult CanHardware::open_bus(int b) {
   if (!err.empty()) return LifecycleResult::failure("bus '" + bc.name + "': " + err);
   bus.diag = BusDiagnostics{};
   bus.tx_full = TxBufferFull{};
+  // What a CiA 402 node said of its NMT state counts from now on, while other buses start too.
+  for (int k = 0; k < bus.count; ++k) {
+    JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    jr.booted = false;
+    jr.heartbeat_seen = false;
+  }
   return LifecycleResult::success();
 }
 
@@ -502,23 +508,37 @@ LifecycleResult CanHardware::start_cia402(int b) {
     }
     return true;
   };
-  // 1. Boot-up: a node that is already up (or silent) is reset so that it boots again.
-  for (int j : nodes) {
-    joints_[static_cast<std::size_t>(j)].booted = false;
-    joints_[static_cast<std::size_t>(j)].startup_fault_code = 0;
+  // 1. Boot-up: wait for each node's boot-up frame up to boot_timeout_ms. A node heard to be up
+  // already (a heartbeat, since the bus was opened) is sent NMT reset communication, and its boot-up
+  // waited for, again up to boot_timeout_ms from then. A node neither booting nor heard is left alone.
+  for (int j : nodes) joints_[static_cast<std::size_t>(j)].startup_fault_code = 0;
+  std::vector<bool> reset_sent(nodes.size(), false);
+  const auto up_not_reset = [&] {
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      const JointRuntime& jr = joints_[static_cast<std::size_t>(nodes[i])];
+      if (!jr.booted && jr.heartbeat_seen && !reset_sent[i]) return true;
+    }
+    return false;
+  };
+  std::int64_t deadline_ns = after_ms(config_.timing.boot_timeout_ms);
+  while (pump_until(deadline_ns, [&] { return all_booted() || up_not_reset(); }) && !all_booted()) {
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      const JointRuntime& jr = joints_[static_cast<std::size_t>(nodes[i])];
+      if (jr.booted || !jr.heartbeat_seen || reset_sent[i]) continue;
+      Frame f;
+      cia402::encode_nmt(cia402::NmtCommand::reset_communication, jr.cfg.drive_id, f);
+      send_now(b, f);
+      reset_sent[i] = true;
+      deadline_ns = std::max(deadline_ns, after_ms(config_.timing.boot_timeout_ms));
+    }
   }
-  pump_until(after_ms(std::min<std::uint32_t>(200, config_.timing.boot_timeout_ms)), all_booted);
-  for (int j : nodes) {
-    JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
-    if (jr.booted) continue;
-    Frame f;
-    cia402::encode_nmt(cia402::NmtCommand::reset_communication, jr.cfg.drive_id, f);
-    send_now(b, f);
-  }
-  if (!pump_until(after_ms(config_.timing.boot_timeout_ms), all_booted)) {
+  if (!all_booted()) {
     std::string missing;
-    for (int j : nodes) {
-      if (!joints_[static_cast<std::size_t>(j)].booted) missing += (missing.empty() ? "" : "; ") + drive_name(j);
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      if (joints_[static_cast<std::size_t>(nodes[i])].booted) continue;
+      missing += (missing.empty() ? "" : "; ") + drive_name(nodes[i]) +
+                 (reset_sent[i] ? ": up (heartbeat seen), no boot-up after NMT reset communication"
+                                : ": neither boot-up nor heartbeat");
     }
     return LifecycleResult::failure("CiA 402 start-up on bus '" + bc.name + "': no boot-up within " +
                                     std::to_string(config_.timing.boot_timeout_ms) + " ms: " + missing);

@@ -139,7 +139,10 @@ struct JointRuntime {
   // 0x6072, 0x6077), set once per start-up and only multiplied by on the tick.
   std::uint32_t rated_torque_mnm = 0;
   cia402::TorqueScale torque_scale;
-  bool booted = false;            // CiA 402 start-up: boot-up seen
+  // CiA 402 start-up (CAN.md 4.3 step 1), since the bus's socket was opened: its boot-up frame seen;
+  // a heartbeat seen (the node was up already).
+  bool booted = false;
+  bool heartbeat_seen = false;
   // The first non-zero fault code the drive itself sent since this bus's start-up began (CiA 402:
   // EMCY; MIT: the vendor reply's error byte): start-up fails on it (can_startup.cpp).
   std::uint16_t startup_fault_code = 0;
