@@ -21,6 +21,13 @@
 // controller reports error passive is only degraded (its bit in m.degraded_buses,
 // a warning for the safety layer) until the controller reports error active again.
 //
+// Start-up (not real-time): configure() finds and configures every drive without enabling one:
+// MIT exit motor mode (presence, initial position), a zero command, the positions checked against
+// the joint limits and can.start_pose (CAN.md 4.2 steps 1-3); CiA 402 each node's boot-up awaited,
+// a node heard up (heartbeat) reset first, then its SDO configuration (4.3 steps 1-2). activate()
+// enables them bus by bus (4.2 step 4, 4.3 steps 3-4); if it fails anywhere, every drive it enabled
+// is disabled again (4.4 step 2). A bus fault latched during either fails it, naming the bus.
+//
 // Sensors (CAN.md 6): the trunk IMU and the wrist F/T push their frames on their own
 // clock. read() feeds every sensor frame it drains to the sensor's assembler and fills
 // m.imu / m.wrist from the newest complete sample; it never waits for a sensor. Each bus
@@ -53,6 +60,7 @@ enum class BusFault : std::uint8_t {
 };
 const char* to_string(BusFault f) noexcept;
 // Whether frames can still be sent on a bus with this fault (to disable its drives, CAN.md 4.4).
+// rt: no alloc
 bool bus_reachable(BusFault f) noexcept;
 
 struct BusDiagnostics {
@@ -66,7 +74,7 @@ struct BusDiagnostics {
   std::uint64_t error_passive_events = 0;
   std::uint64_t overflows = 0;           // controller RX/TX overflow: frames lost
   std::uint64_t bad_frames = 0;          // wrong DLC, undecodable, implausible
-  std::uint64_t unexpected_frames = 0;   // an id / drive id that is no drive of this bus
+  std::uint64_t unexpected_frames = 0;   // a frame no drive of this bus sends, naming no drive of another bus
   std::uint64_t foreign_frames = 0;      // a valid frame of a drive on another bus: configuration fault
   std::uint8_t foreign_drive_id = 0;     // the first such frame: the drive it named (0: none yet) ...
   std::uint32_t foreign_can_id = 0;      // ... and its CAN id
@@ -164,7 +172,7 @@ class CanHardware final : public hal::Hardware {
 
   std::string_view name() const noexcept override { return "socketcan"; }
   // Validates the layout (refusing a bus above the load limit), opens the sockets,
-  // finds every drive and configures it (CAN.md 4.2 steps 1-3, 4.3 steps 1-2).
+  // finds every drive and configures it (CAN.md 4.2 steps 1-3, 4.3 steps 1-2); enables none.
   hal::LifecycleResult configure() override;
   // Enables every drive (MIT enter motor mode; CiA 402 NMT start and the state machine). When it
   // fails on a bus, every drive it enabled (that bus's included) is disabled again as in CAN.md
@@ -257,7 +265,7 @@ class CanHardware final : public hal::Hardware {
   void process_error_frame(int b, const Frame& f) noexcept;
   bool accept_position(int j, double q_rad) noexcept;
   int find_joint(int b, std::uint8_t drive_id, Protocol p) const noexcept;
-  // The joint of drive `drive_id` when it is configured on a bus other than `b`, else -1.
+  // The joint of drive `drive_id` when it is configured on a bus other than `b`, else -1. rt: no alloc
   int find_foreign_joint(int b, std::uint8_t drive_id) const noexcept;
   // A failure naming bus `b` and its latched fault (success when it has none). Not real-time.
   hal::LifecycleResult bus_fault_failure(int b, const char* during) const;
