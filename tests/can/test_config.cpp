@@ -2,6 +2,7 @@
 // and rejects bad input with an error naming the field.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <string>
 
 #include "springbok/can/config_yaml.hpp"
@@ -10,10 +11,24 @@
 namespace springbok::can {
 namespace {
 
+// CAN.md 4.2 step 3's expected pose, which a config with MIT drives must give: the stance.
+constexpr const char* kStartPose =
+    "start_pose: {q_rad: [0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0, 0, 0, 0, 0, 0]}";
+// A one-line `can:` map with `keys` and the start pose.
+std::string can_map(const std::string& keys) { return "can: {" + keys + ", " + kStartPose + "}"; }
+
+// `c` with the stance as its start pose (the built-in layouts carry none: it is the robot's, not the buses').
+CanConfig with_stance_start_pose(CanConfig c) {
+  c.start_pose.given = true;
+  const double front[3] = {0.0, 0.7, -1.4};
+  for (int j = 0; j < 12; ++j) c.start_pose.q_rad[static_cast<std::size_t>(j)] = (j < 6 ? 1.0 : -1.0) * front[j % 3];
+  return c;
+}
+
 TEST(CanConfig, BuiltInLayoutsAreValid) {
-  EXPECT_EQ(validate(classic7_layout(Protocol::mit)), "");
-  EXPECT_EQ(validate(classic7_layout(Protocol::cia402)), "");
-  EXPECT_EQ(validate(fd5_layout()), "");
+  EXPECT_EQ(validate(with_stance_start_pose(classic7_layout(Protocol::mit))), "");
+  EXPECT_EQ(validate(classic7_layout(Protocol::cia402)), "");  // no MIT drive: no start pose needed
+  EXPECT_EQ(validate(with_stance_start_pose(fd5_layout())), "");
 }
 
 TEST(CanConfig, LayoutShortcutFromYaml) {
@@ -47,7 +62,7 @@ std::string full_config(const std::string& lf_drive0_extra) {
       if (j == 0) s += lf_drive0_extra;
     }
   }
-  return s;
+  return s + "  " + kStartPose + "\n";
 }
 
 TEST(CanConfig, ExplicitBusesWithEveryDriveField) {
@@ -158,30 +173,30 @@ TEST(CanConfig, StructuralErrors) {
   EXPECT_NE(load_can_config_text("can: [1, 2").error.find("YAML"), std::string::npos);
   EXPECT_NE(load_can_config_text("can: {layout: classic7, timing: {tick_us: -1}}").error.find("can.timing.tick_us"),
             std::string::npos);
-  EXPECT_NE(load_can_config_text("can: {layout: classic7, max_bus_load: 1.5}").error.find("can.max_bus_load"),
+  EXPECT_NE(load_can_config_text(can_map("layout: classic7, max_bus_load: 1.5")).error.find("can.max_bus_load"),
             std::string::npos);
   EXPECT_NE(load_can_config_file("/nonexistent/can.yaml").error.find("cannot open"), std::string::npos);
   // Interface names as the kernel takes them (they also go to ip(8)): 1..15 printable
   // characters without '/', ':' or white space.
   for (const char* bad : {"'can;rm -rf '", "'can 1_'", "'../can'", "'vcan:'", "can_much_too_long"}) {
-    const std::string text = std::string("can: {layout: classic7, interface_prefix: ") + bad + "}";
+    const std::string text = can_map(std::string("layout: classic7, interface_prefix: ") + bad);
     EXPECT_NE(load_can_config_text(text).error.find("can.buses[0].interface: "), std::string::npos) << bad;
   }
-  EXPECT_TRUE(load_can_config_text("can: {layout: classic7, interface_prefix: vcan_a-}").ok);
+  EXPECT_TRUE(load_can_config_text(can_map("layout: classic7, interface_prefix: vcan_a-")).ok);
   // A field applied to every drive (mit_ranges) and wrong is said once.
   const std::string ranges = load_can_config_text("can: {layout: classic7, mit_ranges: {kp: [500, 0]}}").error;
   EXPECT_EQ(ranges, "can.mit_ranges.kp: min must be below max (line 1)");
   for (const char* bad : {"-1", "500", ".nan"}) {
-    const std::string text = std::string("can: {layout: classic7, mit_velocity_observer_rad_s: ") + bad + "}";
+    const std::string text = can_map(std::string("layout: classic7, mit_velocity_observer_rad_s: ") + bad);
     EXPECT_NE(load_can_config_text(text).error.find("can.mit_velocity_observer_rad_s"), std::string::npos) << bad;
   }
-  EXPECT_DOUBLE_EQ(load_can_config_text("can: {layout: classic7, mit_velocity_observer_rad_s: 0}")
+  EXPECT_DOUBLE_EQ(load_can_config_text(can_map("layout: classic7, mit_velocity_observer_rad_s: 0"))
                        .config.mit_velocity_observer_rad_s,
                    0.0);
 }
 
 TEST(CanConfig, LayoutWideMitRangesOverrideTheGainRangesOfEveryMitDrive) {
-  const ConfigResult r = load_can_config_text("can: {layout: fd5, mit_ranges: {kp: [0, 2000], kd: [0, 50]}}");
+  const ConfigResult r = load_can_config_text(can_map("layout: fd5, mit_ranges: {kp: [0, 2000], kd: [0, 50]}"));
   ASSERT_TRUE(r.ok) << r.error;
   for (const BusConfig& b : r.config.buses) {
     for (const DriveConfig& d : b.drives) {
@@ -199,8 +214,66 @@ TEST(CanConfig, LayoutWideMitRangesOverrideTheGainRangesOfEveryMitDrive) {
             std::string::npos);
 }
 
+// CAN.md 4.2 step 3: MIT start-up checks the drives' positions against the expected pose, which
+// only the config can give: required with MIT drives, read and checked at load, each error naming
+// the field.
+TEST(CanConfig, StartPoseIsRequiredWithMitDrivesAndChecked) {
+  const ConfigResult missing = load_can_config_text("can: {layout: classic7}");
+  EXPECT_FALSE(missing.ok);
+  EXPECT_EQ(missing.error.rfind("can.start_pose: missing; with MIT drives it is required", 0), 0u) << missing.error;
+  EXPECT_TRUE(load_can_config_text("can: {layout: classic7, protocol: cia402}").ok);  // CiA 402 start-up has no such step
+
+  const ConfigResult r = load_can_config_text(can_map("layout: classic7"));
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_TRUE(r.config.start_pose.given);
+  EXPECT_DOUBLE_EQ(r.config.start_pose.q_rad[1], 0.7);
+  EXPECT_DOUBLE_EQ(r.config.start_pose.q_rad[8], 1.4);
+  EXPECT_DOUBLE_EQ(r.config.start_pose.tolerance_rad, 0.3);  // the default
+  const std::string pose = "q_rad: [0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0, 0, 0, 0, 0, 0]";
+  const auto with = [&](const std::string& start_pose) {
+    return load_can_config_text("can: {layout: classic7, start_pose: {" + start_pose + "}}");
+  };
+  const ConfigResult tight = with(pose + ", tolerance_rad: 0.05");
+  ASSERT_TRUE(tight.ok) << tight.error;
+  EXPECT_DOUBLE_EQ(tight.config.start_pose.tolerance_rad, 0.05);
+
+  struct Bad {
+    std::string start_pose;
+    const char* error;
+  };
+  const Bad cases[] = {
+      {"tolerance_rad: 0.3", "can.start_pose.q_rad: missing"},
+      {"q_rad: [0, 0.7, -1.4]", "can.start_pose.q_rad: must be a list of 19"},
+      {"q_rad: [0, 2.0, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0, 0, 0, 0, 0, 0]",
+       "can.start_pose.q_rad[1]: 2.000000 rad is outside the limits of joint 'lf_hfe_joint' [-0.872665, 1.221730]"},
+      {"q_rad: [0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0, .nan, 0, 0, 0, 0]",
+       "can.start_pose.q_rad[14]"},
+      {pose + ", tolerance_rad: 0", "can.start_pose.tolerance_rad: must be in (0, 1.000000] rad"},
+      {pose + ", tolerance_rad: -0.1", "can.start_pose.tolerance_rad: must be in (0, 1.000000] rad"},
+      {pose + ", tolerance_rad: 1.5", "can.start_pose.tolerance_rad: must be in (0, 1.000000] rad"},
+      {pose + ", tolerance_rad: .inf", "can.start_pose.tolerance_rad"},
+      {pose + ", colour: red", "can.start_pose.colour: unknown key"},
+  };
+  for (const Bad& c : cases) {
+    const ConfigResult bad = with(c.start_pose);
+    EXPECT_FALSE(bad.ok) << c.start_pose;
+    EXPECT_NE(bad.error.find(c.error), std::string::npos) << "expected '" << c.error << "' in: " << bad.error;
+  }
+  EXPECT_NE(load_can_config_text("can: {layout: classic7, start_pose: [0, 1]}").error.find("can.start_pose: must be a map"),
+            std::string::npos);
+
+  // The start-up check itself: within the tolerance either way; not finite is never at the pose.
+  const StartPose& p = tight.config.start_pose;
+  EXPECT_TRUE(at_start_pose(p, 1, 0.7));
+  EXPECT_TRUE(at_start_pose(p, 1, 0.749));
+  EXPECT_TRUE(at_start_pose(p, 1, 0.651));
+  EXPECT_FALSE(at_start_pose(p, 1, 0.751));
+  EXPECT_FALSE(at_start_pose(p, 1, 0.649));
+  EXPECT_FALSE(at_start_pose(p, 1, std::numeric_limits<double>::quiet_NaN()));
+}
+
 TEST(CanConfig, ExampleFilesLoad) {
-  for (const char* name : {"mit_classic7.yaml", "cia402_classic7.yaml", "mit_fd5.yaml", "stand_mit7.yaml"}) {
+  for (const char* name : {"mit_classic7.yaml", "cia402_classic7.yaml", "mit_fd5.yaml", "stand_mit7.yaml", "wbc_mit8.yaml"}) {
     const ConfigResult r = load_can_config_file(std::string(SPRINGBOK_SOURCE_DIR) + "/tests/hil/config/" + name);
     EXPECT_TRUE(r.ok) << name << ": " << r.error;
   }

@@ -451,6 +451,119 @@ TEST(DriveEmulator, MitVendorErrorFromPowerOnIsInEveryReply) {
   EXPECT_NE(error("faults: [{kind: vendor_error, drive: 8, param: 5, at: 3}]").find("faults[0].at"), std::string::npos);
 }
 
+// A drive lost between the host's start-up steps (HIL: activate() failing on a later bus): with
+// `silent` at_frame k it takes, answers and sends nothing from its k-th frame on. MIT: the
+// presence check (1) and the zero command (2) are answered, enter motor mode (3) is not, and the
+// drive never enables.
+TEST(DriveEmulator, SilentAtFrameUnplugsTheDriveFromItsKthFrame) {
+  const can::DriveConfig cfg = can::default_drive(9, can::Protocol::mit);  // drive 10
+  MitDrive drive(cfg, false, make_joint_model(9, 0.0), script("faults: [{kind: silent, drive: 10, at_frame: 3}]"), 0);
+  std::vector<Frame> out;
+  Frame f;
+  can::mit::encode_special(10, can::mit::Special::exit_motor_mode, f);
+  drive.on_frame(f, 0, out);
+  (void)can::mit::encode_command(10, can::mit::Command{}, cfg.mit_ranges, f);
+  drive.on_frame(f, 0, out);
+  EXPECT_EQ(out.size(), 2u);
+  can::mit::encode_special(10, can::mit::Special::enter_motor_mode, f);
+  drive.on_frame(f, 0, out);
+  (void)can::mit::encode_command(10, can::mit::Command{}, cfg.mit_ranges, f);
+  drive.on_frame(f, 0, out);
+  EXPECT_EQ(out.size(), 2u);
+  EXPECT_FALSE(drive.enabled());
+  EXPECT_TRUE(drive.unplugged());
+  EXPECT_EQ(drive.frames_in(), 2u);
+  // CiA 402: no heartbeat either once unplugged (its SDO request is its first frame).
+  const can::DriveConfig node = can::default_drive(2, can::Protocol::cia402);  // node 3
+  Cia402Drive cia(node, make_joint_model(2, 0.0), script("faults: [{kind: silent, drive: 3, at_frame: 2}]"), 0);
+  cia.boot(0, out);
+  EXPECT_EQ(sdo(cia, 3, {c4::SdoRequest::Kind::write, c4::object::producer_heartbeat, 0, 10, 2}).size(), 1u);
+  out.clear();
+  cia.on_time(20000000, out);
+  EXPECT_EQ(out.size(), 1u);  // a heartbeat
+  EXPECT_TRUE(sdo(cia, 3, {c4::SdoRequest::Kind::read, c4::object::statusword, 0, 0, 0}).empty());
+  out.clear();
+  cia.on_time(40000000, out);
+  EXPECT_TRUE(out.empty());
+  const auto error = [](const char* yaml) { return load_faults_text(yaml).error; };
+  EXPECT_NE(error("faults: [{kind: drop, drive: 3, at_frame: 2}]").find("faults[0].at_frame"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: silent, drive: 3, at_frame: 0}]").find("faults[0].at_frame"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: silent, drive: 3, at: 1, at_frame: 2}]").find("either `at` or `at_frame`"),
+            std::string::npos);
+  EXPECT_NE(error("faults: [{kind: silent, sensor: imu, at_frame: 2}]").find("faults[0].at_frame"), std::string::npos);
+}
+
+// A CiA 402 drive whose power stage cannot be enabled (enable_blocked, e.g. its safe torque off
+// engaged): Enable operation leaves it Switched on; shutdown still takes it back to Ready.
+TEST(DriveEmulator, Cia402EnableBlockedStaysSwitchedOn) {
+  const can::DriveConfig cfg = can::default_drive(9, can::Protocol::cia402);  // node 10
+  Cia402Drive drive(cfg, make_joint_model(9, 0.0), script("faults: [{kind: enable_blocked, drive: 10}]"), 0);
+  std::vector<Frame> out;
+  drive.boot(0, out);
+  std::array<c4::SdoWrite, c4::kMaxMappingWrites> seq{};
+  const int n = c4::pdo_mapping_sequence(10, c4::Mapping::compact, seq);
+  for (int i = 0; i < n; ++i) {
+    ASSERT_EQ(sdo(drive, 10, {c4::SdoRequest::Kind::write, seq[i].index, seq[i].sub, seq[i].value, seq[i].size}).size(), 1u);
+  }
+  Frame f;
+  c4::encode_nmt(c4::NmtCommand::start, 10, f);
+  drive.on_frame(f, 0, out);
+  const auto cycle = [&](std::uint16_t cw) {
+    c4::encode_rpdo1(10, c4::Rpdo1{cw, 0}, f);
+    drive.on_frame(f, 0, out);
+    c4::encode_sync(f);
+    drive.on_frame(f, 0, out);
+    return drive.status_word();
+  };
+  EXPECT_EQ(cycle(c4::controlword::shutdown), 0x0231);
+  EXPECT_EQ(cycle(c4::controlword::switch_on), 0x0233);
+  for (int k = 0; k < 5; ++k) EXPECT_EQ(cycle(c4::controlword::enable_operation), 0x0233) << k;
+  EXPECT_FALSE(drive.enabled());
+  EXPECT_EQ(cycle(c4::controlword::shutdown), 0x0231);
+  const auto error = [](const char* yaml) { return load_faults_text(yaml).error; };
+  EXPECT_NE(error("faults: [{kind: enable_blocked, drive: 10, param: 1}]").find("faults[0].param"), std::string::npos);
+  EXPECT_NE(error("faults: [{kind: enable_blocked, drive: 10, at: 3}]").find("faults[0].at"), std::string::npos);
+}
+
+// CAN.md 4.3 step 1 as the host sees a drive: its stored producer heartbeat time is what power-on
+// and NMT reset communication restore (0: silent until the host writes 0x1017); each reset is
+// counted and answered with a boot-up frame.
+TEST(DriveEmulator, Cia402StoredHeartbeatAndNmtResets) {
+  const can::DriveConfig cfg = can::default_drive(2, can::Protocol::cia402);  // node 3
+  {
+    Cia402Drive silent(cfg, make_joint_model(2, 0.0), {}, 0);
+    std::vector<Frame> out;
+    silent.boot(0, out);
+    out.clear();
+    silent.on_time(1000000000, out);
+    EXPECT_TRUE(out.empty()) << "no heartbeat before 0x1017 is written";
+  }
+  Cia402Drive drive(cfg, make_joint_model(2, 0.0), {}, 0, 100);
+  EXPECT_FALSE(drive.powered());
+  std::vector<Frame> out;
+  drive.boot(0, out);
+  EXPECT_TRUE(drive.powered());
+  out.clear();
+  drive.on_time(100000000, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].id, 0x703u);
+  EXPECT_EQ(bytes(out[0]), (std::vector<int>{0x7F}));  // pre-operational
+  EXPECT_EQ(sdo(drive, 3, {c4::SdoRequest::Kind::write, c4::object::producer_heartbeat, 0, 10, 2}, 100000000).size(), 1u);
+  Frame f;
+  c4::encode_nmt(c4::NmtCommand::reset_communication, 3, f);
+  out.clear();
+  drive.on_frame(f, 110000000, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(bytes(out[0]), (std::vector<int>{0x00}));  // boot-up
+  EXPECT_EQ(drive.nmt_resets(), 1u);
+  EXPECT_EQ(sdo_read(drive, 3, c4::object::producer_heartbeat, 110000000), 100u);  // the stored value again
+  c4::encode_nmt(c4::NmtCommand::reset_communication, 4, f);  // another node's
+  drive.on_frame(f, 120000000, out);
+  c4::encode_nmt(c4::NmtCommand::reset_node, 0, f);  // every node's
+  drive.on_frame(f, 130000000, out);
+  EXPECT_EQ(drive.nmt_resets(), 2u);
+}
+
 // CAN.md 4 / 5: the controller's error-passive report and its return to error active, as
 // error frames on the drive's bus at the scripted cyclic ticks.
 TEST(DriveEmulator, ErrorPassiveThenErrorActiveReports) {

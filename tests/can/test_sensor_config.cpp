@@ -10,12 +10,17 @@
 namespace springbok::can {
 namespace {
 
+// CAN.md 4.2 step 3's expected pose, which a config with MIT drives must give: the stance.
+constexpr const char* kStartPose =
+    "start_pose: {q_rad: [0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0, 0, 0, 0, 0, 0]}";
+
 std::string with_sensors(const std::string& sensors, const std::string& layout = "classic7",
                          const std::string& protocol = "mit") {
   // The sensors' own bus where a sensor is on it (a bus with neither drives nor sensors is refused).
   const std::string own_bus =
       sensors.find("bus: sensors") != std::string::npos ? "\n  extra_buses:\n    - {name: sensors, interface: can7}" : "";
-  return "can:\n  layout: " + layout + "\n  protocol: " + protocol + own_bus + "\n  sensors:\n" + sensors;
+  return "can:\n  layout: " + layout + "\n  protocol: " + protocol + own_bus + "\n  " + kStartPose + "\n  sensors:\n" +
+         sensors;
 }
 
 TEST(SensorConfig, OwnBusWithDefaults) {
@@ -46,7 +51,7 @@ TEST(SensorConfig, OwnBusWithDefaults) {
   // The drive buses are unchanged by sensors elsewhere.
   EXPECT_NEAR(worst_case_load(r.config.buses[0], 1000.0, r.config.sensors).load, 0.75, 1e-12);
   // No sensors: the section is optional.
-  const ConfigResult none = load_can_config_text("can: {layout: classic7}");
+  const ConfigResult none = load_can_config_text(std::string("can: {layout: classic7, ") + kStartPose + "}");
   ASSERT_TRUE(none.ok);
   EXPECT_FALSE(none.config.sensors.imu.enabled);
   EXPECT_FALSE(none.config.sensors.wrist_ft.enabled);
@@ -168,7 +173,7 @@ TEST(SensorConfig, BusLoadWithTheSensorsIsRefusedNamingTheBus) {
   // Both sensors on a 1 Mbit/s bus of their own fit (67.5 %); at 500 kbit/s they do not (135 %).
   r = load_can_config_text(
       "can:\n  layout: classic7\n  extra_buses: [{name: sensors, interface: can7, bitrate: 500000}]\n"
-      "  sensors: {imu: {bus: sensors}, wrist_ft: {bus: sensors}}\n");
+      "  sensors: {imu: {bus: sensors}, wrist_ft: {bus: sensors}}\n  " + std::string(kStartPose) + "\n");
   EXPECT_FALSE(r.ok);
   EXPECT_NE(r.error.find("bus 'sensors' (can7): worst-case load 135.0 %"), std::string::npos) << r.error;
   // check_bus_loads on a built config, the sensors counted.

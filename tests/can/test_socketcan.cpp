@@ -107,5 +107,38 @@ TEST(ErrorFrames, TheLastErrorCountersAreKeptAndReported) {
   EXPECT_NE(line.find(" short_writes=2 tx_errors=3 rx_budget_exhausted=4 "), std::string::npos) << line;
 }
 
+// CAN.md 4.1: "a valid frame with an id of another bus is a configuration fault". Such frames are
+// counted, the first one's drive and CAN id kept and shown in the bus's line, and the bus fault it
+// means is one that still lets the host disable the bus's drives (unlike bus-off).
+TEST(ForeignFrames, AreAConfigurationFaultNamingTheFirstDriveAndId) {
+  BusConfig bus;
+  bus.name = "arm0";
+  bus.interface = "vcan4";
+  BusDiagnostics d;
+  EXPECT_NE(bus_diagnostics_line(bus, d).find(" foreign=0 foreign_drive=- foreign_id=- "), std::string::npos)
+      << bus_diagnostics_line(bus, d);
+  Frame f;
+  f.id = 0x10D;
+  f.len = 6;
+  f.data[0] = 5;
+  EXPECT_EQ(record_foreign_frame(f, 5, d), BusFault::foreign_drive);
+  f.id = 0x10E;
+  EXPECT_EQ(record_foreign_frame(f, 7, d), BusFault::foreign_drive);
+  EXPECT_EQ(d.foreign_frames, 2u);
+  EXPECT_EQ(d.foreign_drive_id, 5);
+  EXPECT_EQ(d.foreign_can_id, 0x10Du);
+  d.fault = BusFault::foreign_drive;
+  const std::string line = bus_diagnostics_line(bus, d);
+  EXPECT_EQ(line.rfind("can bus arm0 (vcan4): fault=configuration fault: a frame of a drive configured on another bus "
+                       "(CAN.md 4.1) ", 0),
+            0u)
+      << line;
+  EXPECT_NE(line.find(" foreign=2 foreign_drive=5 foreign_id=0x10D "), std::string::npos) << line;
+  EXPECT_TRUE(bus_reachable(BusFault::none));
+  EXPECT_TRUE(bus_reachable(BusFault::foreign_drive));
+  EXPECT_FALSE(bus_reachable(BusFault::bus_off));
+  EXPECT_FALSE(bus_reachable(BusFault::net_down));
+}
+
 }  // namespace
 }  // namespace springbok::can

@@ -18,6 +18,7 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <map>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -35,6 +36,10 @@ namespace springbok::can {
 namespace {
 
 const std::string kConfigDir = std::string(SPRINGBOK_SOURCE_DIR) + "/tests/hil/config/";
+// The CiA 402 drives as on a robot whose drives were powered before the host started: their stored
+// producer heartbeat time 100 ms, so the host hears they are up, resets them and sees them boot
+// (CAN.md 4.3 step 1). Their power-on boot-up went out before the host listened.
+const std::vector<std::string> kCia402DrivesUp{"--cia402-heartbeat-ms", "100"};
 
 bool have_vcan(int buses) {
   for (int b = 0; b < buses; ++b) {
@@ -220,7 +225,7 @@ TEST(Hil, BringUpAll19DrivesMit) {
 
 TEST(Hil, BringUpAll19DrivesCia402) {
   REQUIRE_VCAN(7);
-  bring_up_all("cia402_classic7.yaml");
+  bring_up_all("cia402_classic7.yaml", kCia402DrivesUp);
 }
 
 TEST(Hil, BringUpAll19DrivesMitWithCanFdArm) {
@@ -255,6 +260,33 @@ TEST(Hil, MissingDriveStopsStartUpNamingIt) {
   const hal::LifecycleResult c = hw.configure();
   EXPECT_FALSE(c.ok);
   EXPECT_NE(c.message.find("drive 20 (joint arm_joint_7, mit) on bus 'arm2' (vcan6)"), std::string::npos) << c.message;
+}
+
+// CAN.md 4.2 step 3: MIT start-up checks the drives' positions against the joint limits and the
+// expected pose (can.start_pose). The emulated joints start in the stance, which the config
+// expects, but for arm joint 4 (drive 16, bus arm1): expected at 0.5 rad, more than the tolerance
+// (0.3 rad) from where it is, though within its limits. configure() fails naming the joint, its
+// position and the expected one, and only it; at 0.25 rad from the expected pose it starts.
+TEST(Hil, MitStartUpRefusesAJointOffTheExpectedPose) {
+  REQUIRE_VCAN(7);
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "");
+  ASSERT_TRUE(emu.ready());
+  CanConfig cfg = load("mit_classic7.yaml");
+  ASSERT_DOUBLE_EQ(cfg.start_pose.tolerance_rad, 0.3);
+  cfg.start_pose.q_rad[15] = 0.5;
+  {
+    CanHardware hw(cfg);
+    const hal::LifecycleResult c = hw.configure();
+    EXPECT_FALSE(c.ok);
+    const std::string head =
+        "MIT start-up: position off the expected start pose (can.start_pose, tolerance 0.300000 rad): drive 16 (joint "
+        "arm_joint_4, mit) on bus 'arm1' (vcan5) at -0.000191 rad, expected 0.500000 rad";
+    EXPECT_EQ(c.message, head) << c.message;
+  }
+  cfg.start_pose.q_rad[15] = 0.25;
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  EXPECT_TRUE(c.ok) << c.message;
 }
 
 TEST(Hil, SilentDriveIsLostAfterTheConfiguredTicks) {
@@ -313,7 +345,8 @@ TEST(Hil, AJointIsLostOnlyWhenItsAgeExceedsNStale) {
 TEST(Hil, EmcyLatchesTheDriveFault) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("cia402_classic7.yaml");
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: emcy, drive: 8, at: 40, param: 0x2310}]\n");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: emcy, drive: 8, at: 40, param: 0x2310}]\n",
+               kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();
@@ -343,7 +376,8 @@ TEST(Hil, Cia402TorquesAreScaledByTheDrivesRatedTorque) {
   REQUIRE_VCAN(7);
   CanConfig cfg = load("cia402_classic7.yaml");
   cfg.buses[4].drives[0].rated_torque_nm = 39.0;  // what the config expects, not what the drive says
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: rated_torque, drive: 13, param: 150000}]\n");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: rated_torque, drive: 13, param: 150000}]\n",
+               kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();
@@ -395,7 +429,8 @@ TEST(Hil, Cia402StartUpWaitsForTheModeDisplay) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("cia402_classic7.yaml");
   Emulator emu(kConfigDir + "cia402_classic7.yaml",
-               "faults: [{kind: mode_display_delay, drive: 8, param: 30}, {kind: mode_display_delay, drive: 17, param: 5}]\n");
+               "faults: [{kind: mode_display_delay, drive: 8, param: 30}, {kind: mode_display_delay, drive: 17, param: 5}]\n",
+               kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();
@@ -410,7 +445,8 @@ TEST(Hil, Cia402StartUpWaitsForTheModeDisplay) {
 TEST(Hil, Cia402ModeDisplayThatNeverFollowsFailsStartUpNamingTheDrive) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("cia402_classic7.yaml");
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: mode_display_delay, drive: 8, param: 60000}]\n");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: mode_display_delay, drive: 8, param: 60000}]\n",
+               kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();
@@ -425,7 +461,8 @@ TEST(Hil, Cia402ModeDisplayThatNeverFollowsFailsStartUpNamingTheDrive) {
 TEST(Hil, Cia402EmcyDuringStartUpFailsItNamingTheDriveAndTheCode) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("cia402_classic7.yaml");
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: emcy, drive: 8, at_sdo: 3, param: 0x3210}]\n");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: emcy, drive: 8, at_sdo: 3, param: 0x3210}]\n",
+               kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   hal::LifecycleResult r = hw.configure();
@@ -458,6 +495,156 @@ TEST(Hil, MitVendorErrorDuringStartUpFailsItNamingTheDriveAndTheCode) {
   EXPECT_NE(r.message.find("error code 0x15"), std::string::npos) << r.message;
   EXPECT_EQ(hw.joint(7).status.state, hal::DriveState::fault);
   EXPECT_EQ(hw.joint(7).status.fault_code, 0x15);
+}
+
+// What the emulator's summary says of each drive at its end: enabled (MIT motor mode / CiA 402
+// Operation enabled) and, for a CiA 402 drive, its statusword and NMT state.
+struct EmulatedDrive {
+  int enabled = -1;
+  unsigned statusword = 0, nmt = 0;
+  unsigned long long nmt_resets = 0;  // NMT reset node / reset communication taken
+};
+std::map<int, EmulatedDrive> emulated_drives(const std::string& summary) {
+  std::map<int, EmulatedDrive> out;
+  std::istringstream in(summary);
+  for (std::string line; std::getline(in, line);) {
+    int id = 0;
+    unsigned sw = 0, nmt = 0;
+    unsigned long long resets = 0;
+    if (std::sscanf(line.c_str(), "cia402 drive %d statusword 0x%x nmt 0x%x nmt_resets %llu", &id, &sw, &nmt, &resets) == 4) {
+      out[id].statusword = sw;
+      out[id].nmt = nmt;
+      out[id].nmt_resets = resets;
+    } else if (std::sscanf(line.c_str(), "drive %d", &id) == 1) {
+      const auto at = line.find(" enabled ");
+      if (at != std::string::npos) out[id].enabled = std::atoi(line.c_str() + at + 9);
+    }
+  }
+  return out;
+}
+
+// CAN.md 4.4 step 2 after a failed activate(): drive 10 (bus rh, vcan3) is unplugged after the
+// start-up's presence check and zero command (its third frame), so its enter-motor-mode goes
+// unanswered after buses lf, rf and lh were enabled and while rh's other drives enter motor mode.
+// activate() fails naming the drive, and no drive is left in motor mode.
+TEST(Hil, FailedActivateLeavesNoMitDriveInMotorMode) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("mit_classic7.yaml");
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "faults: [{kind: silent, drive: 10, at_frame: 3}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  const hal::LifecycleResult a = hw.activate();
+  EXPECT_FALSE(a.ok);
+  EXPECT_NE(a.message.find("no reply to enter-motor-mode within 200 ms: drive 10 (joint rh_haa_joint, mit) on bus 'rh' (vcan3)"),
+            std::string::npos)
+      << a.message;
+  EXPECT_NE(a.message.find("every drive on bus 'lf' (vcan0), 'rf' (vcan1), 'lh' (vcan2), 'rh' (vcan3) disabled again "
+                           "(CAN.md 4.4 step 2)"),
+            std::string::npos)
+      << a.message;
+  for (int j = 0; j < kNj; ++j) EXPECT_NE(hw.joint(j).status.state, hal::DriveState::enabled) << j;
+  EXPECT_EQ(hw.write(hal::JointCommands{}), hal::IoStatus::error) << "not active";
+  const std::string summary = emu.stop();
+  const std::map<int, EmulatedDrive> drives = emulated_drives(summary);
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj)) << summary;
+  for (const auto& [id, d] : drives) EXPECT_EQ(d.enabled, 0) << "drive " << id << "\n" << summary;
+}
+
+// The same for CiA 402: drive 10's power stage cannot be enabled (enable_blocked: it stays
+// Switched on), so the state machine walk fails on bus rh after lf, rf and lh reached Operation
+// enabled. Every node walked is disabled (0x0007, 0x0006: Ready to switch on) and pre-operational
+// (NMT 80 0); the buses after rh were never walked.
+TEST(Hil, FailedActivateLeavesNoCia402DriveOperationEnabled) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: enable_blocked, drive: 10}]\n", kCia402DrivesUp);
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  const hal::LifecycleResult a = hw.activate();
+  EXPECT_FALSE(a.ok);
+  EXPECT_NE(a.message.find("drive 10 (joint rh_haa_joint, cia402) on bus 'rh' (vcan3) stuck in 'switched on'"),
+            std::string::npos)
+      << a.message;
+  EXPECT_NE(a.message.find("every drive on bus 'lf' (vcan0), 'rf' (vcan1), 'lh' (vcan2), 'rh' (vcan3) disabled again"),
+            std::string::npos)
+      << a.message;
+  for (int j = 0; j < kNj; ++j) EXPECT_NE(hw.joint(j).status.state, hal::DriveState::enabled) << j;
+  const std::string summary = emu.stop();
+  const std::map<int, EmulatedDrive> drives = emulated_drives(summary);
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj)) << summary;
+  for (const auto& [id, d] : drives) {
+    EXPECT_EQ(d.enabled, 0) << "drive " << id << "\n" << summary;
+    EXPECT_EQ(d.nmt, 0x7Fu) << "drive " << id << ": pre-operational";
+    // Walked (buses lf .. rh, drives 1..12): shut down to Ready to switch on; the others never left
+    // Switch on disabled.
+    EXPECT_EQ(d.statusword, id <= 12 ? 0x0231u : 0x0250u) << "drive " << id;
+  }
+}
+
+// CAN.md 4.3 step 1: "Wait for the boot-up frame (0x700+n, 00) up to 5 s; if the node is already
+// up (heartbeats seen), send NMT reset communication (82 n) and wait for its boot-up." Drives
+// powered before the host, heartbeats on (stored 0x1017: 100 ms): each node is reset once, boots
+// again and the robot starts.
+TEST(Hil, Cia402NodesHeardUpAreResetOnceAndBootAgain) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "", kCia402DrivesUp);
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  const hal::LifecycleResult a = hw.activate();
+  ASSERT_TRUE(a.ok) << a.message;
+  hw.deactivate();
+  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+  for (const auto& [id, d] : drives) EXPECT_EQ(d.nmt_resets, 1u) << "drive " << id;
+}
+
+// Drives powered 1.5 s after the host started listening (their boot-up is the first they say):
+// the host waits for it and resets none, including the nodes of the buses after the first, which
+// boot while the first bus starts.
+TEST(Hil, Cia402NodesBootingAfterTheHostStartedAreAwaitedNotReset) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  ASSERT_GT(cfg.timing.boot_timeout_ms, 1500u);
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "", {"--cia402-boot-after-ms", "1500"});
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  const hal::LifecycleResult a = hw.activate();
+  ASSERT_TRUE(a.ok) << a.message;
+  hw.deactivate();
+  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+  for (const auto& [id, d] : drives) EXPECT_EQ(d.nmt_resets, 0u) << "drive " << id;
+}
+
+// Drives powered before the host and silent (stored 0x1017: 0, no heartbeat): the host missed their
+// boot-up and nothing says they are up, so none is reset (CAN.md 4.3 step 1 resets only a node
+// heard up); start-up fails after boot_timeout_ms naming the first bus's nodes.
+TEST(Hil, Cia402NodesNeitherBootingNorHeardAreNotResetAndStopStartUp) {
+  REQUIRE_VCAN(7);
+  CanConfig cfg = load("cia402_classic7.yaml");
+  cfg.timing.boot_timeout_ms = 1000;
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  EXPECT_FALSE(c.ok);
+  EXPECT_EQ(c.message,
+            "CiA 402 start-up on bus 'lf': no boot-up within 1000 ms: drive 1 (joint lf_haa_joint, cia402) on bus 'lf' "
+            "(vcan0): neither boot-up nor heartbeat; drive 2 (joint lf_hfe_joint, cia402) on bus 'lf' (vcan0): neither "
+            "boot-up nor heartbeat; drive 3 (joint lf_kfe_joint, cia402) on bus 'lf' (vcan0): neither boot-up nor "
+            "heartbeat");
+  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+  for (const auto& [id, d] : drives) EXPECT_EQ(d.nmt_resets, 0u) << "drive " << id;
 }
 
 TEST(Hil, BusOffFaultsTheBusAndNeedsAnOperatorRecovery) {
@@ -543,7 +730,8 @@ TEST(Hil, Cia402HeartbeatLossMarksTheDriveLostWhilePdosFlow) {
   REQUIRE_VCAN(7);
   CanConfig cfg = load("cia402_classic7.yaml");
   cfg.timing.heartbeat_lost_periods = 3;  // 300 ms at the 100 ms producer heartbeat time
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: no_heartbeat, drive: 5, at: 20}]\n");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: no_heartbeat, drive: 5, at: 20}]\n",
+               kCia402DrivesUp);
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();
@@ -579,7 +767,7 @@ TEST(Hil, TransientFaultsAreCountedNotFatal) {
                "  - {kind: duplicate, drive: 4, at: 20, count: 3}\n"
                "  - {kind: corrupt, drive: 8, at: 30, count: 1}\n"
                "  - {kind: wrong_dlc, drive: 10, at: 30, count: 2}\n"
-               "  - {kind: unexpected_id, drive: 13, at: 30, count: 2, param: 5}\n"
+               "  - {kind: unexpected_id, drive: 13, at: 30, count: 2, param: 100}\n"
                "  - {kind: delay, drive: 16, at: 40, count: 1, param: 2}\n"
                "  - {kind: error_passive, drive: 19, at: 25}\n"
                "  - {kind: error_active, drive: 19, at: 60}\n");
@@ -612,9 +800,93 @@ TEST(Hil, TransientFaultsAreCountedNotFatal) {
   EXPECT_GE(hw.diagnostics(2).bad_frames, 1u);               // drive 8: implausible position jump
   EXPECT_GE(last.drives[7].missed_total, 1u);
   EXPECT_GE(hw.diagnostics(3).bad_frames, 2u);               // drive 10: DLC 5
-  EXPECT_GE(hw.diagnostics(4).foreign_frames, 2u);           // drive 13 answering as drive 5 (bus rf)
+  EXPECT_GE(hw.diagnostics(4).unexpected_frames, 2u);        // drive 13 answering as drive 100: no drive of the robot
+  EXPECT_EQ(hw.diagnostics(4).foreign_frames, 0u);
   EXPECT_GE(last.drives[15].missed_total, 1u);               // drive 16 delayed by 2 ticks
   EXPECT_EQ(hw.diagnostics(6).fault, BusFault::none);        // bus arm2 was only degraded
+}
+
+// CAN.md 4.1: "a valid frame with an id of another bus is a configuration fault". From its cyclic
+// tick 30 drive 13 (bus arm0, vcan4) answers naming drive 5 (bus rf) in byte 0: the frame passes
+// arm0's CAN_RAW_FILTER (its CAN id is drive 13's reply id, 0x10D) and would be taken for a reply.
+// The bus faults: its drives are lost (the supervisor's drive-lost fault, damping), read()
+// reports an error, the diagnostics name the bus, the drive and the id; the other buses go on.
+// The bus still carries frames: deactivate() disables its drives too.
+TEST(Hil, AFrameNamingADriveOfAnotherBusFaultsItsBus) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("mit_classic7.yaml");
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "faults: [{kind: unexpected_id, drive: 13, at: 30, count: 5, param: 5}]\n");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  ASSERT_TRUE(hw.configure().ok);
+  ASSERT_TRUE(hw.activate().ok);
+  int error_at = -1;
+  hal::Measurements last;
+  hal::IoStatus last_status{};
+  run_ticks(hw, 80, [&](int k, const hal::Measurements& m, hal::IoStatus s) {
+    if (error_at < 0 && s == hal::IoStatus::error) error_at = k;
+    last = m;
+    last_status = s;
+  });
+  EXPECT_GE(error_at, 30);
+  EXPECT_LE(error_at, 32);
+  EXPECT_EQ(last_status, hal::IoStatus::error);
+  const BusDiagnostics& d = hw.diagnostics(4);
+  EXPECT_EQ(d.fault, BusFault::foreign_drive);
+  EXPECT_GE(d.foreign_frames, 1u);
+  EXPECT_EQ(d.foreign_drive_id, 5);
+  EXPECT_EQ(d.foreign_can_id, 0x10Du);
+  for (int j = 12; j < 15; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::lost) << j;
+  for (int j = 0; j < kNj; ++j) {
+    if (j < 12 || j >= 15) {
+      EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
+    }
+  }
+  for (int b = 0; b < hw.bus_count(); ++b) {
+    if (b != 4) {
+      EXPECT_EQ(hw.diagnostics(b).fault, BusFault::none) << b;
+    }
+  }
+  const std::string report = hw.diagnostics_report();
+  EXPECT_NE(report.find("can bus arm0 (vcan4): fault=configuration fault: a frame of a drive configured on another bus"),
+            std::string::npos)
+      << report;
+  EXPECT_NE(report.find(" foreign_drive=5 foreign_id=0x10D "), std::string::npos) << report;
+  hw.deactivate();
+  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+  for (const auto& [id, dr] : drives) EXPECT_EQ(dr.enabled, 0) << "drive " << id;
+}
+
+// The same fault met during start-up stops it: a reply naming drive 5 (bus rf) arrives on bus arm0
+// between configure() and activate() (sent here, in drive 13's reply id). activate() fails naming
+// the bus, the id and the drive, and leaves no drive enabled.
+TEST(Hil, AFrameNamingADriveOfAnotherBusFailsStartUp) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("mit_classic7.yaml");
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "");
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_TRUE(c.ok) << c.message;
+  SocketCanBus arm0;
+  ASSERT_EQ(arm0.open("vcan4", false, {}, false), "");
+  mit::Reply reply;
+  reply.drive_id = 5;
+  Frame f;
+  mit::encode_reply(0x10D, reply, cfg.buses[1].drives[1].mit_ranges, false, f);
+  ASSERT_EQ(arm0.send(f), TxStatus::ok);
+  const hal::LifecycleResult a = hw.activate();
+  EXPECT_FALSE(a.ok);
+  EXPECT_NE(a.message.find("bus 'arm0' (vcan4): configuration fault: a frame of a drive configured on another bus "
+                           "(CAN.md 4.1): CAN id 0x10D naming drive 5 (joint rf_hfe_joint, mit) on bus 'rf' (vcan1)"),
+            std::string::npos)
+      << a.message;
+  EXPECT_NE(a.message.find("'arm0' (vcan4) disabled again"), std::string::npos) << a.message;
+  for (int j = 0; j < kNj; ++j) EXPECT_NE(hw.joint(j).status.state, hal::DriveState::enabled) << j;
+  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+  for (const auto& [id, dr] : drives) EXPECT_EQ(dr.enabled, 0) << "drive " << id;
 }
 
 // The deployed binary as a child process; stdout and stderr into one file.

@@ -5,6 +5,7 @@
 //
 //   drive_emulator --config can.yaml [--faults faults.yaml] [--pose stance|zero]
 //                  [--mit-master-id ID] [--mit-reply-dlc 6|8]   (the MIT drives' flash settings)
+//                  [--cia402-heartbeat-ms MS] [--cia402-boot-after-ms MS]   (CiA 402: stored 0x1017, power-on)
 //   drive_emulator --config can.yaml --motion bullet [--truth-log trunk.txt]
 //   drive_emulator --config can.yaml --print-layout      (no CAN needed)
 //
@@ -87,6 +88,8 @@ int main(int argc, char** argv) {
   double imu_gyro_noise = 0.0, imu_accel_noise = 0.0, imu_gyro_bias = 0.0, imu_accel_bias = 0.0;
   std::uint64_t imu_seed = 1;
   int mit_master_id = -1, mit_reply_dlc = 0;  // -1 / 0: as the config says
+  std::uint16_t cia402_heartbeat_ms = 0;
+  std::uint32_t cia402_boot_after_ms = 0;
   app.add_option("--config", config_path, "YAML file with the `can:` section (the same the firmware reads)")->required();
   app.add_option("--faults", faults_path, "YAML fault script (`faults:` list)");
   app.add_option("--pose", pose, "initial joint positions")->check(CLI::IsMember({"stance", "zero"}));
@@ -99,6 +102,16 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 0x7FF));
   app.add_option("--mit-reply-dlc", mit_reply_dlc, "MIT: every drive replies with this many bytes (6, or 8 as CubeMars)")
       ->check(CLI::IsMember({6, 8}));
+  // The CiA 402 drives' stored 0x1017 and when they are powered on (CAN.md 4.3 step 1: the host
+  // waits for each node's boot-up, and resets a node it hears heartbeats from).
+  app.add_option("--cia402-heartbeat-ms", cia402_heartbeat_ms,
+                 "CiA 402: every drive's stored producer heartbeat time (0x1017 after power-on and NMT reset "
+                 "communication), ms; 0: no heartbeat until the host writes 0x1017")
+      ->check(CLI::Range(0, 65535));
+  app.add_option("--cia402-boot-after-ms", cia402_boot_after_ms,
+                 "CiA 402: the drives power on (boot-up frame) this long after the ready file is written; 0: before "
+                 "it (a host started later misses their boot-up)")
+      ->check(CLI::Range(0, 600000));
   app.add_option("--motion", motion,
                  "joint: a 1-DoF model per drive; bullet: the joints of the simulated robot (sim_hal), "
                  "stepped once per host tick, the robot spawned crouched on its feet")
@@ -256,7 +269,7 @@ int main(int argc, char** argv) {
         if (mit_reply_dlc > 0) flash.mit_vendor_reply = mit_reply_dlc == 8;
         buses[b].drives.push_back(std::make_unique<emu::MitDrive>(flash, bc.fd, model, mine, can_timeout_ms));
       } else {
-        buses[b].drives.push_back(std::make_unique<emu::Cia402Drive>(d, model, mine, t0));
+        buses[b].drives.push_back(std::make_unique<emu::Cia402Drive>(d, model, mine, t0, cia402_heartbeat_ms));
       }
       buses[b].drives.back()->attach(world.get());
     }
@@ -300,13 +313,19 @@ int main(int argc, char** argv) {
     }
     out.clear();
   };
-  for (BusIo& io : buses) {
-    for (auto& d : io.drives) {
-      if (auto* c = dynamic_cast<emu::Cia402Drive*>(d.get())) c->boot(t0, out);
+  // CiA 402 power-on: the boot-up frames, now or --cia402-boot-after-ms after the ready file.
+  const auto power_on = [&](std::int64_t now) {
+    for (BusIo& io : buses) {
+      for (auto& d : io.drives) {
+        if (auto* c = dynamic_cast<emu::Cia402Drive*>(d.get()); c != nullptr && !c->powered()) c->boot(now, out);
+      }
+      flush(io);
     }
-    flush(io);
-  }
+  };
+  if (cia402_boot_after_ms == 0) power_on(t0);
   if (!ready_file.empty()) std::ofstream(ready_file) << "ready\n";
+  const std::int64_t power_on_ns = can::monotonic_ns() + 1000000LL * cia402_boot_after_ms;
+  bool powered_on = cia402_boot_after_ms == 0;
 
   std::vector<int> fds;
   for (const BusIo& io : buses) fds.push_back(io.socket.native_handle());
@@ -364,6 +383,10 @@ int main(int argc, char** argv) {
   };
   while (!g_stop && can::monotonic_ns() < end_ns) {
     can::wait_readable(fds, 1000);
+    if (!powered_on && can::monotonic_ns() >= power_on_ns) {
+      power_on(can::monotonic_ns());
+      powered_on = true;
+    }
     serve_pending(can::monotonic_ns());
   }
   // A stop can arrive while a later bus is being served: frames already queued on an
@@ -384,6 +407,10 @@ int main(int argc, char** argv) {
                   cfg.config.buses[b].name.c_str(), static_cast<unsigned long long>(d->tick()),
                   static_cast<unsigned long long>(d->frames_in()), static_cast<unsigned long long>(d->replies_out()),
                   d->enabled() ? 1 : 0, d->model().q_rad, d->model().tau_nm);
+      if (const auto* c = dynamic_cast<const emu::Cia402Drive*>(d.get()); c != nullptr) {
+        std::printf("cia402 drive %d statusword 0x%04X nmt 0x%02X nmt_resets %llu\n", d->config().drive_id,
+                    c->status_word(), c->nmt_state(), static_cast<unsigned long long>(c->nmt_resets()));
+      }
       if (const auto* mit = dynamic_cast<const emu::MitDrive*>(d.get()); mit != nullptr && cfg.config.buses[b].fd) {
         std::printf("fd_bus drive %d classic_frames %llu\n", d->config().drive_id,
                     static_cast<unsigned long long>(mit->classic_frames()));

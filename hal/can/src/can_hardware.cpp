@@ -26,9 +26,12 @@ const char* to_string(BusFault f) noexcept {
     case BusFault::tx_queue_full: return "transmit queue full (ENOBUFS) on consecutive ticks";
     case BusFault::socket_error: return "socket error";
     case BusFault::no_ack: return "no acknowledge";
+    case BusFault::foreign_drive: return "configuration fault: a frame of a drive configured on another bus (CAN.md 4.1)";
   }
   return "?";
 }
+
+bool bus_reachable(BusFault f) noexcept { return f == BusFault::none || f == BusFault::foreign_drive; }
 
 CanHardware::CanHardware(CanConfig config) : config_(std::move(config)) {}
 
@@ -54,15 +57,20 @@ int CanHardware::find_joint(int b, std::uint8_t drive_id, Protocol p) const noex
   return -1;
 }
 
-void CanHardware::count_unknown(int b, std::uint8_t drive_id) noexcept {
-  BusDiagnostics& d = buses_[static_cast<std::size_t>(b)].diag;
-  for (const JointRuntime& jr : joints_) {
-    if (jr.bus >= 0 && jr.bus != b && jr.cfg.drive_id == drive_id) {
-      ++d.foreign_frames;  // a drive of another bus answers here: wiring / configuration fault
-      return;
-    }
+int CanHardware::find_foreign_joint(int b, std::uint8_t drive_id) const noexcept {
+  for (int j = 0; j < kNj; ++j) {
+    const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+    if (jr.bus >= 0 && jr.bus != b && jr.cfg.drive_id == drive_id) return j;
   }
-  ++d.unexpected_frames;
+  return -1;
+}
+
+BusFault record_foreign_frame(const Frame& f, std::uint8_t drive_id, BusDiagnostics& d) noexcept {
+  if (d.foreign_frames++ == 0) {
+    d.foreign_drive_id = drive_id;
+    d.foreign_can_id = f.id;
+  }
+  return BusFault::foreign_drive;
 }
 
 void CanHardware::latch_fault(int j, std::uint16_t code) noexcept {
@@ -119,7 +127,17 @@ void CanHardware::process_mit_reply(int b, const Frame& f) noexcept {
   }
   const int j = find_joint(b, f.data[0], Protocol::mit);
   if (j < 0) {
-    count_unknown(b, f.data[0]);
+    // Byte 0 is authoritative (CAN.md 1.4): a valid reply naming a drive of another bus is a
+    // configuration fault (4.1), one naming no drive of the robot is only counted.
+    const int other = find_foreign_joint(b, f.data[0]);
+    mit::Reply r;
+    if (other < 0) {
+      ++bus.diag.unexpected_frames;
+    } else if (mit::decode_reply(f, joints_[static_cast<std::size_t>(other)].cfg.mit_ranges, r) != FrameStatus::ok) {
+      ++bus.diag.bad_frames;
+    } else {
+      fault_bus(b, record_foreign_frame(f, f.data[0], bus.diag));
+    }
     return;
   }
   JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
@@ -151,7 +169,13 @@ void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
   const std::uint32_t function = f.id & 0x780;
   const int j = find_joint(b, node, Protocol::cia402);
   if (j < 0) {
-    count_unknown(b, node);
+    // The bus's CAN_RAW_FILTER passes only its own nodes' COB-IDs, so a node of another bus
+    // cannot show here; should one, it is the configuration fault of CAN.md 4.1.
+    if (find_foreign_joint(b, node) >= 0) {
+      fault_bus(b, record_foreign_frame(f, node, bus.diag));
+    } else {
+      ++bus.diag.unexpected_frames;
+    }
     return;
   }
   JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
@@ -218,7 +242,11 @@ void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
         return;
       }
       jr.last_heartbeat_tick = tick_;
-      if (st == cia402::NmtState::boot_up) jr.booted = true;
+      if (st == cia402::NmtState::boot_up) {
+        jr.booted = true;
+      } else {
+        jr.heartbeat_seen = true;
+      }
       // A drive that rebooted or left Operational no longer follows the PDOs.
       if (jr.status.state == hal::DriveState::enabled && st != cia402::NmtState::operational) {
         jr.status.state = hal::DriveState::lost;
@@ -554,15 +582,23 @@ hal::IoStatus CanHardware::write(const hal::JointCommands& cmd) noexcept {
 std::string bus_diagnostics_line(const BusConfig& bus, const BusDiagnostics& d) {
   const auto counter = [&](std::uint8_t c) { return d.have_error_counters ? std::to_string(c) : std::string("-"); };
   const auto n = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
-  char line[768];
+  char foreign_drive[8] = "-", foreign_id[16] = "-";  // the first frame naming a drive of another bus
+  if (d.foreign_frames > 0) {
+    std::snprintf(foreign_drive, sizeof foreign_drive, "%u", static_cast<unsigned>(d.foreign_drive_id));
+    std::snprintf(foreign_id, sizeof foreign_id, "0x%03X", static_cast<unsigned>(d.foreign_can_id));
+  }
+  char line[896];
   std::snprintf(line, sizeof line,
                 "can bus %s: fault=%s sent=%llu received=%llu tx_dropped=%llu short_writes=%llu tx_errors=%llu "
-                "rx_budget_exhausted=%llu bad_frames=%llu unexpected=%llu foreign=%llu duplicates=%llu "
+                "rx_budget_exhausted=%llu bad_frames=%llu unexpected=%llu foreign=%llu foreign_drive=%s "
+                "foreign_id=%s duplicates=%llu "
                 "sensor_frames=%llu error_frames=%llu warnings=%llu overflows=%llu error_passive=%d "
                 "error_passive_events=%llu tx_error_counter=%s rx_error_counter=%s\n",
                 (bus.name + " (" + bus.interface + ")").c_str(), to_string(d.fault), n(d.frames_sent),
                 n(d.frames_received), n(d.tx_dropped), n(d.short_writes), n(d.tx_errors), n(d.rx_budget_exhausted),
-                n(d.bad_frames), n(d.unexpected_frames), n(d.foreign_frames), n(d.duplicates), n(d.sensor_frames),
+                n(d.bad_frames), n(d.unexpected_frames), n(d.foreign_frames),
+                foreign_drive, foreign_id, n(d.duplicates),
+                n(d.sensor_frames),
                 n(d.error_frames), n(d.warnings), n(d.overflows), d.error_passive ? 1 : 0, n(d.error_passive_events),
                 counter(d.tx_error_counter).c_str(), counter(d.rx_error_counter).c_str());
   return line;

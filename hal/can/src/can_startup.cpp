@@ -77,6 +77,12 @@ LifecycleResult CanHardware::open_bus(int b) {
   if (!err.empty()) return LifecycleResult::failure("bus '" + bc.name + "': " + err);
   bus.diag = BusDiagnostics{};
   bus.tx_full = TxBufferFull{};
+  // What a CiA 402 node said of its NMT state counts from now on, while other buses start too.
+  for (int k = 0; k < bus.count; ++k) {
+    JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    jr.booted = false;
+    jr.heartbeat_seen = false;
+  }
   return LifecycleResult::success();
 }
 
@@ -123,6 +129,21 @@ LifecycleResult CanHardware::configure() {
   return LifecycleResult::success();
 }
 
+// A fault the bus latched since it was opened (an error frame, a frame of another bus's drive):
+// start-up does not go on with that bus. Not real-time.
+LifecycleResult CanHardware::bus_fault_failure(int b, const char* during) const {
+  const BusDiagnostics& d = buses_[static_cast<std::size_t>(b)].diag;
+  if (d.fault == BusFault::none) return LifecycleResult::success();
+  const BusConfig& bc = config_.buses[static_cast<std::size_t>(b)];
+  std::string why = std::string("CAN ") + during + ": bus '" + bc.name + "' (" + bc.interface + "): " + to_string(d.fault);
+  if (d.fault == BusFault::foreign_drive) {
+    const int other = find_foreign_joint(b, d.foreign_drive_id);
+    why += ": CAN id " + hex(d.foreign_can_id, 3) + " naming " +
+           (other >= 0 ? drive_name(other) : "drive " + std::to_string(d.foreign_drive_id));
+  }
+  return LifecycleResult::failure(why);
+}
+
 LifecycleResult CanHardware::start_bus(int b) {
   const Bus& bus = buses_[static_cast<std::size_t>(b)];
   if (bus.any_mit) {
@@ -131,17 +152,19 @@ LifecycleResult CanHardware::start_bus(int b) {
   if (bus.any_cia) {
     if (LifecycleResult r = start_cia402(b); !r.ok) return r;
   }
-  return LifecycleResult::success();
+  return bus_fault_failure(b, "start-up");
 }
 
 LifecycleResult CanHardware::enable_bus(int b) {
   const Bus& bus = buses_[static_cast<std::size_t>(b)];
+  if (LifecycleResult r = bus_fault_failure(b, "enable"); !r.ok) return r;
   if (bus.any_mit) {
     if (LifecycleResult r = enable_mit(b); !r.ok) return r;
   }
   if (bus.any_cia) {
     if (LifecycleResult r = enable_cia402(b); !r.ok) return r;
   }
+  if (LifecycleResult r = bus_fault_failure(b, "enable"); !r.ok) return r;
   // The first cyclic command, sent by the first read before the loop's first write: damping
   // (CAN.md 4.2 step 5, 4.3 step 5), never zero torque.
   hal::JointCommands damping;
@@ -165,11 +188,40 @@ LifecycleResult CanHardware::activate() {
   if (!configured_) return LifecycleResult::failure("activate: configure() has not succeeded");
   if (active_) return LifecycleResult::success();
   for (int b = 0; b < bus_count_; ++b) {
-    if (LifecycleResult r = enable_bus(b); !r.ok) return r;
+    if (LifecycleResult r = enable_bus(b); !r.ok) return disable_after_failed_enable(0, b, std::move(r));
   }
   active_ = true;
   last_send_ns_ = monotonic_ns();
   return LifecycleResult::success();
+}
+
+// A failed enable leaves no drive enabled: buses first..last were enabled, or were being enabled
+// when `failure` happened (some of the failing bus's drives may be in motor mode / Operation
+// enabled already), so each is disabled as in CAN.md 4.4 step 2. No damping first: the drives
+// were enabled a moment ago, at rest, with zero torque (4.2 step 2) or none (4.3 step 4). A bus
+// whose fault stops it carrying frames (bus-off, ENETDOWN, ...) or that is closed cannot be
+// reached, and the message says so.
+LifecycleResult CanHardware::disable_after_failed_enable(int first, int last, LifecycleResult failure) {
+  std::string disabled, unreachable;
+  for (int b = first; b <= last; ++b) {
+    const Bus& bus = buses_[static_cast<std::size_t>(b)];
+    if (bus.count == 0) continue;  // sensors only
+    const BusConfig& bc = config_.buses[static_cast<std::size_t>(b)];
+    const std::string name = "'" + bc.name + "' (" + bc.interface + ")";
+    if (!bus.socket.is_open() || !bus_reachable(bus.diag.fault)) {
+      unreachable += (unreachable.empty() ? "" : ", ") + name + ": " + to_string(bus.diag.fault);
+      continue;
+    }
+    disable_bus(b);
+    disabled += (disabled.empty() ? "" : ", ") + name;
+  }
+  // Let the drives' answers arrive so they do not count against a later start-up.
+  pump_until(monotonic_ns() + 20000000LL, [] { return false; });
+  if (!disabled.empty()) failure.message += "; every drive on bus " + disabled + " disabled again (CAN.md 4.4 step 2)";
+  if (!unreachable.empty()) {
+    failure.message += "; not reachable, its drives rely on their own timeouts: bus " + unreachable;
+  }
+  return failure;
 }
 
 // ---- MIT mode (CAN.md 4.2) ---------------------------------------------------------------------
@@ -226,8 +278,9 @@ LifecycleResult CanHardware::start_mit(int b) {
     return LifecycleResult::failure("MIT start-up: a drive on bus '" + config_.buses[static_cast<std::size_t>(b)].name +
                                     "' did not answer the zero command");
   }
-  // 3. Positions within the joint limits.
-  std::string outside;
+  // 3. Positions within the joint limits and at the expected pose (can.start_pose).
+  std::string outside, off_pose;
+  const StartPose& pose = config_.start_pose;
   mit_joints([&](int j) {
     JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
     jr.replies_this_tick = 0;
@@ -236,10 +289,17 @@ LifecycleResult CanHardware::start_mit(int b) {
     if (lim.bounded && (jr.q_rad < lim.lower_rad - m || jr.q_rad > lim.upper_rad + m)) {
       outside += (outside.empty() ? "" : "; ") + drive_name(j) + " at " + std::to_string(jr.q_rad) + " rad, limits [" +
                  std::to_string(lim.lower_rad) + ", " + std::to_string(lim.upper_rad) + "]";
+    } else if (!at_start_pose(pose, j, jr.q_rad)) {
+      off_pose += (off_pose.empty() ? "" : "; ") + drive_name(j) + " at " + std::to_string(jr.q_rad) +
+                  " rad, expected " + std::to_string(pose.q_rad[static_cast<std::size_t>(j)]) + " rad";
     }
     jr.status.state = hal::DriveState::ready;
   });
   if (!outside.empty()) return LifecycleResult::failure("MIT start-up: position outside the joint limits: " + outside);
+  if (!off_pose.empty()) {
+    return LifecycleResult::failure("MIT start-up: position off the expected start pose (can.start_pose, tolerance " +
+                                    std::to_string(pose.tolerance_rad) + " rad): " + off_pose);
+  }
   return LifecycleResult::success();
 }
 
@@ -264,11 +324,19 @@ LifecycleResult CanHardware::enable_mit(int b) {
     return true;
   };
   const bool ok = all_sent && pump_until(after_ms(config_.timing.mit_presence_timeout_ms), all_replied);
+  std::string missing;
+  for (int j : drives) {
+    if (joints_[static_cast<std::size_t>(j)].replies_this_tick == 0) missing += (missing.empty() ? "" : "; ") + drive_name(j);
+  }
   for (int k = 0; k < bus.count; ++k) joints_[static_cast<std::size_t>(bus.joints[k])].replies_this_tick = 0;
   if (LifecycleResult r = startup_fault(drives, "enable"); !r.ok) return r;
+  if (!all_sent) {
+    return LifecycleResult::failure("MIT enable: enter-motor-mode could not be sent on bus '" +
+                                    config_.buses[static_cast<std::size_t>(b)].name + "'");
+  }
   if (!ok) {
-    return LifecycleResult::failure("MIT enable: a drive on bus '" + config_.buses[static_cast<std::size_t>(b)].name +
-                                    "' did not answer enter-motor-mode");
+    return LifecycleResult::failure("MIT enable: no reply to enter-motor-mode within " +
+                                    std::to_string(config_.timing.mit_presence_timeout_ms) + " ms: " + missing);
   }
   return LifecycleResult::success();
 }
@@ -440,23 +508,37 @@ LifecycleResult CanHardware::start_cia402(int b) {
     }
     return true;
   };
-  // 1. Boot-up: a node that is already up (or silent) is reset so that it boots again.
-  for (int j : nodes) {
-    joints_[static_cast<std::size_t>(j)].booted = false;
-    joints_[static_cast<std::size_t>(j)].startup_fault_code = 0;
+  // 1. Boot-up: wait for each node's boot-up frame up to boot_timeout_ms. A node heard to be up
+  // already (a heartbeat, since the bus was opened) is sent NMT reset communication, and its boot-up
+  // waited for, again up to boot_timeout_ms from then. A node neither booting nor heard is left alone.
+  for (int j : nodes) joints_[static_cast<std::size_t>(j)].startup_fault_code = 0;
+  std::vector<bool> reset_sent(nodes.size(), false);
+  const auto up_not_reset = [&] {
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      const JointRuntime& jr = joints_[static_cast<std::size_t>(nodes[i])];
+      if (!jr.booted && jr.heartbeat_seen && !reset_sent[i]) return true;
+    }
+    return false;
+  };
+  std::int64_t deadline_ns = after_ms(config_.timing.boot_timeout_ms);
+  while (pump_until(deadline_ns, [&] { return all_booted() || up_not_reset(); }) && !all_booted()) {
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      const JointRuntime& jr = joints_[static_cast<std::size_t>(nodes[i])];
+      if (jr.booted || !jr.heartbeat_seen || reset_sent[i]) continue;
+      Frame f;
+      cia402::encode_nmt(cia402::NmtCommand::reset_communication, jr.cfg.drive_id, f);
+      send_now(b, f);
+      reset_sent[i] = true;
+      deadline_ns = std::max(deadline_ns, after_ms(config_.timing.boot_timeout_ms));
+    }
   }
-  pump_until(after_ms(std::min<std::uint32_t>(200, config_.timing.boot_timeout_ms)), all_booted);
-  for (int j : nodes) {
-    JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
-    if (jr.booted) continue;
-    Frame f;
-    cia402::encode_nmt(cia402::NmtCommand::reset_communication, jr.cfg.drive_id, f);
-    send_now(b, f);
-  }
-  if (!pump_until(after_ms(config_.timing.boot_timeout_ms), all_booted)) {
+  if (!all_booted()) {
     std::string missing;
-    for (int j : nodes) {
-      if (!joints_[static_cast<std::size_t>(j)].booted) missing += (missing.empty() ? "" : "; ") + drive_name(j);
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      if (joints_[static_cast<std::size_t>(nodes[i])].booted) continue;
+      missing += (missing.empty() ? "" : "; ") + drive_name(nodes[i]) +
+                 (reset_sent[i] ? ": up (heartbeat seen), no boot-up after NMT reset communication"
+                                : ": neither boot-up nor heartbeat");
     }
     return LifecycleResult::failure("CiA 402 start-up on bus '" + bc.name + "': no boot-up within " +
                                     std::to_string(config_.timing.boot_timeout_ms) + " ms: " + missing);
@@ -539,9 +621,51 @@ LifecycleResult CanHardware::recover_bus(int b) {
   if (LifecycleResult r = open_bus(b); !r.ok) return r;
   if (LifecycleResult r = start_bus(b); !r.ok) return r;
   if (active_) {
-    if (LifecycleResult r = enable_bus(b); !r.ok) return r;
+    if (LifecycleResult r = enable_bus(b); !r.ok) return disable_after_failed_enable(b, b, std::move(r));
   }
   return LifecycleResult::success();
+}
+
+// CAN.md 4.4 step 2 for one bus: MIT exit motor mode (`...FD`) to every MIT drive; CiA 402
+// controlword 0x0007 (disable operation), then 0x0006 (shutdown), each in RPDO1 followed by a
+// SYNC one tick apart, then NMT enter pre-operational (`80 0`). Its enabled drives become ready and
+// nothing more is sent for them. A faulted or closed bus cannot be reached: its drives rely on their
+// own timeouts (CAN_TIMEOUT, 0x6007, 4.4 step 3); a bus with a configuration fault still carries
+// frames and is disabled like a healthy one.
+void CanHardware::disable_bus(int b) noexcept {
+  Bus& bus = buses_[static_cast<std::size_t>(b)];
+  if (!bus.socket.is_open() || !bus_reachable(bus.diag.fault)) return;
+  const std::int64_t period_ns = 1000LL * config_.timing.tick_us;
+  for (const std::uint16_t cw : {cia402::controlword::disable_operation, cia402::controlword::shutdown}) {
+    if (!bus.any_cia) break;
+    for (int k = 0; k < bus.count; ++k) {
+      const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+      if (jr.cfg.protocol != Protocol::cia402) continue;
+      Frame f;
+      cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{cw, 0}, f);
+      send_now(b, f);
+    }
+    Frame sync;
+    cia402::encode_sync(sync);
+    send_now(b, sync);
+    sleep_until_ns(monotonic_ns() + period_ns);
+  }
+  for (int k = 0; k < bus.count; ++k) {
+    JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    if (jr.cfg.protocol == Protocol::mit) {
+      Frame f;
+      mit::encode_special(jr.cfg.drive_id, mit::Special::exit_motor_mode, f);
+      send_now(b, f);
+    }
+    if (jr.status.state == hal::DriveState::enabled) jr.status.state = hal::DriveState::ready;
+    jr.has_pending = false;
+    jr.awaiting = false;
+  }
+  if (bus.any_cia) {
+    Frame f;
+    cia402::encode_nmt(cia402::NmtCommand::enter_pre_operational, 0, f);
+    send_now(b, f);
+  }
 }
 
 void CanHardware::deactivate() noexcept {
@@ -567,40 +691,7 @@ void CanHardware::deactivate() noexcept {
     sleep_until_ns(next);
   }
   // 2. Disable. 3. Stop sending.
-  for (int b = 0; b < bus_count_; ++b) {
-    Bus& bus = buses_[static_cast<std::size_t>(b)];
-    if (!bus.socket.is_open() || bus.diag.fault != BusFault::none) continue;
-    for (const std::uint16_t cw : {cia402::controlword::disable_operation, cia402::controlword::shutdown}) {
-      if (!bus.any_cia) break;
-      for (int k = 0; k < bus.count; ++k) {
-        const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
-        if (jr.cfg.protocol != Protocol::cia402) continue;
-        Frame f;
-        cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{cw, 0}, f);
-        send_now(b, f);
-      }
-      Frame sync;
-      cia402::encode_sync(sync);
-      send_now(b, sync);
-      sleep_until_ns(monotonic_ns() + period_ns);
-    }
-    for (int k = 0; k < bus.count; ++k) {
-      JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
-      if (jr.cfg.protocol == Protocol::mit) {
-        Frame f;
-        mit::encode_special(jr.cfg.drive_id, mit::Special::exit_motor_mode, f);
-        send_now(b, f);
-      }
-      if (jr.status.state == hal::DriveState::enabled) jr.status.state = hal::DriveState::ready;
-      jr.has_pending = false;
-      jr.awaiting = false;
-    }
-    if (bus.any_cia) {
-      Frame f;
-      cia402::encode_nmt(cia402::NmtCommand::enter_pre_operational, 0, f);
-      send_now(b, f);
-    }
-  }
+  for (int b = 0; b < bus_count_; ++b) disable_bus(b);
   // Let the last replies arrive so they do not count against a later start-up.
   pump_until(monotonic_ns() + 20000000LL, [] { return false; });
   active_ = false;

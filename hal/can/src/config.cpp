@@ -17,6 +17,10 @@ namespace springbok::can {
 
 const char* to_string(Protocol p) noexcept { return p == Protocol::mit ? "mit" : "cia402"; }
 
+bool at_start_pose(const StartPose& pose, int joint, double q_rad) noexcept {
+  return std::isfinite(q_rad) && std::abs(q_rad - pose.q_rad[static_cast<std::size_t>(joint)]) <= pose.tolerance_rad;
+}
+
 DriveConfig default_drive(int joint, Protocol p) {
   DriveConfig d;
   d.joint = joint;
@@ -186,6 +190,35 @@ std::string validate_sensors(const CanConfig& c) {
   return {};
 }
 
+std::string validate_start_pose(const CanConfig& c) {
+  const StartPose& p = c.start_pose;
+  bool any_mit = false;
+  for (const BusConfig& b : c.buses) {
+    for (const DriveConfig& d : b.drives) any_mit = any_mit || d.protocol == Protocol::mit;
+  }
+  if (!p.given) {
+    return any_mit ? "can.start_pose: missing; with MIT drives it is required: {q_rad: [the " + std::to_string(kNj) +
+                         " joints' positions when the robot is started, joint order of the model], tolerance_rad: "
+                         "(optional, default 0.3)}, checked by MIT start-up (CAN.md 4.2 step 3)"
+                   : std::string{};
+  }
+  for (int j = 0; j < kNj; ++j) {
+    const double q = p.q_rad[static_cast<std::size_t>(j)];
+    const auto& lim = robot::kJoints[static_cast<std::size_t>(j)].limits;
+    const std::string where = "can.start_pose.q_rad[" + std::to_string(j) + "]";
+    if (!std::isfinite(q)) return where + ": must be finite";
+    if (lim.bounded && (q < lim.lower_rad || q > lim.upper_rad)) {
+      return where + ": " + std::to_string(q) + " rad is outside the limits of joint '" +
+             std::string(robot::kJoints[static_cast<std::size_t>(j)].name) + "' [" + std::to_string(lim.lower_rad) +
+             ", " + std::to_string(lim.upper_rad) + "]";
+    }
+  }
+  if (!(std::isfinite(p.tolerance_rad) && p.tolerance_rad > 0.0 && p.tolerance_rad <= kMaxStartPoseToleranceRad)) {
+    return "can.start_pose.tolerance_rad: must be in (0, " + std::to_string(kMaxStartPoseToleranceRad) + "] rad";
+  }
+  return {};
+}
+
 }  // namespace
 
 std::string validate(const CanConfig& c) {
@@ -301,7 +334,8 @@ std::string validate(const CanConfig& c) {
       return "can.buses: joint '" + std::string(robot::kJoints[static_cast<std::size_t>(j)].name) + "' has no drive";
     }
   }
-  return validate_sensors(c);
+  if (std::string e = validate_sensors(c); !e.empty()) return e;
+  return validate_start_pose(c);
 }
 
 }  // namespace springbok::can

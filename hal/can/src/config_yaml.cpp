@@ -95,6 +95,21 @@ void parse_timing(const Field& f, Timing& t) {
   f["start_limit_margin_rad"].number(t.start_limit_margin_rad, -1e9, 1e9);
 }
 
+// CAN.md 4.2 step 3's expected pose; validate() judges the values (finite, within the limits).
+void parse_start_pose(const Field& f, StartPose& p) {
+  if (!f.is_map()) {
+    f.fail("must be a map {q_rad, tolerance_rad}, got " + f.describe());
+    return;
+  }
+  f.allow_only({"q_rad", "tolerance_rad"});
+  p.given = true;
+  Eigen::Matrix<double, kNj, 1> q = Eigen::Matrix<double, kNj, 1>::Zero();
+  if (f["q_rad"].require() && f["q_rad"].vector<kNj>(q, -1e9, 1e9)) {
+    for (int j = 0; j < kNj; ++j) p.q_rad[static_cast<std::size_t>(j)] = q[j];
+  }
+  f["tolerance_rad"].number(p.tolerance_rad, -1e9, 1e9);
+}
+
 std::optional<DriveConfig> parse_drive(const Field& f, Protocol bus_protocol) {
   if (!f.is_map()) {
     f.fail("must be a map (a drive), got " + f.describe());
@@ -228,7 +243,7 @@ CanConfig parse_can(const Field& f) {
   CanConfig c;
   if (!f.require()) return c;
   if (!f.allow_only({"layout", "protocol", "interface_prefix", "max_bus_load", "mit_velocity_observer_rad_s",
-                     "mit_ranges", "timing", "buses", "extra_buses", "sensors"})) {
+                     "mit_ranges", "timing", "buses", "extra_buses", "sensors", "start_pose"})) {
     return c;
   }
   std::string prefix = "can";
@@ -262,6 +277,7 @@ CanConfig parse_can(const Field& f) {
   f["mit_velocity_observer_rad_s"].number(c.mit_velocity_observer_rad_s, -1e9, 1e9);
   if (f["timing"].present()) parse_timing(f["timing"], c.timing);
   if (f["sensors"].present()) c.sensors = parse_sensors(f["sensors"]);
+  if (f["start_pose"].present()) parse_start_pose(f["start_pose"], c.start_pose);
   return c;
 }
 

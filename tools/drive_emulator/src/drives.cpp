@@ -47,6 +47,7 @@ const char* to_string(FaultKind k) noexcept {
     case FaultKind::no_heartbeat: return "no_heartbeat";
     case FaultKind::rated_torque: return "rated_torque";
     case FaultKind::mode_display_delay: return "mode_display_delay";
+    case FaultKind::enable_blocked: return "enable_blocked";
     case FaultKind::vendor_error: return "vendor_error";
     case FaultKind::emcy: return "emcy";
     case FaultKind::bus_off: return "bus_off";
@@ -65,7 +66,8 @@ const char* to_string(FaultKind k) noexcept {
 }
 
 bool is_property(FaultKind k) noexcept {
-  return k == FaultKind::rated_torque || k == FaultKind::mode_display_delay || k == FaultKind::vendor_error;
+  return k == FaultKind::rated_torque || k == FaultKind::mode_display_delay || k == FaultKind::vendor_error ||
+         k == FaultKind::enable_blocked;
 }
 
 const char* to_string(SensorId s) noexcept {
@@ -114,8 +116,16 @@ void Drive::step_joint(const DriveLaw& law, double tau_nm) {
 }
 
 bool Drive::active(const Fault& flt) const noexcept {
-  if (tick_ < flt.at_tick) return false;
+  if (flt.at_frame != 0 || tick_ < flt.at_tick) return false;  // at_frame: take_frame() unplugs
   return flt.kind == FaultKind::silent || flt.kind == FaultKind::no_heartbeat || tick_ < flt.at_tick + flt.count;
+}
+
+bool Drive::take_frame() noexcept {
+  ++frames_addressed_;
+  for (const Fault& flt : faults_) {
+    if (flt.kind == FaultKind::silent && flt.at_frame != 0 && frames_addressed_ >= flt.at_frame) unplugged_ = true;
+  }
+  return !unplugged_;
 }
 
 void Drive::emit(const Frame& f, std::vector<Frame>& out) {
@@ -210,6 +220,7 @@ void MitDrive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Frame>&
     ++classic_frames_;
     return;
   }
+  if (!take_frame()) return;
   ++frames_in_;
   last_rx_ns_ = now_ns;
   sync_from_motion();
@@ -249,8 +260,9 @@ void MitDrive::on_time(std::int64_t now_ns, std::vector<Frame>&) {
 }
 
 // ---- CiA 402 ----------------------------------------------------------------------------------------
-Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns)
-    : Drive(cfg, false, model, std::move(faults)) {
+Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns,
+                         std::uint16_t stored_heartbeat_ms)
+    : Drive(cfg, false, model, std::move(faults)), stored_heartbeat_ms_(stored_heartbeat_ms) {
   // 0x6076: the config's rated torque, else the joint's effort limit, unless the script says otherwise.
   const double rated_nm = cfg_.rated_torque_nm > 0.0 ? cfg_.rated_torque_nm
                                                      : robot::kJoints[static_cast<std::size_t>(cfg_.joint)].limits.effort_nm;
@@ -258,6 +270,7 @@ Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vec
   for (const Fault& flt : faults_) {
     if (flt.kind == FaultKind::rated_torque) rated_torque_mnm_ = flt.param;
     if (flt.kind == FaultKind::mode_display_delay) mode_display_delay_ms_ = flt.param;
+    if (flt.kind == FaultKind::enable_blocked) enable_blocked_ = true;
   }
   reset_communication();
   next_heartbeat_ns_ = now_ns;
@@ -265,7 +278,7 @@ Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vec
 
 void Cia402Drive::reset_communication() {
   const std::uint8_t n = cfg_.drive_id;
-  heartbeat_ms_ = 0;
+  heartbeat_ms_ = stored_heartbeat_ms_;
   error_behaviour_ = 1;
   cycle_period_us_ = 0;
   // Vendor defaults: event-driven PDOs with the drive's own mapping (the host must re-map and disable).
@@ -313,9 +326,13 @@ void Cia402Drive::step_state_machine() {
       else if ((cw & 0x02) == 0 || (cw & 0x86) == 0x02) state_ = St::switch_on_disabled;
       break;
     case St::switched_on:
-      if ((cw & 0x8F) == 0x0F) state_ = St::enabled;
-      else if ((cw & 0x87) == 0x06) state_ = St::ready;
-      else if ((cw & 0x02) == 0 || (cw & 0x86) == 0x02) state_ = St::switch_on_disabled;
+      if ((cw & 0x8F) == 0x0F) {
+        if (!enable_blocked_) state_ = St::enabled;
+      } else if ((cw & 0x87) == 0x06) {
+        state_ = St::ready;
+      } else if ((cw & 0x02) == 0 || (cw & 0x86) == 0x02) {
+        state_ = St::switch_on_disabled;
+      }
       break;
     case St::enabled:
       if ((cw & 0x8F) == 0x07) state_ = St::switched_on;
@@ -324,7 +341,7 @@ void Cia402Drive::step_state_machine() {
       else if ((cw & 0x86) == 0x02) state_ = St::quick_stop;
       break;
     case St::quick_stop:
-      if ((cw & 0x8F) == 0x0F) state_ = St::enabled;
+      if ((cw & 0x8F) == 0x0F && !enable_blocked_) state_ = St::enabled;
       else if ((cw & 0x02) == 0) state_ = St::switch_on_disabled;
       break;
   }
@@ -598,17 +615,20 @@ void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Fram
     c4::NmtCommand cs{};
     std::uint8_t node = 0;
     if (c4::decode_nmt(f, cs, node) != can::FrameStatus::ok || (node != 0 && node != n)) return;
+    if (!take_frame()) return;
     ++frames_in_;
     switch (cs) {
       case c4::NmtCommand::start: nmt_ = 0x05; break;
       case c4::NmtCommand::stop: nmt_ = 0x04; break;
       case c4::NmtCommand::enter_pre_operational: nmt_ = 0x7F; break;
       case c4::NmtCommand::reset_node:
+        ++nmt_resets_;
         state_ = St::switch_on_disabled;
         mode_ = mode_before_ = 0;
         mode_display_at_ns_ = 0;
         [[fallthrough]];
       case c4::NmtCommand::reset_communication:
+        if (cs == c4::NmtCommand::reset_communication) ++nmt_resets_;
         reset_communication();
         boot(now_ns, out);
         break;
@@ -617,11 +637,13 @@ void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Fram
   }
   if (f.id == c4::cob::sync) {
     if (f.len != 0) return;
+    if (!take_frame()) return;
     ++frames_in_;
     on_sync(out);
     return;
   }
   if (f.id == c4::cob::sdo_request + n) {
+    if (!take_frame()) return;
     ++frames_in_;
     if (nmt_ == 0x04) return;  // Stopped: no SDO
     handle_sdo(f, out);
@@ -630,6 +652,7 @@ void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Fram
   for (int k = 0; k < 4; ++k) {
     const Pdo& p = rpdo_[k];
     if ((p.cob_id & c4::kPdoInvalid) != 0 || f.id != (p.cob_id & 0x7FF)) continue;
+    if (!take_frame()) return;
     ++frames_in_;
     if (nmt_ != 0x05) return;
     int bit = 0;
@@ -653,7 +676,7 @@ bool Cia402Drive::cyclic(const Frame& f) const noexcept {
 }
 
 void Cia402Drive::on_time(std::int64_t now_ns, std::vector<Frame>& out) {
-  if (nmt_ == 0x00 || heartbeat_ms_ == 0 || now_ns < next_heartbeat_ns_) return;
+  if (nmt_ == 0x00 || unplugged_ || heartbeat_ms_ == 0 || now_ns < next_heartbeat_ns_) return;
   for (const Fault& flt : faults_) {
     if ((flt.kind == FaultKind::silent || flt.kind == FaultKind::no_heartbeat) && active(flt)) return;
   }

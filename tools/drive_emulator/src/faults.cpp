@@ -25,7 +25,7 @@ FaultResult read_faults(const config::Document& doc) {
         n.fail("must be a map {kind, drive | sensor, at, count, param}, got " + n.describe());
         continue;
       }
-      n.allow_only({"kind", "drive", "sensor", "at", "at_sdo", "count", "param"});
+      n.allow_only({"kind", "drive", "sensor", "at", "at_sdo", "at_frame", "count", "param"});
       Fault f;
       int kind = -1;
       std::string name;
@@ -60,10 +60,12 @@ FaultResult read_faults(const config::Document& doc) {
       constexpr long long kMax = std::numeric_limits<long long>::max();
       if (kind >= 0 && is_property(f.kind)) {
         // A property of the drive from power-on: no time, the value in `param`.
-        for (const char* key : {"at", "at_sdo", "count"}) {
+        for (const char* key : {"at", "at_sdo", "at_frame", "count"}) {
           if (n[key].present()) n[key].fail(std::string("does not apply to '") + to_string(f.kind) + "' (a drive property from power-on)");
         }
-        if (n["param"].require()) {
+        if (f.kind == FaultKind::enable_blocked) {
+          if (n["param"].present()) n["param"].fail("does not apply to 'enable_blocked' (it has no value)");
+        } else if (n["param"].require()) {
           if (f.kind == FaultKind::rated_torque) {
             (void)n["param"].integer(f.param, 0, 0xFFFFFFFFLL);  // mNm; 0 is a drive fault worth injecting
           } else if (f.kind == FaultKind::vendor_error) {
@@ -80,6 +82,14 @@ FaultResult read_faults(const config::Document& doc) {
             n.fail("give either `at` or `at_sdo`");
           } else {
             (void)n["at_sdo"].integer(f.at_sdo, 1, kMax);
+          }
+        } else if (n["at_frame"].present()) {
+          if (kind >= 0 && (f.kind != FaultKind::silent || f.sensor != SensorId::none)) {
+            n["at_frame"].fail("only for a drive's kind silent (unplugged from its k-th frame on)");
+          } else if (n["at"].present()) {
+            n.fail("give either `at` or `at_frame`");
+          } else {
+            (void)n["at_frame"].integer(f.at_frame, 1, kMax);
           }
         } else if (n["at"].require()) {
           (void)n["at"].integer(f.at_tick, 1, kMax);

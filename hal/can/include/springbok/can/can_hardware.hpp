@@ -13,12 +13,20 @@
 //   write(c) stores c, encoded, for the next read(). No I/O.
 // A drive whose reply is missing more than `missed_replies_lost` ticks in a row
 // (age > N_stale, CAN.md 4.1) is DriveState::lost; an EMCY, a fault bit or a vendor error code latches
-// DriveState::fault. Bus-off, ENETDOWN or ENOBUFS on tx_fault_ticks ticks in a
-// row fault the bus: its drives are lost, read() returns IoStatus::error, and
+// DriveState::fault. Bus-off, ENETDOWN, ENOBUFS on tx_fault_ticks ticks in a row, or a
+// valid frame naming a drive configured on another bus (a configuration fault, CAN.md 4.1)
+// fault the bus: its drives are lost, read() returns IoStatus::error, and
 // nothing resumes by itself: recovery is an operator action (restart the
 // controller, then recover_bus(), which re-runs that bus's start-up). A bus whose
 // controller reports error passive is only degraded (its bit in m.degraded_buses,
 // a warning for the safety layer) until the controller reports error active again.
+//
+// Start-up (not real-time): configure() finds and configures every drive without enabling one:
+// MIT exit motor mode (presence, initial position), a zero command, the positions checked against
+// the joint limits and can.start_pose (CAN.md 4.2 steps 1-3); CiA 402 each node's boot-up awaited,
+// a node heard up (heartbeat) reset first, then its SDO configuration (4.3 steps 1-2). activate()
+// enables them bus by bus (4.2 step 4, 4.3 steps 3-4); if it fails anywhere, every drive it enabled
+// is disabled again (4.4 step 2). A bus fault latched during either fails it, naming the bus.
 //
 // Sensors (CAN.md 6): the trunk IMU and the wrist F/T push their frames on their own
 // clock. read() feeds every sensor frame it drains to the sensor's assembler and fills
@@ -45,8 +53,15 @@
 
 namespace springbok::can {
 
-enum class BusFault : std::uint8_t { none = 0, bus_off, restarted, net_down, tx_queue_full, socket_error, no_ack };
+// foreign_drive: a valid frame naming a drive configured on another bus arrived on this one (CAN.md
+// 4.1): a configuration (or wiring) fault. The bus still carries frames (bus_reachable()).
+enum class BusFault : std::uint8_t {
+  none = 0, bus_off, restarted, net_down, tx_queue_full, socket_error, no_ack, foreign_drive
+};
 const char* to_string(BusFault f) noexcept;
+// Whether frames can still be sent on a bus with this fault (to disable its drives, CAN.md 4.4).
+// rt: no alloc
+bool bus_reachable(BusFault f) noexcept;
 
 struct BusDiagnostics {
   std::uint64_t frames_sent = 0;
@@ -59,8 +74,10 @@ struct BusDiagnostics {
   std::uint64_t error_passive_events = 0;
   std::uint64_t overflows = 0;           // controller RX/TX overflow: frames lost
   std::uint64_t bad_frames = 0;          // wrong DLC, undecodable, implausible
-  std::uint64_t unexpected_frames = 0;   // an id / drive id that is no drive of this bus
+  std::uint64_t unexpected_frames = 0;   // a frame no drive of this bus sends, naming no drive of another bus
   std::uint64_t foreign_frames = 0;      // a valid frame of a drive on another bus: configuration fault
+  std::uint8_t foreign_drive_id = 0;     // the first such frame: the drive it named (0: none yet) ...
+  std::uint32_t foreign_can_id = 0;      // ... and its CAN id
   std::uint64_t duplicates = 0;          // more than one reply per command
   std::uint64_t sensor_frames = 0;       // frames of a sensor configured on this bus (see the sensor's diagnostics)
   std::uint64_t rx_budget_exhausted = 0; // ticks on which the per-tick receive budget ran out (frames left queued)
@@ -75,6 +92,10 @@ struct BusDiagnostics {
 // Counts an error frame into its bus's diagnostics (CAN.md 4, "Error frames"); returns the
 // bus fault it means (bus-off, controller restarted) or BusFault::none. rt: no alloc
 BusFault record_error_frame(const Frame& f, BusDiagnostics& d) noexcept;
+// Counts a valid frame naming drive `drive_id`, which is configured on another bus, into its bus's
+// diagnostics (the first one's drive and CAN id kept); returns the bus fault it is (CAN.md 4.1: a
+// configuration fault). rt: no alloc
+BusFault record_foreign_frame(const Frame& f, std::uint8_t drive_id, BusDiagnostics& d) noexcept;
 // The bus's line of CanHardware::diagnostics_report(): "can bus lf (vcan0): fault=none ...".
 std::string bus_diagnostics_line(const BusConfig& bus, const BusDiagnostics& d);
 
@@ -126,7 +147,10 @@ struct JointRuntime {
   // 0x6072, 0x6077), set once per start-up and only multiplied by on the tick.
   std::uint32_t rated_torque_mnm = 0;
   cia402::TorqueScale torque_scale;
-  bool booted = false;            // CiA 402 start-up: boot-up seen
+  // CiA 402 start-up (CAN.md 4.3 step 1), since the bus's socket was opened: its boot-up frame seen;
+  // a heartbeat seen (the node was up already).
+  bool booted = false;
+  bool heartbeat_seen = false;
   // The first non-zero fault code the drive itself sent since this bus's start-up began (CiA 402:
   // EMCY; MIT: the vendor reply's error byte): start-up fails on it (can_startup.cpp).
   std::uint16_t startup_fault_code = 0;
@@ -148,9 +172,11 @@ class CanHardware final : public hal::Hardware {
 
   std::string_view name() const noexcept override { return "socketcan"; }
   // Validates the layout (refusing a bus above the load limit), opens the sockets,
-  // finds every drive and configures it (CAN.md 4.2 steps 1-3, 4.3 steps 1-2).
+  // finds every drive and configures it (CAN.md 4.2 steps 1-3, 4.3 steps 1-2); enables none.
   hal::LifecycleResult configure() override;
-  // Enables every drive (MIT enter motor mode; CiA 402 NMT start and the state machine).
+  // Enables every drive (MIT enter motor mode; CiA 402 NMT start and the state machine). When it
+  // fails on a bus, every drive it enabled (that bus's included) is disabled again as in CAN.md
+  // 4.4 step 2 before it returns: a failed activate() leaves no drive enabled.
   hal::LifecycleResult activate() override;
   // rt: no alloc; bounded wait (rx deadline).
   hal::IoStatus read(hal::Measurements& out) noexcept override;
@@ -162,7 +188,8 @@ class CanHardware final : public hal::Hardware {
   // "can bus lf (vcan0): fault=none bad_frames=0 ..." per bus, "can sensor imu: ..." per sensor.
   std::string diagnostics_report() const override;
 
-  // Operator recovery after a bus fault: reopen, re-run start-up and enable for that bus.
+  // Operator recovery after a bus fault: reopen, re-run start-up and enable for that bus (disabled
+  // again when its enable fails, as in activate()).
   hal::LifecycleResult recover_bus(int bus);
 
   const CanConfig& config() const noexcept { return config_; }
@@ -218,6 +245,10 @@ class CanHardware final : public hal::Hardware {
   hal::LifecycleResult enable_mit(int b);
   hal::LifecycleResult start_cia402(int b);
   hal::LifecycleResult enable_cia402(int b);
+  // CAN.md 4.4 step 2 on one bus (not real-time: waits a tick between the CiA 402 steps).
+  void disable_bus(int b) noexcept;
+  // After enable_bus failed on bus `last`: disables buses first..last, returns `failure` saying so.
+  hal::LifecycleResult disable_after_failed_enable(int first, int last, hal::LifecycleResult failure);
   hal::LifecycleResult configure_node(int j);
   // A failure naming the first of `drives` that sent a fault code since its start-up began.
   hal::LifecycleResult startup_fault(const std::vector<int>& drives, const char* during);
@@ -234,7 +265,10 @@ class CanHardware final : public hal::Hardware {
   void process_error_frame(int b, const Frame& f) noexcept;
   bool accept_position(int j, double q_rad) noexcept;
   int find_joint(int b, std::uint8_t drive_id, Protocol p) const noexcept;
-  void count_unknown(int b, std::uint8_t drive_id) noexcept;
+  // The joint of drive `drive_id` when it is configured on a bus other than `b`, else -1. rt: no alloc
+  int find_foreign_joint(int b, std::uint8_t drive_id) const noexcept;
+  // A failure naming bus `b` and its latched fault (success when it has none). Not real-time.
+  hal::LifecycleResult bus_fault_failure(int b, const char* during) const;
   void latch_fault(int j, std::uint16_t code) noexcept;
   void fault_bus(int b, BusFault why) noexcept;
   bool replies_complete() const noexcept;

@@ -9,6 +9,7 @@
 #include "springbok/can/cia402.hpp"
 #include "springbok/can/mit.hpp"
 #include "springbok/can/sensors.hpp"
+#include "springbok/model/model.hpp"
 
 namespace springbok::can {
 
@@ -76,9 +77,29 @@ struct Timing {
   double start_limit_margin_rad = 0.05;        // start-up position check against the joint limits
 };
 
+// CAN.md 4.2 step 3: where the joints are when the robot is started (the pose it is parked in when
+// powered on, e.g. lying on its folded legs). MIT start-up checks the positions its drives report
+// against it, and against the joint limits. A robot description cannot know it: a config with MIT
+// drives must give it (validate()). CiA 402 start-up (4.3) has no such step.
+struct StartPose {
+  bool given = false;               // can.start_pose is in the config
+  std::array<double, kNj> q_rad{};  // joint order of springbok::robot::kJoints
+  // |q - q_rad[j]| above this fails start-up. 0.3 rad: well beyond where an unpowered robot's
+  // joints settle around its parking pose, below a turn of a single-turn encoder behind a 6..20:1
+  // gear (0.31..1.05 rad), the error it is there to catch with a joint on the wrong drive.
+  double tolerance_rad = 0.3;
+};
+// validate() refuses a start-pose tolerance above this: the check would no longer mean anything.
+inline constexpr double kMaxStartPoseToleranceRad = 1.0;
+
+// CAN.md 4.2 step 3: whether joint `joint` found at `q_rad` is at the start pose (false when
+// q_rad is not finite). rt: no alloc
+bool at_start_pose(const StartPose& pose, int joint, double q_rad) noexcept;
+
 struct CanConfig {
   std::vector<BusConfig> buses;
   Timing timing;
+  StartPose start_pose;       // required with MIT drives
   double max_bus_load = 0.8;  // worst-case (CAN.md section 3) load a bus may have
   // MIT drives: the bandwidth of the velocity observer on their replies (mit::VelocityObserver)
   // [rad/s]; 0: the replies' velocity as sent.
@@ -99,6 +120,8 @@ CanConfig classic7_layout(Protocol p, const std::string& interface_prefix = "can
 CanConfig fd5_layout(const std::string& interface_prefix = "can");
 
 // Empty when the config is consistent; otherwise the first problem, naming the field.
+// start_pose: given when a drive speaks MIT, every q_rad finite and within its joint's limits,
+// tolerance_rad in (0, kMaxStartPoseToleranceRad].
 // Sensors: each on a configured bus, ids 11-bit and distinct, none colliding with an id of
 // a drive on the same bus (MIT command id and reply id; CiA 402: NMT, SYNC and the node's
 // EMCY, PDO, SDO and heartbeat COB-IDs), scales finite and positive.

@@ -62,7 +62,9 @@ enum class FaultKind : std::uint8_t {
   delay,          // replies held back `param` ticks, for `count` ticks
   duplicate,      // each reply sent twice, for `count` ticks
   corrupt,        // position bytes inverted, for `count` ticks
-  silent,         // never replies again
+  silent,         // never replies again; with `at_frame: k` instead of `at`: unplugged from the k-th frame
+                  // addressed to the drive since power-on (1 = the first) on, that one included: it takes,
+                  // answers and sends nothing any more (a drive lost between the host's start-up steps)
   emcy,           // CiA 402: EMCY `param` (default 0x2310) + Fault state; MIT (vendor reply): error code `param`.
                   // CiA 402 also `at_sdo: k` instead of `at`: right after answering the k-th SDO
                   // request since power-on (the host's Pre-operational configuration)
@@ -76,6 +78,8 @@ enum class FaultKind : std::uint8_t {
   rated_torque,        // CiA 402: 0x6076 reads `param` mNm instead of the config's rated_torque_nm (or
                        // the joint's effort limit); the drive scales 0x6071 / 0x6072 / 0x6077 by it
   mode_display_delay,  // CiA 402: 0x6061 shows a value written to 0x6060 only `param` ms after the write
+  enable_blocked,      // CiA 402 (no `param`): Enable operation is not followed, the drive stays Switched on
+                       // (e.g. its safe torque off is engaged); every other transition works
   vendor_error,        // MIT with 8-byte replies: every reply's error byte reads `param` (1..255), from
                        // the first (a drive that boots with a fault: the host sees it during start-up)
   // Sensors (CAN.md 6.5; `sensor:` instead of `drive:`, ticks are the sensor's samples).
@@ -101,8 +105,9 @@ struct Fault {
   std::uint64_t count = 1;
   std::uint32_t param = 0;
   std::uint64_t at_sdo = 0;  // emcy (CiA 402): fire after answering this SDO request (1 = the first); 0: at `at`
+  std::uint64_t at_frame = 0;  // silent: unplugged from this frame addressed to the drive on (1 = the first); 0: at `at`
 };
-// The drive properties of rated_torque / mode_display_delay / vendor_error, not timed events.
+// The drive properties of rated_torque / mode_display_delay / vendor_error / enable_blocked, not timed events.
 bool is_property(FaultKind k) noexcept;
 
 struct FaultResult {
@@ -133,6 +138,8 @@ class Drive {
   std::uint64_t frames_in() const noexcept { return frames_in_; }
   std::uint64_t replies_out() const noexcept { return replies_out_; }
   bool enabled() const noexcept { return enabled_; }
+  // A `silent` fault's at_frame was reached: the drive takes and sends nothing any more.
+  bool unplugged() const noexcept { return unplugged_; }
   // Moves this drive's joint in `motion` instead of its own JointModel (nullptr: own model).
   void attach(Motion* motion);
 
@@ -151,6 +158,9 @@ class Drive {
   virtual void on_fault_event(const Fault& fault, std::vector<can::Frame>& out) = 0;
   virtual void corrupt(can::Frame& f) const = 0;
   bool active(const Fault& flt) const noexcept;
+  // Counts a frame addressed to this drive: false from the frame a `silent` fault's at_frame names
+  // on (the drive is unplugged: it takes, answers and sends nothing any more).
+  bool take_frame() noexcept;
 
   can::DriveConfig cfg_;
   bool fd_bus_ = false;
@@ -158,6 +168,8 @@ class Drive {
   std::vector<Fault> faults_;
   std::uint64_t tick_ = 0;
   std::uint64_t frames_in_ = 0, replies_out_ = 0;
+  std::uint64_t frames_addressed_ = 0;  // frames for this drive since power-on, an unplugged drive's included
+  bool unplugged_ = false;
   bool enabled_ = false;
   std::vector<std::pair<std::uint64_t, can::Frame>> delayed_;
 };
@@ -191,7 +203,10 @@ class MitDrive final : public Drive {
 // SYNC-driven TPDOs, the state machine, CST, EMCY.
 class Cia402Drive final : public Drive {
  public:
-  Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns);
+  // `stored_heartbeat_ms`: the drive's stored producer heartbeat time, 0x1017 after power-on and
+  // after NMT reset communication (0: no heartbeat until the host writes 0x1017).
+  Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns,
+              std::uint16_t stored_heartbeat_ms = 0);
   void on_frame(const can::Frame& f, std::int64_t now_ns, std::vector<can::Frame>& out) override;
   void on_time(std::int64_t now_ns, std::vector<can::Frame>& out) override;
   bool cyclic(const can::Frame& f) const noexcept override;
@@ -199,6 +214,9 @@ class Cia402Drive final : public Drive {
   void boot(std::int64_t now_ns, std::vector<can::Frame>& out);
   std::uint16_t status_word() const noexcept;
   std::uint8_t nmt_state() const noexcept { return nmt_; }
+  bool powered() const noexcept { return nmt_ != 0x00; }  // boot() was called
+  // NMT reset node / reset communication commands taken since power-on.
+  std::uint64_t nmt_resets() const noexcept { return nmt_resets_; }
 
  private:
   struct Pdo {
@@ -225,12 +243,15 @@ class Cia402Drive final : public Drive {
   std::uint16_t controlword_ = 0, applied_controlword_ = 0;
   std::int16_t target_torque_ = 0, applied_target_torque_ = 0;
   std::uint16_t heartbeat_ms_ = 0;
+  std::uint16_t stored_heartbeat_ms_ = 0;  // 0x1017 after power-on and reset communication
+  std::uint64_t nmt_resets_ = 0;
   std::int64_t next_heartbeat_ns_ = 0;
   std::int8_t mode_ = 0;
   // 0x6061: shows mode_ from mode_display_at_ns_ on, mode_before_ until then (mode_display_delay).
   std::int8_t mode_before_ = 0;
   std::int64_t mode_display_at_ns_ = 0;
   std::uint32_t mode_display_delay_ms_ = 0;
+  bool enable_blocked_ = false;         // the enable_blocked property: Switched on is as far as it goes
   std::int64_t now_ns_ = 0;          // time of the frame being handled
   std::uint64_t sdo_requests_ = 0;   // SDO requests answered since power-on (emcy at_sdo)
   std::uint32_t rated_torque_mnm_ = 0;  // 0x6076; in Nm it scales 0x6071 / 0x6077
