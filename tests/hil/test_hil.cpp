@@ -263,8 +263,8 @@ TEST(Hil, MissingDriveStopsStartUpNamingIt) {
 }
 
 // CAN.md 4.2 step 3: MIT start-up checks the drives' positions against the joint limits and the
-// expected pose (can.start_pose). The emulated joints start in the stance, which the config
-// expects, but for arm joint 4 (drive 16, bus arm1): expected at 0.5 rad, more than the tolerance
+// expected pose (can.start_pose, optional; given here). The emulated joints start in the stance,
+// which the pose expects, but for arm joint 4 (drive 16, bus arm1): expected at 0.5 rad, more than the tolerance
 // (0.3 rad) from where it is, though within its limits. configure() fails naming the joint, its
 // position and the expected one, and only it; at 0.25 rad from the expected pose it starts.
 TEST(Hil, MitStartUpRefusesAJointOffTheExpectedPose) {
@@ -272,7 +272,11 @@ TEST(Hil, MitStartUpRefusesAJointOffTheExpectedPose) {
   Emulator emu(kConfigDir + "mit_classic7.yaml", "");
   ASSERT_TRUE(emu.ready());
   CanConfig cfg = load("mit_classic7.yaml");
+  ASSERT_FALSE(cfg.start_pose.given) << "the HIL configs leave it out: an emulator's joints may start anywhere";
+  cfg.start_pose.given = true;  // the emulator's pose (--pose stance), the default tolerance
+  cfg.start_pose.q_rad = {0.0, 0.7, -1.4, 0.0, 0.7, -1.4, 0.0, -0.7, 1.4, 0.0, -0.7, 1.4, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
   ASSERT_DOUBLE_EQ(cfg.start_pose.tolerance_rad, 0.3);
+  ASSERT_EQ(springbok::can::validate(cfg), "");
   cfg.start_pose.q_rad[15] = 0.5;
   {
     CanHardware hw(cfg);
@@ -625,26 +629,38 @@ TEST(Hil, Cia402NodesBootingAfterTheHostStartedAreAwaitedNotReset) {
   for (const auto& [id, d] : drives) EXPECT_EQ(d.nmt_resets, 0u) << "drive " << id;
 }
 
-// Drives powered before the host and silent (stored 0x1017: 0, no heartbeat): the host missed their
-// boot-up and nothing says they are up, so none is reset (CAN.md 4.3 step 1 resets only a node
-// heard up); start-up fails after boot_timeout_ms naming the first bus's nodes.
-TEST(Hil, Cia402NodesNeitherBootingNorHeardAreNotResetAndStopStartUp) {
+// Drives powered before the host and silent (stored 0x1017: 0, CiA 301's default: no heartbeat):
+// the host missed their boot-up and nothing says they are up. After 500 ms each is sent NMT reset
+// communication once, boots and the robot starts (CAN.md 4.3 step 1 waits for a boot-up; a node
+// that is up with its heartbeat off would never send one). A drive silent from its first frame on
+// (drive 2: unplugged) stops start-up after boot_timeout_ms, named.
+TEST(Hil, Cia402NodesNeitherBootingNorHeardAreResetOnceAndBoot) {
   REQUIRE_VCAN(7);
+  {
+    const CanConfig cfg = load("cia402_classic7.yaml");
+    Emulator emu(kConfigDir + "cia402_classic7.yaml", "");
+    ASSERT_TRUE(emu.ready());
+    CanHardware hw(cfg);
+    const hal::LifecycleResult c = hw.configure();
+    ASSERT_TRUE(c.ok) << c.message;
+    const hal::LifecycleResult a = hw.activate();
+    ASSERT_TRUE(a.ok) << a.message;
+    hw.deactivate();
+    const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+    ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+    for (const auto& [id, d] : drives) EXPECT_EQ(d.nmt_resets, 1u) << "drive " << id;
+  }
   CanConfig cfg = load("cia402_classic7.yaml");
   cfg.timing.boot_timeout_ms = 1000;
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "faults: [{kind: silent, drive: 2, at_frame: 1}]\n");
   ASSERT_TRUE(emu.ready());
   CanHardware hw(cfg);
   const hal::LifecycleResult c = hw.configure();
   EXPECT_FALSE(c.ok);
   EXPECT_EQ(c.message,
-            "CiA 402 start-up on bus 'lf': no boot-up within 1000 ms: drive 1 (joint lf_haa_joint, cia402) on bus 'lf' "
-            "(vcan0): neither boot-up nor heartbeat; drive 2 (joint lf_hfe_joint, cia402) on bus 'lf' (vcan0): neither "
-            "boot-up nor heartbeat; drive 3 (joint lf_kfe_joint, cia402) on bus 'lf' (vcan0): neither boot-up nor "
-            "heartbeat");
-  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
-  ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
-  for (const auto& [id, d] : drives) EXPECT_EQ(d.nmt_resets, 0u) << "drive " << id;
+            "CiA 402 start-up on bus 'lf': no boot-up within 1000 ms: drive 2 (joint lf_hfe_joint, cia402) on bus 'lf' "
+            "(vcan0): neither boot-up nor heartbeat, nor a boot-up after NMT reset communication");
+  emu.stop();
 }
 
 TEST(Hil, BusOffFaultsTheBusAndNeedsAnOperatorRecovery) {

@@ -4,6 +4,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <algorithm>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -15,6 +16,10 @@ namespace springbok::can {
 
 namespace {
 using hal::LifecycleResult;
+
+// CAN.md 4.3 step 1: a CiA 402 node neither booting nor heard this long after its bus starts is
+// sent NMT reset communication (it may be up with its heartbeat off, its boot-up missed).
+constexpr std::uint32_t kSilentNodeResetMs = 500;
 
 std::int64_t after_ms(std::uint32_t ms) { return monotonic_ns() + 1000000LL * ms; }
 
@@ -278,7 +283,8 @@ LifecycleResult CanHardware::start_mit(int b) {
     return LifecycleResult::failure("MIT start-up: a drive on bus '" + config_.buses[static_cast<std::size_t>(b)].name +
                                     "' did not answer the zero command");
   }
-  // 3. Positions within the joint limits and at the expected pose (can.start_pose).
+  // 3. Positions within the joint limits and, when the config gives it, at the expected pose
+  // (can.start_pose).
   std::string outside, off_pose;
   const StartPose& pose = config_.start_pose;
   mit_joints([&](int j) {
@@ -289,7 +295,7 @@ LifecycleResult CanHardware::start_mit(int b) {
     if (lim.bounded && (jr.q_rad < lim.lower_rad - m || jr.q_rad > lim.upper_rad + m)) {
       outside += (outside.empty() ? "" : "; ") + drive_name(j) + " at " + std::to_string(jr.q_rad) + " rad, limits [" +
                  std::to_string(lim.lower_rad) + ", " + std::to_string(lim.upper_rad) + "]";
-    } else if (!at_start_pose(pose, j, jr.q_rad)) {
+    } else if (pose.given && !at_start_pose(pose, j, jr.q_rad)) {
       off_pose += (off_pose.empty() ? "" : "; ") + drive_name(j) + " at " + std::to_string(jr.q_rad) +
                   " rad, expected " + std::to_string(pose.q_rad[static_cast<std::size_t>(j)]) + " rad";
     }
@@ -510,35 +516,51 @@ LifecycleResult CanHardware::start_cia402(int b) {
   };
   // 1. Boot-up: wait for each node's boot-up frame up to boot_timeout_ms. A node heard to be up
   // already (a heartbeat, since the bus was opened) is sent NMT reset communication, and its boot-up
-  // waited for, again up to boot_timeout_ms from then. A node neither booting nor heard is left alone.
+  // waited for, again up to boot_timeout_ms from then. A node neither booting nor heard within
+  // kSilentNodeResetMs is sent one too: it may be up with its heartbeat off (CiA 301's default
+  // 0x1017 is 0) and its boot-up sent before the host listened; a node not yet powered ignores it
+  // and boots on its own, so only a node that stays silent after it fails start-up.
   for (int j : nodes) joints_[static_cast<std::size_t>(j)].startup_fault_code = 0;
-  std::vector<bool> reset_sent(nodes.size(), false);
+  enum class Reset : std::uint8_t { none, heard, silent };
+  std::vector<Reset> reset(nodes.size(), Reset::none);
   const auto up_not_reset = [&] {
     for (std::size_t i = 0; i < nodes.size(); ++i) {
       const JointRuntime& jr = joints_[static_cast<std::size_t>(nodes[i])];
-      if (!jr.booted && jr.heartbeat_seen && !reset_sent[i]) return true;
+      if (!jr.booted && jr.heartbeat_seen && reset[i] == Reset::none) return true;
     }
     return false;
   };
+  const std::int64_t silent_reset_ns = after_ms(kSilentNodeResetMs);
   std::int64_t deadline_ns = after_ms(config_.timing.boot_timeout_ms);
-  while (pump_until(deadline_ns, [&] { return all_booted() || up_not_reset(); }) && !all_booted()) {
+  for (bool silent_due = false;;) {
+    pump_until(silent_due ? deadline_ns : std::min(deadline_ns, silent_reset_ns),
+               [&] { return all_booted() || up_not_reset(); });
+    if (all_booted()) break;
+    silent_due = monotonic_ns() >= silent_reset_ns;
+    bool sent = false;
     for (std::size_t i = 0; i < nodes.size(); ++i) {
       const JointRuntime& jr = joints_[static_cast<std::size_t>(nodes[i])];
-      if (jr.booted || !jr.heartbeat_seen || reset_sent[i]) continue;
+      if (jr.booted || reset[i] != Reset::none || !(jr.heartbeat_seen || silent_due)) continue;
       Frame f;
       cia402::encode_nmt(cia402::NmtCommand::reset_communication, jr.cfg.drive_id, f);
       send_now(b, f);
-      reset_sent[i] = true;
+      reset[i] = jr.heartbeat_seen ? Reset::heard : Reset::silent;
+      sent = true;
+    }
+    if (sent) {
       deadline_ns = std::max(deadline_ns, after_ms(config_.timing.boot_timeout_ms));
+    } else if (monotonic_ns() >= deadline_ns) {
+      break;
     }
   }
   if (!all_booted()) {
     std::string missing;
     for (std::size_t i = 0; i < nodes.size(); ++i) {
       if (joints_[static_cast<std::size_t>(nodes[i])].booted) continue;
-      missing += (missing.empty() ? "" : "; ") + drive_name(nodes[i]) +
-                 (reset_sent[i] ? ": up (heartbeat seen), no boot-up after NMT reset communication"
-                                : ": neither boot-up nor heartbeat");
+      const char* why = reset[i] == Reset::heard    ? ": up (heartbeat seen), no boot-up after NMT reset communication"
+                        : reset[i] == Reset::silent ? ": neither boot-up nor heartbeat, nor a boot-up after NMT reset communication"
+                                                    : ": neither boot-up nor heartbeat";
+      missing += (missing.empty() ? "" : "; ") + drive_name(nodes[i]) + why;
     }
     return LifecycleResult::failure("CiA 402 start-up on bus '" + bc.name + "': no boot-up within " +
                                     std::to_string(config_.timing.boot_timeout_ms) + " ms: " + missing);

@@ -192,16 +192,7 @@ std::string validate_sensors(const CanConfig& c) {
 
 std::string validate_start_pose(const CanConfig& c) {
   const StartPose& p = c.start_pose;
-  bool any_mit = false;
-  for (const BusConfig& b : c.buses) {
-    for (const DriveConfig& d : b.drives) any_mit = any_mit || d.protocol == Protocol::mit;
-  }
-  if (!p.given) {
-    return any_mit ? "can.start_pose: missing; with MIT drives it is required: {q_rad: [the " + std::to_string(kNj) +
-                         " joints' positions when the robot is started, joint order of the model], tolerance_rad: "
-                         "(optional, default 0.3)}, checked by MIT start-up (CAN.md 4.2 step 3)"
-                   : std::string{};
-  }
+  if (!p.given) return {};  // optional: MIT start-up then checks the joint limits alone
   for (int j = 0; j < kNj; ++j) {
     const double q = p.q_rad[static_cast<std::size_t>(j)];
     const auto& lim = robot::kJoints[static_cast<std::size_t>(j)].limits;

@@ -79,8 +79,10 @@ struct Timing {
 
 // CAN.md 4.2 step 3: where the joints are when the robot is started (the pose it is parked in when
 // powered on, e.g. lying on its folded legs). MIT start-up checks the positions its drives report
-// against it, and against the joint limits. A robot description cannot know it: a config with MIT
-// drives must give it (validate()). CiA 402 start-up (4.3) has no such step.
+// against it, and against the joint limits. A robot description cannot know it: the deployment
+// gives it (the shipped springbok.yaml does); a config without it (a bench, a drive emulator
+// whose joints start anywhere) has the joint limits checked alone. CiA 402 start-up (4.3) has
+// no such step.
 struct StartPose {
   bool given = false;               // can.start_pose is in the config
   std::array<double, kNj> q_rad{};  // joint order of springbok::robot::kJoints
@@ -99,7 +101,7 @@ bool at_start_pose(const StartPose& pose, int joint, double q_rad) noexcept;
 struct CanConfig {
   std::vector<BusConfig> buses;
   Timing timing;
-  StartPose start_pose;       // required with MIT drives
+  StartPose start_pose;       // optional (given: checked by MIT start-up)
   double max_bus_load = 0.8;  // worst-case (CAN.md section 3) load a bus may have
   // MIT drives: the bandwidth of the velocity observer on their replies (mit::VelocityObserver)
   // [rad/s]; 0: the replies' velocity as sent.
@@ -120,8 +122,8 @@ CanConfig classic7_layout(Protocol p, const std::string& interface_prefix = "can
 CanConfig fd5_layout(const std::string& interface_prefix = "can");
 
 // Empty when the config is consistent; otherwise the first problem, naming the field.
-// start_pose: given when a drive speaks MIT, every q_rad finite and within its joint's limits,
-// tolerance_rad in (0, kMaxStartPoseToleranceRad].
+// start_pose, when given: every q_rad finite and within its joint's limits, tolerance_rad in
+// (0, kMaxStartPoseToleranceRad].
 // Sensors: each on a configured bus, ids 11-bit and distinct, none colliding with an id of
 // a drive on the same bus (MIT command id and reply id; CiA 402: NMT, SYNC and the node's
 // EMCY, PDO, SDO and heartbeat COB-IDs), scales finite and positive.
