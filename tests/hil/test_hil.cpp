@@ -589,42 +589,41 @@ TEST(Hil, FailedActivateLeavesNoCia402DriveOperationEnabled) {
   }
 }
 
+// The CiA 402 robot (cia402_classic7) started and shut down against the emulator run with
+// `emulator_args`; each drive's NMT reset count, from the emulator's summary (empty on failure).
+std::map<int, EmulatedDrive> start_cia402_robot_counting_resets(const std::vector<std::string>& emulator_args) {
+  const CanConfig cfg = load("cia402_classic7.yaml");
+  Emulator emu(kConfigDir + "cia402_classic7.yaml", "", emulator_args);
+  EXPECT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  EXPECT_TRUE(c.ok) << c.message;
+  const hal::LifecycleResult a = c.ok ? hw.activate() : c;
+  EXPECT_TRUE(a.ok) << a.message;
+  hw.deactivate();
+  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  EXPECT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+  return c.ok && a.ok ? drives : std::map<int, EmulatedDrive>{};
+}
+
 // CAN.md 4.3 step 1: "Wait for the boot-up frame (0x700+n, 00) up to 5 s; if the node is already
 // up (heartbeats seen), send NMT reset communication (82 n) and wait for its boot-up." Drives
 // powered before the host, heartbeats on (stored 0x1017: 100 ms): each node is reset once, boots
 // again and the robot starts.
 TEST(Hil, Cia402NodesHeardUpAreResetOnceAndBootAgain) {
   REQUIRE_VCAN(7);
-  const CanConfig cfg = load("cia402_classic7.yaml");
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "", kCia402DrivesUp);
-  ASSERT_TRUE(emu.ready());
-  CanHardware hw(cfg);
-  const hal::LifecycleResult c = hw.configure();
-  ASSERT_TRUE(c.ok) << c.message;
-  const hal::LifecycleResult a = hw.activate();
-  ASSERT_TRUE(a.ok) << a.message;
-  hw.deactivate();
-  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  const std::map<int, EmulatedDrive> drives = start_cia402_robot_counting_resets(kCia402DrivesUp);
   ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
   for (const auto& [id, d] : drives) EXPECT_EQ(d.nmt_resets, 1u) << "drive " << id;
 }
 
 // Drives powered 1.5 s after the host started listening (their boot-up is the first they say):
 // the host waits for it and resets none, including the nodes of the buses after the first, which
-// boot while the first bus starts.
+// boot while the first bus starts (the reset a silent node gets at 500 ms reaches no unpowered one).
 TEST(Hil, Cia402NodesBootingAfterTheHostStartedAreAwaitedNotReset) {
   REQUIRE_VCAN(7);
-  const CanConfig cfg = load("cia402_classic7.yaml");
-  ASSERT_GT(cfg.timing.boot_timeout_ms, 1500u);
-  Emulator emu(kConfigDir + "cia402_classic7.yaml", "", {"--cia402-boot-after-ms", "1500"});
-  ASSERT_TRUE(emu.ready());
-  CanHardware hw(cfg);
-  const hal::LifecycleResult c = hw.configure();
-  ASSERT_TRUE(c.ok) << c.message;
-  const hal::LifecycleResult a = hw.activate();
-  ASSERT_TRUE(a.ok) << a.message;
-  hw.deactivate();
-  const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+  ASSERT_GT(load("cia402_classic7.yaml").timing.boot_timeout_ms, 1500u);
+  const std::map<int, EmulatedDrive> drives = start_cia402_robot_counting_resets({"--cia402-boot-after-ms", "1500"});
   ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
   for (const auto& [id, d] : drives) EXPECT_EQ(d.nmt_resets, 0u) << "drive " << id;
 }
@@ -637,16 +636,7 @@ TEST(Hil, Cia402NodesBootingAfterTheHostStartedAreAwaitedNotReset) {
 TEST(Hil, Cia402NodesNeitherBootingNorHeardAreResetOnceAndBoot) {
   REQUIRE_VCAN(7);
   {
-    const CanConfig cfg = load("cia402_classic7.yaml");
-    Emulator emu(kConfigDir + "cia402_classic7.yaml", "");
-    ASSERT_TRUE(emu.ready());
-    CanHardware hw(cfg);
-    const hal::LifecycleResult c = hw.configure();
-    ASSERT_TRUE(c.ok) << c.message;
-    const hal::LifecycleResult a = hw.activate();
-    ASSERT_TRUE(a.ok) << a.message;
-    hw.deactivate();
-    const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+    const std::map<int, EmulatedDrive> drives = start_cia402_robot_counting_resets({});
     ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
     for (const auto& [id, d] : drives) EXPECT_EQ(d.nmt_resets, 1u) << "drive " << id;
   }

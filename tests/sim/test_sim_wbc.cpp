@@ -90,6 +90,27 @@ TEST(SimWbc, StepRendersTheTemplate) {
   EXPECT_GT(fs::file_size(dir / "base_step_x.png"), 1000u);
 }
 
+// A step push on the hand from 1 s, the experiments' template (M_b 92, D_b 610, K_b 1000; M_e 4,
+// D_e 90, K_e 500) on sphere feet: the scenario's text, for the arm's `joint_positions_rad`,
+// the push's axis and force, `contact` keys after foot_radius, and the run's length.
+std::string hand_push_scenario(const std::string& arm, const std::string& axis, const std::string& force,
+                               const std::string& contact_extra, const std::string& duration_s) {
+  return "duration_s: " + duration_s + "\n" +
+         "initial:\n"
+         "  joint_positions_rad: " + arm + "\n"
+         "  feet_clearance_m: 0.0\n"
+         "controller:\n"
+         "  type: wbc\n"
+         "  settle_s: 0.5\n"
+         "  params:\n"
+         "    template:\n"
+         "      base: {mass: 92, damping: 610, stiffness: 1000}\n"
+         "      ee: {mass: 4, damping: 90, stiffness: 500}\n"
+         "    contact: {foot_radius: 0.02175" + contact_extra + "}\n"
+         "external_wrenches:\n"
+         "  - {frame: arm_end_effector_link, axis: " + axis + ", profile: step, amplitude: " + force + ", start_s: 1.0}\n";
+}
+
 // A push the arm cannot hold leaves the robot standing: the paper's 50 N and 100 N on the
 // straight arm (`stance`: the hand 0.9 m above the shoulder, whose 39 N m hold 43 N there) and
 // 120 N on the bent arm of the experiments. The arm yields (arm_overloaded_s) and the base keeps
@@ -102,21 +123,7 @@ TEST(SimWbc, APushTheArmCannotHoldLeavesTheRobotStanding) {
        {std::tuple{"straight_50n", "stance", "50"}, std::tuple{"straight_100n", "stance", "100"},
         std::tuple{"bent_120n", "[0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0.6, 0, 1.9, 0, 0.9, 0]", "120"}}) {
     const fs::path dir = scratch(std::string("wbc_overload_") + name);
-    const std::string text = std::string("duration_s: 4.0\n") +
-                             "initial:\n"
-                             "  joint_positions_rad: " + arm + "\n"
-                             "  feet_clearance_m: 0.0\n"
-                             "controller:\n"
-                             "  type: wbc\n"
-                             "  settle_s: 0.5\n"
-                             "  params:\n"
-                             "    template:\n"
-                             "      base: {mass: 92, damping: 610, stiffness: 1000}\n"
-                             "      ee: {mass: 4, damping: 90, stiffness: 500}\n"
-                             "    contact: {foot_radius: 0.02175}\n"
-                             "external_wrenches:\n"
-                             "  - {frame: arm_end_effector_link, axis: [1, 0, 0], profile: step, amplitude: " + force +
-                             ", start_s: 1.0}\n";
+    const std::string text = hand_push_scenario(arm, "[1, 0, 0]", force, "", "4.0");
     const CliResult r = run(write_file(dir, "push.yaml", text).string(), dir / "out");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const std::string json = slurp(dir / "out" / "summary.json");
@@ -144,21 +151,7 @@ TEST(SimWbc, APushTowardTippingLeavesTheRobotStanding) {
         std::tuple{"straight_y100", "stance", "[0, 1, 0]", "100", ""},
         std::tuple{"bent_y100_off", bent.c_str(), "[0, 1, 0]", "100", ", support_margin: 0"}}) {
     const fs::path dir = scratch(std::string("wbc_tipping_") + name);
-    const std::string text = std::string("duration_s: 5.0\n") +
-                             "initial:\n"
-                             "  joint_positions_rad: " + arm + "\n"
-                             "  feet_clearance_m: 0.0\n"
-                             "controller:\n"
-                             "  type: wbc\n"
-                             "  settle_s: 0.5\n"
-                             "  params:\n"
-                             "    template:\n"
-                             "      base: {mass: 92, damping: 610, stiffness: 1000}\n"
-                             "      ee: {mass: 4, damping: 90, stiffness: 500}\n"
-                             "    contact: {foot_radius: 0.02175" + margin + "}\n"
-                             "external_wrenches:\n"
-                             "  - {frame: arm_end_effector_link, axis: " + axis + ", profile: step, amplitude: " + force +
-                             ", start_s: 1.0}\n";
+    const std::string text = hand_push_scenario(arm, axis, force, margin, "5.0");
     const CliResult r = run(write_file(dir, "push.yaml", text).string(), dir / "out");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const std::string json = slurp(dir / "out" / "summary.json");
