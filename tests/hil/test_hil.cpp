@@ -653,6 +653,23 @@ TEST(Hil, Cia402NodesNeitherBootingNorHeardAreResetOnceAndBoot) {
   emu.stop();
 }
 
+// A run of `ticks` ticks: the first whose read() reported an error (-1: none), and the last
+// tick's measurements and status.
+struct ErrorWatch {
+  int error_at = -1;
+  hal::Measurements last;
+  hal::IoStatus last_status{};
+};
+ErrorWatch run_watching_for_error(CanHardware& hw, int ticks) {
+  ErrorWatch w;
+  run_ticks(hw, ticks, [&](int k, const hal::Measurements& m, hal::IoStatus s) {
+    if (w.error_at < 0 && s == hal::IoStatus::error) w.error_at = k;
+    w.last = m;
+    w.last_status = s;
+  });
+  return w;
+}
+
 TEST(Hil, BusOffFaultsTheBusAndNeedsAnOperatorRecovery) {
   REQUIRE_VCAN(7);
   const CanConfig cfg = load("mit_classic7.yaml");
@@ -661,31 +678,25 @@ TEST(Hil, BusOffFaultsTheBusAndNeedsAnOperatorRecovery) {
   CanHardware hw(cfg);
   ASSERT_TRUE(hw.configure().ok);
   ASSERT_TRUE(hw.activate().ok);
-  int error_at = -1;
-  hal::Measurements last;
-  hal::IoStatus last_status{};
-  run_ticks(hw, 80, [&](int k, const hal::Measurements& m, hal::IoStatus s) {
-    if (error_at < 0 && s == hal::IoStatus::error) error_at = k;
-    last = m;
-    last_status = s;
-  });
-  EXPECT_GE(error_at, 30);
-  EXPECT_LE(error_at, 32);
+  const ErrorWatch w = run_watching_for_error(hw, 80);
+  EXPECT_GE(w.error_at, 30);
+  EXPECT_LE(w.error_at, 32);
   EXPECT_EQ(hw.diagnostics(0).fault, BusFault::bus_off);
-  EXPECT_EQ(last_status, hal::IoStatus::error);
-  for (int j = 0; j < 3; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::lost) << j;
-  for (int j = 3; j < kNj; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
+  EXPECT_EQ(w.last_status, hal::IoStatus::error);
+  for (int j = 0; j < 3; ++j) EXPECT_EQ(w.last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::lost) << j;
+  for (int j = 3; j < kNj; ++j) EXPECT_EQ(w.last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
   // Nothing resumes by itself (the emulated drives still answer): recovery is an operator action.
   const hal::LifecycleResult r = hw.recover_bus(0);
   ASSERT_TRUE(r.ok) << r.message;
   int ok_ticks = 0;
+  hal::Measurements after;
   run_ticks(hw, 50, [&](int, const hal::Measurements& m, hal::IoStatus s) {
     ok_ticks += s == hal::IoStatus::ok ? 1 : 0;
-    last = m;
+    after = m;
   });
   EXPECT_GE(ok_ticks, 45);
   EXPECT_EQ(hw.diagnostics(0).fault, BusFault::none);
-  for (int j = 0; j < kNj; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
+  for (int j = 0; j < kNj; ++j) EXPECT_EQ(after.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
 }
 
 // A full transmit queue, made by the kernel: a pfifo qdisc of length 0 on vcan0 drops every
@@ -826,26 +837,19 @@ TEST(Hil, AFrameNamingADriveOfAnotherBusFaultsItsBus) {
   CanHardware hw(cfg);
   ASSERT_TRUE(hw.configure().ok);
   ASSERT_TRUE(hw.activate().ok);
-  int error_at = -1;
-  hal::Measurements last;
-  hal::IoStatus last_status{};
-  run_ticks(hw, 80, [&](int k, const hal::Measurements& m, hal::IoStatus s) {
-    if (error_at < 0 && s == hal::IoStatus::error) error_at = k;
-    last = m;
-    last_status = s;
-  });
-  EXPECT_GE(error_at, 30);
-  EXPECT_LE(error_at, 32);
-  EXPECT_EQ(last_status, hal::IoStatus::error);
+  const ErrorWatch w = run_watching_for_error(hw, 80);
+  EXPECT_GE(w.error_at, 30);
+  EXPECT_LE(w.error_at, 32);
+  EXPECT_EQ(w.last_status, hal::IoStatus::error);
   const BusDiagnostics& d = hw.diagnostics(4);
   EXPECT_EQ(d.fault, BusFault::foreign_drive);
   EXPECT_GE(d.foreign_frames, 1u);
   EXPECT_EQ(d.foreign_drive_id, 5);
   EXPECT_EQ(d.foreign_can_id, 0x10Du);
-  for (int j = 12; j < 15; ++j) EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::lost) << j;
+  for (int j = 12; j < 15; ++j) EXPECT_EQ(w.last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::lost) << j;
   for (int j = 0; j < kNj; ++j) {
     if (j < 12 || j >= 15) {
-      EXPECT_EQ(last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
+      EXPECT_EQ(w.last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::enabled) << j;
     }
   }
   for (int b = 0; b < hw.bus_count(); ++b) {
