@@ -62,6 +62,22 @@ TEST(SimCli, BrokenScenariosNameTheField) {
   }
 }
 
+// An optional section left empty is its default: `sim:` the defaults, `external_wrenches:` none
+// (the list was refused as "must be a list, got empty" where the map was accepted). A scalar
+// there is still refused.
+TEST(SimCli, AnEmptyOptionalSectionIsItsDefault) {
+  const fs::path dir = scratch("empty_sections");
+  const fs::path file = dir / "scenario.yaml";
+  std::ofstream(file) << "duration_s: 0.01\nsim:\ncontroller: {type: stand}\nexternal_wrenches:\n";
+  const CliResult r = run(file.string(), dir / "out");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir / "out" / "summary.json"));
+  std::ofstream(file) << "duration_s: 0.01\ncontroller: {type: stand}\nexternal_wrenches: 5\n";
+  const CliResult bad = run(file.string(), dir / "out2");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("external_wrenches: must be a list, got '5'"), std::string::npos) << bad.err;
+}
+
 TEST(SimCli, MissingFileAndMissingArguments) {
   const fs::path dir = scratch("missing");
   const CliResult r = run((dir / "nope.yaml").string(), dir / "out");

@@ -227,7 +227,8 @@ Scenario load_scenario(const std::string& path) {
     s.controller_params = controller["params"].node();
     s.controller_params_line = controller["params"].line();
   }
-  if (const Field list = top["external_wrenches"]; list.expect_list()) {
+  // An empty `external_wrenches:` is none, as an empty `sim:` is its defaults.
+  if (const Field list = top["external_wrenches"]; !list.node().IsNull() && list.expect_list()) {
     if (list.size() > static_cast<std::size_t>(sim::BulletRobot::kMaxExternalWrenches)) {
       list.fail(fmt::format("at most {} entries", sim::BulletRobot::kMaxExternalWrenches));
     }
