@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "alloc_trap.hpp"
+#include "springbok/dynamics/dynamics.hpp"
 #include "springbok/gait/trot.hpp"
 
 namespace {
@@ -152,20 +153,20 @@ TEST(Trot, StaticZmpBalancesTheMoments) {
   const double weight = 94.824 * 9.81;
   const Vec3 point(0.62, 0.05, 0.95);
   const double ground = 0.0217;
-  EXPECT_LT((gait::static_zmp(com, weight, point, Vec3::Zero(), Vec3::Zero(), ground).head<2>() - com.head<2>()).norm(),
+  EXPECT_LT((dyn::static_zmp(com, weight, point, Vec3::Zero(), Vec3::Zero(), ground).head<2>() - com.head<2>()).norm(),
             1e-15);
   for (const auto& [force, torque] : {std::pair{Vec3(50, 0, 0), Vec3(0, 0, 0)}, std::pair{Vec3(-20, 35, 60), Vec3(3, -4, 1)},
                                       std::pair{Vec3(10, -5, -200), Vec3(-2, 0.5, 7)}}) {
-    const Vec3 zmp = gait::static_zmp(com, weight, point, force, torque, ground);
+    const Vec3 zmp = dyn::static_zmp(com, weight, point, force, torque, ground);
     EXPECT_EQ(zmp.z(), ground);
     const Vec3 moment = (com - zmp).cross(Vec3(0, 0, -weight)) + (point - zmp).cross(force) + torque;
     EXPECT_LT(moment.head<2>().norm(), 1e-9 * weight) << force.transpose();
   }
   // 50 N forward at 0.93 m above the ground moves it forward by 0.93 * 50 / W.
-  EXPECT_NEAR(gait::static_zmp(com, weight, point, Vec3(50, 0, 0), Vec3::Zero(), 0.02).x() - com.x(), 0.93 * 50 / weight,
+  EXPECT_NEAR(dyn::static_zmp(com, weight, point, Vec3(50, 0, 0), Vec3::Zero(), 0.02).x() - com.x(), 0.93 * 50 / weight,
               1e-12);
   // A load that lifts the robot (F_z >= W) has no ZMP: the COM's projection.
-  EXPECT_TRUE((gait::static_zmp(com, weight, point, Vec3(5, 5, weight), Vec3::Zero(), ground).head<2>() - com.head<2>()).isZero(0.0));
+  EXPECT_TRUE((dyn::static_zmp(com, weight, point, Vec3(5, 5, weight), Vec3::Zero(), ground).head<2>() - com.head<2>()).isZero(0.0));
 }
 
 // ---- touch-down detection and force ramps ------------------------------------------

@@ -159,7 +159,7 @@ Vec3 WholeBodyControl::footholds_shift_h(const Mat3& yaw) const noexcept {
   feet_z_m /= stance_feet;
   const dyn::Placement& wrist = d.frames[kWristFtFrame];
   const Vec3 com = center_of_mass_from_inertia(d.M, state_);
-  Vec3 centre = gait::static_zmp(com, model_.total_mass_kg * kGravity_m_s2, wrist.translation,
+  Vec3 centre = dyn::static_zmp(com, model_.total_mass_kg * kGravity_m_s2, wrist.translation,
                                  wrist.rotation * input_.wrist_force_n, wrist.rotation * input_.wrist_torque_nm,
                                  feet_z_m - kFootRadius_m);
   centre.z() = feet_z_m;

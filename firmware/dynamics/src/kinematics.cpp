@@ -30,6 +30,16 @@ const Vec3& center_of_mass(const Model& model, Data& data, const VecNq& q) noexc
   return data.com_world_m;
 }
 
+Vec3 static_zmp(const Vec3& com_m, double weight_n, const Vec3& point_m, const Vec3& force_n, const Vec3& torque_nm,
+                double ground_z_m) noexcept {
+  const double normal = weight_n - force_n.z();
+  if (!(normal > 0.0)) return Vec3(com_m.x(), com_m.y(), ground_z_m);
+  const double height = point_m.z() - ground_z_m;
+  return Vec3((com_m.x() * weight_n + height * force_n.x() - point_m.x() * force_n.z() + torque_nm.y()) / normal,
+              (com_m.y() * weight_n + height * force_n.y() - point_m.y() * force_n.z() - torque_nm.x()) / normal,
+              ground_z_m);
+}
+
 const Mat3Nv& jacobian_center_of_mass(const Model& model, Data& data, const VecNq& q) noexcept {
   center_of_mass(model, data, q);
   const double total_mass = data.composite[0].mass_kg;

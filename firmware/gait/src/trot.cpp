@@ -31,16 +31,6 @@ Profile swing_bump(double s) noexcept {
           384.0 * s * u * (1.0 - 5.0 * s + 5.0 * s * s)};
 }
 
-Vec3 static_zmp(const Vec3& com_m, double weight_n, const Vec3& point_m, const Vec3& force_n, const Vec3& torque_nm,
-                double ground_z_m) noexcept {
-  const double normal = weight_n - force_n.z();
-  if (!(normal > 0.0)) return Vec3(com_m.x(), com_m.y(), ground_z_m);
-  const double height = point_m.z() - ground_z_m;
-  return Vec3((com_m.x() * weight_n + height * force_n.x() - point_m.x() * force_n.z() + torque_nm.y()) / normal,
-              (com_m.y() * weight_n + height * force_n.y() - point_m.y() * force_n.z() - torque_nm.x()) / normal,
-              ground_z_m);
-}
-
 TrotGait::TrotGait(const TrotParams& params) noexcept : params_(params) {}
 
 void TrotGait::start(const std::array<Vec3, kFeet>& nominal_feet_h) noexcept {

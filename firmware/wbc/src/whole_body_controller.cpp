@@ -117,10 +117,8 @@ void WholeBodyController::move_reference(const PlanarMotion& m) noexcept {
 
 // The support limit: the template's base gives way to a push only as far as the feet can
 // hold the robot up. The static centre of pressure of the whole robot under gravity and the
-// measured hand wrench (W_e at the wrist sensor's origin p_s; ground height z_g):
-//   p_x = (m g c_x + (p_s,z - z_g) F_x - p_s,x F_z + T_y) / (m g - F_z)
-//   p_y = (m g c_y + (p_s,z - z_g) F_y - p_s,y F_z - T_x) / (m g - F_z)
-// must stay support_margin_m inside the stance feet's polygon (three or four feet). Within the
+// measured hand wrench (dyn::static_zmp: W_e at the wrist sensor's origin, the ground at the
+// stance feet's contact points) must stay support_margin_m inside the stance feet's polygon (three or four feet). Within the
 // margin of an edge, a spring-damper on the base along the edge's inward normal n (natural
 // frequency kSupportOmega at the template's base mass, critically damped) pushes back:
 //   dF = n clamp(M_b w^2 (margin - s) - 2 M_b w (xd_b . n), 0, M_b g),  s the distance inside the edge,
@@ -135,30 +133,26 @@ void WholeBodyController::support_limit(const WbcInput& in, const dyn::Data& d, 
                                         Vec3& force) noexcept {
   out_.support_limited = false;
   out_.support_distance_m = kInf;
-  if (!(params_.support_margin_m > 0.0)) return;
+  if (!(params_.support_margin_m > 0.0) || stance_ticks_ < kSupportSettleTicks) return;
   std::array<Eigen::Vector2d, kFeet> pts;
   int count = 0;
   double ground_z = 0.0;
   for (int f = 0; f < kFeet; ++f) {
     if (!in.state.stance[f]) continue;
+    if (in.normal_force_cap_n[f] < params_.normal_force_max_n) return;  // its force ramping: stepping
     const Vec3 c = d.frames[kFootFrames[f]].translation - params_.foot_contact_radius_m * Vec3::UnitZ();
     pts[count++] = c.head<2>();
     ground_z += c.z();
   }
-  if (count < 3 || stance_ticks_ < kSupportSettleTicks) return;
-  for (int f = 0; f < kFeet; ++f)  // a foot's force ramping (touch-down, lift-off): stepping
-    if (in.state.stance[f] && in.normal_force_cap_n[f] < params_.normal_force_max_n) return;
+  if (count < 3) return;
   ground_z /= count;
   const dyn::SpatialInertia& whole = d.composite[0];
   const double weight_n = whole.mass_kg * kGravity_m_s2;
+  if (!(weight_n - wrench_ee_world_.head<3>().z() > 0.1 * weight_n)) return;  // lifted off its feet: no centre of pressure
   const Vec3 com = in.state.q.head<3>() + whole.first_moment_kgm / whole.mass_kg;
-  const Vec3& fe = wrench_ee_world_.head<3>();
-  const Vec3& te = wrench_ee_world_.tail<3>();
-  const Vec3& ps = d.frames[kWristFtFrame].translation;
-  const double vertical_n = weight_n - fe.z();
-  if (!(vertical_n > 0.1 * weight_n)) return;  // lifted off its feet: no centre of pressure
-  const Eigen::Vector2d cop((weight_n * com.x() + (ps.z() - ground_z) * fe.x() - ps.x() * fe.z() + te.y()) / vertical_n,
-                            (weight_n * com.y() + (ps.z() - ground_z) * fe.y() - ps.y() * fe.z() - te.x()) / vertical_n);
+  const Eigen::Vector2d cop = dyn::static_zmp(com, weight_n, d.frames[kWristFtFrame].translation, wrench_ee_world_.head<3>(),
+                                              wrench_ee_world_.tail<3>(), ground_z)
+                                  .head<2>();
   // The polygon counter-clockwise: the points by their angle about their mean.
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
   for (int k = 0; k < count; ++k) mean += pts[k];

@@ -10,7 +10,7 @@
 //     v_hip = v_xy + w_z e_z x rho_nominal (the hip's velocity when the trunk turns),
 // where s shifts the whole pattern so that its centre, where the two diagonals
 // cross, lies on the ground under the point the robot's weight and external load
-// call for (the static zero-moment point, static_zmp below). A trot stands on one diagonal at
+// call for (the static zero-moment point, dyn::static_zmp). A trot stands on one diagonal at
 // a time; ground forces on the feet of a diagonal have no moment about the line
 // through them, so a load whose ZMP is off that line tips the trunk about it
 // (with d_f 0.55, 90 % of the cycle). With the arm forward and to one side the
@@ -149,16 +149,6 @@ struct Profile {
 };
 Profile quintic_blend(double s) noexcept;
 Profile swing_bump(double s) noexcept;
-
-// The static zero-moment point on the ground plane z = ground_z_m (world): where the
-// ground's resultant must act to balance the weight W at the centre of mass c and an
-// external wrench (force F, torque T) applied at the point p (Vukobratovic's ZMP with
-// the accelerations dropped):
-//   x (W - F_z) = c_x W + (p_z - z_g) F_x - p_x F_z + T_y
-//   y (W - F_z) = c_y W + (p_z - z_g) F_y - p_y F_z - T_x
-// Returns c_xy when W - F_z is not positive (the load does not press on the ground). rt: no alloc
-Vec3 static_zmp(const Vec3& com_m, double weight_n, const Vec3& point_m, const Vec3& force_n, const Vec3& torque_nm,
-                double ground_z_m) noexcept;
 
 class TrotGait {
  public:
