@@ -134,10 +134,41 @@ TEST(ForeignFrames, AreAConfigurationFaultNamingTheFirstDriveAndId) {
             0u)
       << line;
   EXPECT_NE(line.find(" foreign=2 foreign_drive=5 foreign_id=0x10D "), std::string::npos) << line;
-  EXPECT_TRUE(bus_reachable(BusFault::none));
-  EXPECT_TRUE(bus_reachable(BusFault::foreign_drive));
-  EXPECT_FALSE(bus_reachable(BusFault::bus_off));
-  EXPECT_FALSE(bus_reachable(BusFault::net_down));
+  // Its drives are usable: they are still commanded (and damp with the others), and can be disabled.
+  EXPECT_TRUE(bus_commanded(BusFault::none));
+  EXPECT_TRUE(bus_commanded(BusFault::foreign_drive));
+  EXPECT_TRUE(bus_reachable(d));
+  for (const BusFault f : {BusFault::bus_off, BusFault::restarted, BusFault::net_down, BusFault::tx_queue_full,
+                           BusFault::socket_error, BusFault::no_ack}) {
+    EXPECT_FALSE(bus_commanded(f)) << to_string(f);
+    BusDiagnostics other;
+    other.fault = f;
+    EXPECT_FALSE(bus_reachable(other)) << to_string(f);
+  }
+}
+
+// CAN.md 4: after CAN_ERR_RESTARTED the drives "must be re-enabled through start-up, never silently
+// resumed": a bus whose controller restarted after its bus-off is not commanded, but frames reach
+// it again, so a shut-down disables its drives (CAN.md 4.4 step 2). A later bus-off takes that back.
+TEST(ErrorFrames, AControllerRestartedAfterBusOffCanDisableItsDrivesButIsNotCommanded) {
+  BusDiagnostics d;
+  d.fault = record_error_frame(error_frame(CAN_ERR_BUSOFF, 0, 0, 0), d);
+  EXPECT_EQ(d.fault, BusFault::bus_off);
+  EXPECT_FALSE(bus_reachable(d));
+  EXPECT_EQ(record_error_frame(error_frame(CAN_ERR_RESTARTED, 0, 0, 0), d), BusFault::restarted);
+  EXPECT_TRUE(d.controller_restarted);
+  EXPECT_EQ(d.fault, BusFault::bus_off);  // the first fault stays the bus's
+  EXPECT_TRUE(bus_reachable(d));
+  EXPECT_FALSE(bus_commanded(d.fault));
+  EXPECT_EQ(record_error_frame(error_frame(CAN_ERR_BUSOFF, 0, 0, 0), d), BusFault::bus_off);
+  EXPECT_FALSE(bus_reachable(d));
+
+  // A restart whose bus-off was not seen: the fault is the restart.
+  BusDiagnostics e;
+  e.fault = record_error_frame(error_frame(CAN_ERR_RESTARTED, 0, 0, 0), e);
+  EXPECT_EQ(e.fault, BusFault::restarted);
+  EXPECT_TRUE(bus_reachable(e));
+  EXPECT_FALSE(bus_commanded(e.fault));
 }
 
 }  // namespace

@@ -505,6 +505,7 @@ TEST(Hil, MitVendorErrorDuringStartUpFailsItNamingTheDriveAndTheCode) {
 // Operation enabled) and, for a CiA 402 drive, its statusword and NMT state.
 struct EmulatedDrive {
   int enabled = -1;
+  unsigned long long frames_in = 0;  // frames the drive took (commands, special frames, SDO, ...)
   unsigned statusword = 0, nmt = 0;
   unsigned long long nmt_resets = 0;  // NMT reset node / reset communication taken
 };
@@ -522,6 +523,8 @@ std::map<int, EmulatedDrive> emulated_drives(const std::string& summary) {
     } else if (std::sscanf(line.c_str(), "drive %d", &id) == 1) {
       const auto at = line.find(" enabled ");
       if (at != std::string::npos) out[id].enabled = std::atoi(line.c_str() + at + 9);
+      const auto in = line.find(" frames_in ");
+      if (in != std::string::npos) out[id].frames_in = std::strtoull(line.c_str() + in + 11, nullptr, 10);
     }
   }
   return out;
@@ -866,6 +869,50 @@ TEST(Hil, AFrameNamingADriveOfAnotherBusFaultsItsBus) {
   const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
   ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
   for (const auto& [id, dr] : drives) EXPECT_EQ(dr.enabled, 0) << "drive " << id;
+  // The bus's drives are usable (CAN.md 4.4: "a fault that leaves drives usable"): they were
+  // commanded through the 50 ticks after the fault and the shut-down's damping, as those of a
+  // healthy bus (drive 1, bus lf), not left to hold their last command until CAN_TIMEOUT.
+  for (const int id : {13, 14, 15}) {
+    EXPECT_GE(drives.at(id).frames_in + 3, drives.at(1).frames_in) << "drive " << id;
+  }
+}
+
+// CAN.md 4: after a bus-off, CAN_ERR_RESTARTED says the controller is back on the bus; its drives
+// "must be re-enabled through start-up, never silently resumed". So the bus stays faulted and is
+// not commanded, but a shut-down reaches it again and takes its drives out of motor mode (4.4
+// step 2) instead of leaving them in motor mode at a zero command (CAN_TIMEOUT). Without the
+// restart the bus is not reached.
+TEST(Hil, AShutDownDisablesTheDrivesOfABusWhoseControllerRestartedAfterBusOff) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("mit_classic7.yaml");
+  for (const bool restart : {true, false}) {
+    SCOPED_TRACE(restart ? "restarted" : "no restart");
+    // The restart right after the bus-off (restart-ms short): an MIT drive's ticks are the
+    // commands it takes, and none come after the bus-off.
+    Emulator emu(kConfigDir + "mit_classic7.yaml",
+                 restart ? "faults: [{kind: bus_off, drive: 1, at: 30}, {kind: restarted, drive: 1, at: 30}]\n"
+                         : "faults: [{kind: bus_off, drive: 1, at: 30}]\n");
+    ASSERT_TRUE(emu.ready());
+    CanHardware hw(cfg);
+    ASSERT_TRUE(hw.configure().ok);
+    ASSERT_TRUE(hw.activate().ok);
+    const ErrorWatch w = run_watching_for_error(hw, 80);
+    EXPECT_GE(w.error_at, 30);
+    EXPECT_LE(w.error_at, 32);
+    EXPECT_EQ(hw.diagnostics(0).fault, BusFault::bus_off);
+    EXPECT_EQ(hw.diagnostics(0).controller_restarted, restart);
+    for (int j = 0; j < 3; ++j) EXPECT_EQ(w.last.drives[static_cast<std::size_t>(j)].state, hal::DriveState::lost) << j;
+    hw.deactivate();
+    const std::map<int, EmulatedDrive> drives = emulated_drives(emu.stop());
+    ASSERT_EQ(drives.size(), static_cast<std::size_t>(kNj));
+    for (const auto& [id, dr] : drives) {
+      EXPECT_EQ(dr.enabled, id <= 3 && !restart ? 1 : 0) << "drive " << id;
+      // Not commanded after the bus-off: the restarted bus gets only the shut-down's frame.
+      if (id <= 3) {
+        EXPECT_LE(dr.frames_in, drives.at(4).frames_in - 40) << "drive " << id;
+      }
+    }
+  }
 }
 
 // The same fault met during start-up stops it: a reply naming drive 5 (bus rf) arrives on bus arm0

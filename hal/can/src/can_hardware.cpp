@@ -31,7 +31,11 @@ const char* to_string(BusFault f) noexcept {
   return "?";
 }
 
-bool bus_reachable(BusFault f) noexcept { return f == BusFault::none || f == BusFault::foreign_drive; }
+bool bus_commanded(BusFault f) noexcept { return f == BusFault::none || f == BusFault::foreign_drive; }
+
+bool bus_reachable(const BusDiagnostics& d) noexcept {
+  return bus_commanded(d.fault) || ((d.fault == BusFault::bus_off || d.fault == BusFault::restarted) && d.controller_restarted);
+}
 
 CanHardware::CanHardware(CanConfig config) : config_(std::move(config)) {}
 
@@ -275,8 +279,13 @@ BusFault record_error_frame(const Frame& f, BusDiagnostics& d) noexcept {
     d.rx_error_counter = e.rx_errors;
   }
   // CAN_ERR_ACK / TX_TIMEOUT / TRX act like a silent bus: the missing replies count.
-  if (e.bus_off) return BusFault::bus_off;
-  return e.restarted ? BusFault::restarted : BusFault::none;
+  if (e.bus_off) {
+    d.controller_restarted = false;
+    return BusFault::bus_off;
+  }
+  if (!e.restarted) return BusFault::none;
+  d.controller_restarted = true;
+  return BusFault::restarted;
 }
 
 void CanHardware::process_error_frame(int b, const Frame& f) noexcept {
@@ -443,7 +452,7 @@ bool CanHardware::send_now(int b, const Frame& f) noexcept {
 void CanHardware::send_pending() noexcept {
   for (int b = 0; b < bus_count_; ++b) {
     Bus& bus = buses_[static_cast<std::size_t>(b)];
-    if (bus.diag.fault != BusFault::none || !bus.socket.is_open()) continue;
+    if (!bus_commanded(bus.diag.fault) || !bus.socket.is_open()) continue;
     bus.tx_full.begin_tick();
     for (int k = 0; k < bus.count; ++k) {
       JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];

@@ -204,8 +204,8 @@ LifecycleResult CanHardware::activate() {
 // when `failure` happened (some of the failing bus's drives may be in motor mode / Operation
 // enabled already), so each is disabled as in CAN.md 4.4 step 2. No damping first: the drives
 // were enabled a moment ago, at rest, with zero torque (4.2 step 2) or none (4.3 step 4). A bus
-// whose fault stops it carrying frames (bus-off, ENETDOWN, ...) or that is closed cannot be
-// reached, and the message says so.
+// whose fault stops it carrying frames (bus-off with no restart since, ENETDOWN, ...) or that is
+// closed cannot be reached, and the message says so.
 LifecycleResult CanHardware::disable_after_failed_enable(int first, int last, LifecycleResult failure) {
   std::string disabled, unreachable;
   for (int b = first; b <= last; ++b) {
@@ -213,7 +213,7 @@ LifecycleResult CanHardware::disable_after_failed_enable(int first, int last, Li
     if (bus.count == 0) continue;  // sensors only
     const BusConfig& bc = config_.buses[static_cast<std::size_t>(b)];
     const std::string name = "'" + bc.name + "' (" + bc.interface + ")";
-    if (!bus.socket.is_open() || !bus_reachable(bus.diag.fault)) {
+    if (!bus.socket.is_open() || !bus_reachable(bus.diag)) {
       unreachable += (unreachable.empty() ? "" : ", ") + name + ": " + to_string(bus.diag.fault);
       continue;
     }
@@ -652,11 +652,12 @@ LifecycleResult CanHardware::recover_bus(int b) {
 // controlword 0x0007 (disable operation), then 0x0006 (shutdown), each in RPDO1 followed by a
 // SYNC one tick apart, then NMT enter pre-operational (`80 0`). Its enabled drives become ready and
 // nothing more is sent for them. A faulted or closed bus cannot be reached: its drives rely on their
-// own timeouts (CAN_TIMEOUT, 0x6007, 4.4 step 3); a bus with a configuration fault still carries
-// frames and is disabled like a healthy one.
+// own timeouts (CAN_TIMEOUT, 0x6007, 4.4 step 3). A bus with a configuration fault still carries
+// frames, and one whose controller restarted after its bus-off carries them again: both are
+// disabled like a healthy one (disabling resumes nothing).
 void CanHardware::disable_bus(int b) noexcept {
   Bus& bus = buses_[static_cast<std::size_t>(b)];
-  if (!bus.socket.is_open() || !bus_reachable(bus.diag.fault)) return;
+  if (!bus.socket.is_open() || !bus_reachable(bus.diag)) return;
   const std::int64_t period_ns = 1000LL * config_.timing.tick_us;
   for (const std::uint16_t cw : {cia402::controlword::disable_operation, cia402::controlword::shutdown}) {
     if (!bus.any_cia) break;

@@ -171,6 +171,13 @@ void make_bus_off_frame(Frame& f) noexcept {
   f.len = CAN_ERR_DLC;
 }
 
+void make_restarted_frame(Frame& f) noexcept {
+  f = Frame{};
+  f.error = true;
+  f.id = CAN_ERR_RESTARTED;
+  f.len = CAN_ERR_DLC;
+}
+
 namespace {
 void make_controller_frame(std::uint8_t status, Frame& f) noexcept {
   f = Frame{};

@@ -51,6 +51,7 @@ const char* to_string(FaultKind k) noexcept {
     case FaultKind::vendor_error: return "vendor_error";
     case FaultKind::emcy: return "emcy";
     case FaultKind::bus_off: return "bus_off";
+    case FaultKind::restarted: return "restarted";
     case FaultKind::error_passive: return "error_passive";
     case FaultKind::error_active: return "error_active";
     case FaultKind::wrong_dlc: return "wrong_dlc";
@@ -146,7 +147,7 @@ void Drive::begin_tick(std::vector<Frame>& out) {
     }
   }
   for (const Fault& flt : faults_) {
-    const bool event = flt.kind == FaultKind::emcy || flt.kind == FaultKind::bus_off ||
+    const bool event = flt.kind == FaultKind::emcy || flt.kind == FaultKind::bus_off || flt.kind == FaultKind::restarted ||
                        flt.kind == FaultKind::error_passive || flt.kind == FaultKind::error_active;
     if (event && flt.at_sdo == 0 && flt.at_tick == tick_) on_fault_event(flt, out);
   }
@@ -208,6 +209,7 @@ void MitDrive::on_fault_event(const Fault& flt, std::vector<Frame>& out) {
   switch (flt.kind) {
     case FaultKind::emcy: error_code_ = static_cast<std::uint8_t>(flt.param == 0 ? 1 : flt.param); break;
     case FaultKind::bus_off: can::make_bus_off_frame(e); emit(e, out); break;
+    case FaultKind::restarted: can::make_restarted_frame(e); emit(e, out); break;
     case FaultKind::error_passive: can::make_error_passive_frame(e); emit(e, out); break;
     case FaultKind::error_active: can::make_error_active_frame(e); emit(e, out); break;
     default: break;
@@ -594,6 +596,7 @@ void Cia402Drive::on_fault_event(const Fault& flt, std::vector<Frame>& out) {
       emit(e, out);
       break;
     case FaultKind::bus_off: can::make_bus_off_frame(e); emit(e, out); break;
+    case FaultKind::restarted: can::make_restarted_frame(e); emit(e, out); break;
     case FaultKind::error_passive: can::make_error_passive_frame(e); emit(e, out); break;
     case FaultKind::error_active: can::make_error_active_frame(e); emit(e, out); break;
     default: break;

@@ -55,13 +55,16 @@ namespace springbok::can {
 
 // foreign_drive: a valid frame naming a drive configured on another bus arrived on this one (CAN.md
 // 4.1): a configuration (or wiring) fault. The bus still carries frames (bus_reachable()).
+// restarted: the controller restarted after a bus-off it had not reported (CAN_ERR_RESTARTED alone).
 enum class BusFault : std::uint8_t {
   none = 0, bus_off, restarted, net_down, tx_queue_full, socket_error, no_ack, foreign_drive
 };
 const char* to_string(BusFault f) noexcept;
-// Whether frames can still be sent on a bus with this fault (to disable its drives, CAN.md 4.4).
-// rt: no alloc
-bool bus_reachable(BusFault f) noexcept;
+// Whether the tick's commands still go to a bus with this fault: none, or a configuration fault (its
+// drives are usable, so they damp with the others, CAN.md 4.4 step 1; damping, kp = 0, is passive
+// whichever joint a drive turns). After a bus-off the drives go through start-up again, never
+// silently resumed (CAN.md 4). rt: no alloc
+bool bus_commanded(BusFault f) noexcept;
 
 struct BusDiagnostics {
   std::uint64_t frames_sent = 0;
@@ -82,12 +85,17 @@ struct BusDiagnostics {
   std::uint64_t sensor_frames = 0;       // frames of a sensor configured on this bus (see the sensor's diagnostics)
   std::uint64_t rx_budget_exhausted = 0; // ticks on which the per-tick receive budget ran out (frames left queued)
   bool error_passive = false;            // degraded (warning for safety)
+  bool controller_restarted = false;     // CAN_ERR_RESTARTED since the last bus-off: the controller is on the bus again
   // The controller's TX / RX error counters of the newest CAN_ERR_CNT report (none on vcan).
   bool have_error_counters = false;
   std::uint8_t tx_error_counter = 0;
   std::uint8_t rx_error_counter = 0;
   BusFault fault = BusFault::none;       // latched until recover_bus()
 };
+
+// Whether frames can still be sent on a bus in this state, to disable its drives (CAN.md 4.4 step 2):
+// a bus that is commanded, or whose controller restarted after its bus-off. rt: no alloc
+bool bus_reachable(const BusDiagnostics& d) noexcept;
 
 // Counts an error frame into its bus's diagnostics (CAN.md 4, "Error frames"); returns the
 // bus fault it means (bus-off, controller restarted) or BusFault::none. rt: no alloc

@@ -79,6 +79,7 @@ struct ErrorFrameInfo {
 ErrorFrameInfo classify_error_frame(const Frame& f) noexcept;
 // The fake bus-off the emulator writes (CAN.md section 5).
 void make_bus_off_frame(Frame& f) noexcept;
+void make_restarted_frame(Frame& f) noexcept;
 // An error-passive controller report (CAN_ERR_CRTL, TX passive).
 void make_error_passive_frame(Frame& f) noexcept;
 // A controller report of its return to error active (CAN_ERR_CRTL, ACTIVE).

@@ -69,6 +69,7 @@ enum class FaultKind : std::uint8_t {
                   // CiA 402 also `at_sdo: k` instead of `at`: right after answering the k-th SDO
                   // request since power-on (the host's Pre-operational configuration)
   bus_off,        // an error frame with CAN_ERR_BUSOFF on the drive's bus
+  restarted,      // an error frame with CAN_ERR_RESTARTED on the drive's bus (its controller back after bus-off)
   error_passive,  // an error frame CAN_ERR_CRTL / TX passive on the drive's bus
   error_active,   // an error frame CAN_ERR_CRTL / ACTIVE on the drive's bus (back from error passive)
   wrong_dlc,      // the reply one byte short, for `count` ticks
