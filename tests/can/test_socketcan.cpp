@@ -160,8 +160,14 @@ TEST(ErrorFrames, AControllerRestartedAfterBusOffCanDisableItsDrivesButIsNotComm
   EXPECT_EQ(d.fault, BusFault::bus_off);  // the first fault stays the bus's
   EXPECT_TRUE(bus_reachable(d));
   EXPECT_FALSE(bus_commanded(d.fault));
+  BusConfig bus;
+  bus.name = "lf";
+  bus.interface = "vcan0";
+  EXPECT_EQ(bus_diagnostics_line(bus, d).rfind("can bus lf (vcan0): fault=bus-off (the controller restarted since) sent=", 0), 0u)
+      << bus_diagnostics_line(bus, d);
   EXPECT_EQ(record_error_frame(error_frame(CAN_ERR_BUSOFF, 0, 0, 0), d), BusFault::bus_off);
   EXPECT_FALSE(bus_reachable(d));
+  EXPECT_EQ(bus_diagnostics_line(bus, d).rfind("can bus lf (vcan0): fault=bus-off sent=", 0), 0u) << bus_diagnostics_line(bus, d);
 
   // A restart whose bus-off was not seen: the fault is the restart.
   BusDiagnostics e;

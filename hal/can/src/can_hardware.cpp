@@ -598,12 +598,14 @@ std::string bus_diagnostics_line(const BusConfig& bus, const BusDiagnostics& d) 
   }
   char line[896];
   std::snprintf(line, sizeof line,
-                "can bus %s: fault=%s sent=%llu received=%llu tx_dropped=%llu short_writes=%llu tx_errors=%llu "
+                "can bus %s: fault=%s%s sent=%llu received=%llu tx_dropped=%llu short_writes=%llu tx_errors=%llu "
                 "rx_budget_exhausted=%llu bad_frames=%llu unexpected=%llu foreign=%llu foreign_drive=%s "
                 "foreign_id=%s duplicates=%llu "
                 "sensor_frames=%llu error_frames=%llu warnings=%llu overflows=%llu error_passive=%d "
                 "error_passive_events=%llu tx_error_counter=%s rx_error_counter=%s\n",
-                (bus.name + " (" + bus.interface + ")").c_str(), to_string(d.fault), n(d.frames_sent),
+                (bus.name + " (" + bus.interface + ")").c_str(), to_string(d.fault),
+                d.controller_restarted && d.fault == BusFault::bus_off ? " (the controller restarted since)" : "",
+                n(d.frames_sent),
                 n(d.frames_received), n(d.tx_dropped), n(d.short_writes), n(d.tx_errors), n(d.rx_budget_exhausted),
                 n(d.bad_frames), n(d.unexpected_frames), n(d.foreign_frames),
                 foreign_drive, foreign_id, n(d.duplicates),
