@@ -29,11 +29,6 @@ std::string scenario(const std::string& estimator) {
          "  - {frame: arm_end_effector_link, axis: [1, 0, 0], profile: step, amplitude: 50, start_s: 0.5}\n";
 }
 
-double member(const std::string& json, const std::string& object, const std::string& key) {
-  const auto at = json.find("\"" + object + "\":");
-  return at == std::string::npos ? std::nan("") : json_number(json.substr(at), key);
-}
-
 TEST(SimEstimatedWbc, StepWithTheEstimatedBaseState) {
   const fs::path dir = scratch("wbc_estimated");
   std::ofstream(dir / "s.yaml") << scenario("{velocity_gain: 30, position_gain: 10}");

@@ -167,6 +167,17 @@ TEST(Trot, StaticZmpBalancesTheMoments) {
               1e-12);
   // A load that lifts the robot (F_z >= W) has no ZMP: the COM's projection.
   EXPECT_TRUE((dyn::static_zmp(com, weight, point, Vec3(5, 5, weight), Vec3::Zero(), ground).head<2>() - com.head<2>()).isZero(0.0));
+  // A force G at the centre of mass too (an unmeasured push): the same balance of moments.
+  for (const auto& [force, g] : {std::pair{Vec3(0, 0, 0), Vec3(0, 120, 0)}, std::pair{Vec3(-20, 35, 60), Vec3(200, -40, 30)},
+                                 std::pair{Vec3(10, -5, -200), Vec3(-80, 60, -100)}}) {
+    const Vec3 torque(1, -2, 0.5);
+    const Vec3 zmp = dyn::static_zmp(com, weight, point, force, torque, ground, g);
+    const Vec3 moment = (com - zmp).cross(Vec3(0, 0, -weight) + g) + (point - zmp).cross(force) + torque;
+    EXPECT_LT(moment.head<2>().norm(), 1e-9 * weight) << g.transpose();
+  }
+  // 120 N sideways at the COM moves it by the COM's height * 120 / W.
+  EXPECT_NEAR(dyn::static_zmp(com, weight, point, Vec3::Zero(), Vec3::Zero(), 0.02, Vec3(0, 120, 0)).y() - com.y(),
+              (0.63 - 0.02) * 120 / weight, 1e-12);
 }
 
 // ---- touch-down detection and force ramps ------------------------------------------

@@ -57,4 +57,33 @@ inline bool json_true(const std::string& json, const std::string& key) {
   return json.find("\"" + key + "\": true") != std::string::npos;
 }
 
+// The number at `key` inside the JSON object member `object`.
+inline double member(const std::string& json, const std::string& object, const std::string& key) {
+  const auto at = json.find("\"" + object + "\":");
+  return at == std::string::npos ? std::nan("") : json_number(json.substr(at), key);
+}
+
+// A column of springbok-sim's log.csv by its header's name (empty: no such column).
+inline std::vector<double> log_column(const fs::path& log_csv, const std::string& name) {
+  const std::string log = slurp(log_csv);
+  const auto header_end = log.find('\n');
+  std::vector<std::string> header;
+  {
+    std::stringstream h(log.substr(0, header_end));
+    for (std::string c; std::getline(h, c, ',');) header.push_back(c);
+  }
+  const auto column = static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  std::vector<double> values;
+  if (column >= header.size()) return values;
+  std::stringstream rows(log.substr(header_end + 1));
+  for (std::string row; std::getline(rows, row);) {
+    std::stringstream cells(row);
+    std::string cell;
+    for (std::size_t i = 0; i <= column && std::getline(cells, cell, ','); ++i) {
+    }
+    values.push_back(std::strtod(cell.c_str(), nullptr));
+  }
+  return values;
+}
+
 }  // namespace springbok::test

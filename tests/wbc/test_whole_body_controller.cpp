@@ -405,6 +405,22 @@ TEST_F(Fixture, TheSupportLimitHoldsTheBaseBackFromTheEdgeAPushTipsItOver) {
   EXPECT_NEAR(pushed_n[1] / pushed_n[0],
               (params.support_margin_m - distance_m[1]) / (params.support_margin_m - distance_m[0]), 1e-9);
 
+  // The same CoP from a push the wrist does not measure (WbcInput::unmeasured_force_world_n,
+  // at the centre of mass): it moves the CoP by (c_z - z_g) F / W.
+  const Vec3 wrist_push_n = in.wrist_force_n;
+  in.wrist_force_n.setZero();
+  {
+    const Eigen::Vector2d a = data->frames[kFootFrames[0]].translation.head<2>();
+    const double target_m = params.support_margin_m - 0.015;
+    in.unmeasured_force_world_n = Vec3(0.0, (a.y() - com.y() - target_m) * weight_n / (com.z() - ground_z), 0.0);
+    const wbc::WbcOutput& out = tick();
+    EXPECT_NEAR(out.support_distance_m, target_m, 1e-6) << in.unmeasured_force_world_n.y() << " N";
+    EXPECT_TRUE(out.support_limited);
+    EXPECT_LT(out.base_wrench_desired.y(), -1.0);
+  }
+  in.unmeasured_force_world_n.setZero();
+  in.wrist_force_n = wrist_push_n;
+
   // The same push while a foot's force ramps (stepping), on two feet, or right after a stance
   // change: no limit.
   in.normal_force_cap_n[1] = 200.0;

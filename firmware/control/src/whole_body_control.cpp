@@ -159,12 +159,33 @@ Vec3 WholeBodyControl::footholds_shift_h(const Mat3& yaw) const noexcept {
   feet_z_m /= stance_feet;
   const dyn::Placement& wrist = d.frames[kWristFtFrame];
   const Vec3 com = center_of_mass_from_inertia(d.M, state_);
+  // The unmeasured pushes less kUnmeasuredForceDeadband_n of their magnitude: the footholds
+  // move on every tick, and the estimate's own error is no push.
+  const Vec3& unmeasured = input_.unmeasured_force_world_n;
+  const double magnitude = unmeasured.norm();
+  const Vec3 push = magnitude > kUnmeasuredForceDeadband_n ? Vec3((1.0 - kUnmeasuredForceDeadband_n / magnitude) * unmeasured)
+                                                           : Vec3::Zero();
   Vec3 centre = dyn::static_zmp(com, model_.total_mass_kg * kGravity_m_s2, wrist.translation,
                                  wrist.rotation * input_.wrist_force_n, wrist.rotation * input_.wrist_torque_nm,
-                                 feet_z_m - kFootRadius_m);
+                                 feet_z_m - kFootRadius_m, push);
   centre.z() = feet_z_m;
   if (!centre.allFinite()) return Vec3::Zero();
   return yaw.transpose() * (centre - state_.q.head<3>()) - trot_.nominal_centre_h();
+}
+
+// The pushes the wrist sensor does not measure: the robot's external force but gravity, less
+// the feet's and the hand's, low-passed over kUnmeasuredForceFilter_s. rt: no alloc
+void WholeBodyControl::observe_unmeasured_force(double dt_s, bool engaging) noexcept {
+  Vec3& estimate = input_.unmeasured_force_world_n;
+  if (engaging || !foot_forces_.ready()) {
+    estimate.setZero();
+    return;
+  }
+  Vec3 force = foot_forces_.external_force_world_n() - data_->frames[kWristFtFrame].rotation * input_.wrist_force_n;
+  for (int f = 0; f < kFeet; ++f) force -= foot_forces_.force_world_n()[f];
+  if (!force.allFinite()) return;
+  const double alpha = dt_s / (kUnmeasuredForceFilter_s + dt_s);
+  estimate += alpha * (force - estimate);
 }
 
 // Stance set and swing targets for this tick (data_ holds its kinematics). rt: no alloc
@@ -351,8 +372,9 @@ TickStatus WholeBodyControl::tick(const hal::Measurements& m, double dt_s, hal::
   step_tuning(dt_s);
   dyn::compute_tick(model_, *data_, state_.q, state_.v);  // the tick's kinematics and dynamics, once
   if (engaging) foot_forces_.reset();
-  foot_forces_.update(*data_, state_.v, m.tau_nm,
+  foot_forces_.update(*data_, state_.v, state_.rotation_wb, m.tau_nm,
                       params_.wbc.joint_viscous_friction_nms_per_rad.cwiseProduct(state_.v.tail<kNj>()), dt_s);
+  observe_unmeasured_force(dt_s, engaging);
   plan_gait(dt_s, engaging);
 
   const wbc::WbcOutput& o = wbc_->tick(input_, *data_);

@@ -31,12 +31,15 @@ const Vec3& center_of_mass(const Model& model, Data& data, const VecNq& q) noexc
 }
 
 Vec3 static_zmp(const Vec3& com_m, double weight_n, const Vec3& point_m, const Vec3& force_n, const Vec3& torque_nm,
-                double ground_z_m) noexcept {
-  const double normal = weight_n - force_n.z();
+                double ground_z_m, const Vec3& force_at_com_n) noexcept {
+  const double at_com = weight_n - force_at_com_n.z();  // what presses at the centre of mass
+  const double normal = at_com - force_n.z();
   if (!(normal > 0.0)) return Vec3(com_m.x(), com_m.y(), ground_z_m);
-  const double height = point_m.z() - ground_z_m;
-  return Vec3((com_m.x() * weight_n + height * force_n.x() - point_m.x() * force_n.z() + torque_nm.y()) / normal,
-              (com_m.y() * weight_n + height * force_n.y() - point_m.y() * force_n.z() - torque_nm.x()) / normal,
+  const double height = point_m.z() - ground_z_m, com_height = com_m.z() - ground_z_m;
+  return Vec3((com_m.x() * at_com + height * force_n.x() - point_m.x() * force_n.z() + torque_nm.y() +
+               com_height * force_at_com_n.x()) / normal,
+              (com_m.y() * at_com + height * force_n.y() - point_m.y() * force_n.z() - torque_nm.x() +
+               com_height * force_at_com_n.y()) / normal,
               ground_z_m);
 }
 

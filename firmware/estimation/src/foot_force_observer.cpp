@@ -6,8 +6,8 @@
 
 namespace springbok::est {
 
-void FootForceObserver::update(const dyn::Data& d, const VecNv& v, const VecNj& tau_nm, const VecNj& friction_nm,
-                               double dt_s) noexcept {
+void FootForceObserver::update(const dyn::Data& d, const VecNv& v, const Mat3& rotation_wb, const VecNj& tau_nm,
+                               const VecNj& friction_nm, double dt_s) noexcept {
   if (!primed_ || !(dt_s > 0.0) || !v.allFinite()) {
     v_last_ = v;
     primed_ = v.allFinite();
@@ -26,6 +26,8 @@ void FootForceObserver::update(const dyn::Data& d, const VecNv& v, const VecNj& 
     const Vec3 force = j_leg.transpose().partialPivLu().solve(residual);
     force_n_[f] = ready_ ? Vec3(force_n_[f] + alpha * (force - force_n_[f])) : force;
   }
+  const Vec3 external = rotation_wb * (d.M.topRows<3>() * udot + d.nle.head<3>());
+  if (external.allFinite()) external_n_ = ready_ ? Vec3(external_n_ + alpha * (external - external_n_)) : external;
   ready_ = true;
 }
 

@@ -116,11 +116,13 @@ void WholeBodyController::move_reference(const PlanarMotion& m) noexcept {
 }
 
 // The support limit: the template's base gives way to a push only as far as the feet can
-// hold the robot up. The static centre of pressure of the whole robot under gravity and the
-// measured hand wrench (dyn::static_zmp: W_e at the wrist sensor's origin, the ground at the
-// stance feet's contact points) must stay support_margin_m inside the stance feet's polygon (three or four feet). Within the
-// margin of an edge, a spring-damper on the base along the edge's inward normal n (natural
-// frequency kSupportOmega at the template's base mass, critically damped) pushes back:
+// hold the robot up. The static centre of pressure of the whole robot under gravity, the
+// measured hand wrench and the unmeasured pushes (dyn::static_zmp: W_e at the wrist sensor's
+// origin, WbcInput::unmeasured_force_world_n at the centre of mass, the ground at the stance
+// feet's contact points) must stay support_margin_m inside the stance feet's polygon (three or
+// four feet). Within the margin of an edge, a spring-damper on the base along the edge's inward
+// normal n (natural frequency kSupportOmega at the template's base mass, critically damped)
+// pushes back:
 //   dF = n clamp(M_b w^2 (margin - s) - 2 M_b w (xd_b . n), 0, M_b g),  s the distance inside the edge,
 // and the base stops where the push's moment leaves the feet room. Only while standing: the
 // stance unchanged for kSupportSettleTicks and no stance foot's force ramping (a trot's
@@ -128,7 +130,8 @@ void WholeBodyController::move_reference(const PlanarMotion& m) noexcept {
 // threw its base about: NRMSE 2.4 % -> 24 % on trot_me0p4_gp1). The template's
 // compliance moved the trunk (and the centre of mass) toward the edge the push tips the
 // robot over: on the bent arm a lateral 100 N took the far feet to their minimum force with
-// the base 5.6 cm over, and the robot rolled over.
+// the base 5.6 cm over, and the robot rolled over; 120 N along y on the trunk, unmeasured, did
+// the same until the limit counted it.
 void WholeBodyController::support_limit(const WbcInput& in, const dyn::Data& d, const Vec3& base_vel_world,
                                         Vec3& force) noexcept {
   out_.support_limited = false;
@@ -148,10 +151,11 @@ void WholeBodyController::support_limit(const WbcInput& in, const dyn::Data& d, 
   ground_z /= count;
   const dyn::SpatialInertia& whole = d.composite[0];
   const double weight_n = whole.mass_kg * kGravity_m_s2;
-  if (!(weight_n - wrench_ee_world_.head<3>().z() > 0.1 * weight_n)) return;  // lifted off its feet: no centre of pressure
+  const Vec3& unmeasured = in.unmeasured_force_world_n;
+  if (!(weight_n - wrench_ee_world_.head<3>().z() - unmeasured.z() > 0.1 * weight_n)) return;  // lifted off its feet: no centre of pressure
   const Vec3 com = in.state.q.head<3>() + whole.first_moment_kgm / whole.mass_kg;
   const Eigen::Vector2d cop = dyn::static_zmp(com, weight_n, d.frames[kWristFtFrame].translation, wrench_ee_world_.head<3>(),
-                                              wrench_ee_world_.tail<3>(), ground_z)
+                                              wrench_ee_world_.tail<3>(), ground_z, unmeasured)
                                   .head<2>();
   // The polygon counter-clockwise: the points by their angle about their mean.
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();

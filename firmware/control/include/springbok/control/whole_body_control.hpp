@@ -9,10 +9,12 @@
 //          |              dyn::compute_tick: kinematics and dynamics once, one Data
 //          |                   |
 //          +-- wrist F/T --> gait: stand (four feet) or trot (stance set, swing targets,
-//          |   minus tare       footholds under the static ZMP of weight + wrist wrench,
-//          |                    touch-down from the feet's estimated forces, force ramps)
+//          |   minus tare       footholds under the static ZMP of weight + wrist wrench
+//          |                    + unmeasured pushes, touch-down from the feet's estimated
+//          |                    forces, force ramps)
 //          +-- joint torques --> FootForceObserver (the ground force on each foot from
-//                                its leg's torques and motion)
+//                                its leg's torques and motion; the robot's external force)
+//                                -> unmeasured pushes: external - feet - wrist (WbcInput)
 //                              |
 //                         WholeBodyController (QP) --> joint torques
 //
@@ -53,6 +55,14 @@
 namespace springbok::control {
 
 enum class GaitKind : std::uint8_t { stand = 0, trot = 1 };
+
+// The unmeasured pushes' estimate (WbcInput::unmeasured_force_world_n): its filter's time
+// constant, and the magnitude the trot's foothold centring takes off it, the estimate's own
+// error (the wrist tare's gravity residual when the hand turns, the feet's forces from the
+// model: about 2 N in the shipped trots, which moved their footholds enough to worsen the
+// rendering by a fifth). The support limit takes it whole: it acts near the edge only.
+inline constexpr double kUnmeasuredForceFilter_s = 0.05;
+inline constexpr double kUnmeasuredForceDeadband_n = 10.0;
 
 // How fast the walking velocity follows its command.
 inline constexpr double kWalkAcceleration_m_s2 = 0.5;
@@ -208,6 +218,7 @@ class WholeBodyControl {
   est::EstimateStatus estimate(const hal::Measurements& m, double dt_s, const Stance& stance) noexcept;
   void take_wrist(const hal::Measurements& m, bool collect) noexcept;
   void plan_gait(double dt_s, bool engaging) noexcept;
+  void observe_unmeasured_force(double dt_s, bool engaging) noexcept;
   void move_rest_pose(double dt_s) noexcept;
   Vec3 footholds_shift_h(const Mat3& yaw) const noexcept;
 

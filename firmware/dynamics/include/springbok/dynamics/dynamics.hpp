@@ -152,14 +152,15 @@ void point_jacobians_dot_times_v(const Model& model, Data& data, const VecNq& q,
 const Vec3& center_of_mass(const Model& model, Data& data, const VecNq& q) noexcept;
 
 // The static zero-moment point on the ground plane z = ground_z_m (world): where the
-// ground's resultant must act to balance the weight W at the centre of mass c and an
-// external wrench (force F, torque T) applied at the point p (Vukobratovic's ZMP with
-// the accelerations dropped):
-//   x (W - F_z) = c_x W + (p_z - z_g) F_x - p_x F_z + T_y
-//   y (W - F_z) = c_y W + (p_z - z_g) F_y - p_y F_z - T_x
-// Returns c_xy when W - F_z is not positive (the load does not press on the ground). rt: no alloc
+// ground's resultant must act to balance the weight W at the centre of mass c, an
+// external wrench (force F, torque T) applied at the point p, and a force G at the centre
+// of mass (Vukobratovic's ZMP with the accelerations dropped):
+//   x (W - F_z - G_z) = c_x (W - G_z) + (p_z - z_g) F_x - p_x F_z + T_y + (c_z - z_g) G_x
+//   y (W - F_z - G_z) = c_y (W - G_z) + (p_z - z_g) F_y - p_y F_z - T_x + (c_z - z_g) G_y
+// Returns c_xy when W - F_z - G_z is not positive (the load does not press on the ground).
+// rt: no alloc
 Vec3 static_zmp(const Vec3& com_m, double weight_n, const Vec3& point_m, const Vec3& force_n, const Vec3& torque_nm,
-                double ground_z_m) noexcept;
+                double ground_z_m, const Vec3& force_at_com_n = Vec3::Zero()) noexcept;
 
 // COM position (data.com_world_m) and its Jacobian d com / dt = J_com v. rt: no alloc
 const Mat3Nv& jacobian_center_of_mass(const Model& model, Data& data, const VecNq& q) noexcept;

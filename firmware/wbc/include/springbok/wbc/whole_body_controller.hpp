@@ -170,6 +170,9 @@ struct WbcInput {
   // The wrist F/T measurement (external wrench on the EE, sensor axes, about its origin).
   Vec3 wrist_force_n = Vec3::Zero();
   Vec3 wrist_torque_nm = Vec3::Zero();
+  // Pushes the wrist sensor does not measure (on the trunk, a leg, the arm's links: the robot's
+  // momentum balance, springbok::control), world axes, N; taken as acting at the centre of mass.
+  Vec3 unmeasured_force_world_n = Vec3::Zero();
 };
 
 // The template's rest pose, which its displacements are measured from: the pose at
