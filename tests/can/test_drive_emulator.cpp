@@ -538,7 +538,7 @@ TEST(DriveEmulator, Cia402StoredHeartbeatAndNmtResets) {
     silent.on_time(1000000000, out);
     EXPECT_TRUE(out.empty()) << "no heartbeat before 0x1017 is written";
   }
-  Cia402Drive drive(cfg, make_joint_model(2, 0.0), {}, 0, 100);
+  Cia402Drive drive(cfg, make_joint_model(2, 0.0), {}, 0, Cia402Options{100});
   EXPECT_FALSE(drive.powered());
   std::vector<Frame> out;
   drive.boot(0, out);
@@ -562,6 +562,41 @@ TEST(DriveEmulator, Cia402StoredHeartbeatAndNmtResets) {
   c4::encode_nmt(c4::NmtCommand::reset_node, 0, f);  // every node's
   drive.on_frame(f, 130000000, out);
   EXPECT_EQ(drive.nmt_resets(), 2u);
+}
+
+// What else CAN.md allows a CiA 402 drive (Cia402Options): an NMT command taken in the drive's
+// own cycle (a SYNC before then meets Pre-operational: no TPDO), only the PDOs CAN.md uses (the
+// others' objects do not exist), every SDO answer sent twice.
+TEST(DriveEmulator, Cia402OptionsCanMdAllows) {
+  const can::DriveConfig cfg = can::default_drive(2, can::Protocol::cia402);  // node 3
+  Cia402Options options;
+  options.nmt_delay_ms = 5;
+  options.only_used_pdos = true;
+  options.repeat_sdo_answers = true;
+  Cia402Drive drive(cfg, make_joint_model(2, 0.0), {}, 0, options);
+  std::vector<Frame> out;
+  drive.boot(0, out);
+  const std::vector<Frame> twice = sdo(drive, 3, {c4::SdoRequest::Kind::read, c4::object::rpdo_comm + 2, 1, 0, 0}, 1000000);
+  ASSERT_EQ(twice.size(), 2u);
+  EXPECT_EQ(bytes(twice[0]), bytes(twice[1]));
+  c4::SdoResponse res;
+  ASSERT_EQ(c4::decode_sdo_response(twice[0], 3, res), can::FrameStatus::ok);
+  EXPECT_EQ(res.kind, c4::SdoResponse::Kind::abort);
+  EXPECT_EQ(res.value, c4::abort_code::no_object);
+  const std::vector<Frame> tpdo2 = sdo(drive, 3, {c4::SdoRequest::Kind::read, c4::object::tpdo_comm + 1, 1, 0, 0}, 1000000);
+  ASSERT_EQ(tpdo2.size(), 2u);
+  ASSERT_EQ(c4::decode_sdo_response(tpdo2[0], 3, res), can::FrameStatus::ok);
+  EXPECT_EQ(res.kind, c4::SdoResponse::Kind::read_ok) << "TPDO2 is there";
+  EXPECT_EQ(res.value, c4::cob::tpdo2 + 3u);
+  Frame nmt, sync;
+  c4::encode_nmt(c4::NmtCommand::start, 3, nmt);
+  c4::encode_sync(sync);
+  out.clear();
+  drive.on_frame(nmt, 2000000, out);
+  drive.on_time(6000000, out);
+  EXPECT_EQ(drive.nmt_state(), 0x7F) << "not yet: 5 ms after the command";
+  drive.on_time(7000000, out);
+  EXPECT_EQ(drive.nmt_state(), 0x05);
 }
 
 // CAN.md 4 / 5: the controller's error-passive report and its return to error active, as

@@ -228,6 +228,21 @@ TEST(Hil, BringUpAll19DrivesCia402) {
   bring_up_all("cia402_classic7.yaml", kCia402DrivesUp);
 }
 
+// What else CAN.md allows a CiA 402 drive: NMT start taken in the drive's own cycle (3 ms
+// later: the walk's first SYNC meets a Pre-operational node, which sends no TPDO), only the PDOs
+// CAN.md uses (disabling RPDO2-4 / TPDO3-4 answers "object does not exist"), every SDO answer
+// sent twice (the repeat arrives while the next request waits). Each alone failed start-up
+// before: "stuck in 'unknown' ... for 500 ms" (one SYNC, then a wait of state_step_timeout_ms),
+// "SDO write 0x1401:1 ... aborted, object does not exist", "malformed or mismatched answer".
+TEST(Hil, BringUpAll19DrivesCia402DoingWhatCanMdAllows) {
+  REQUIRE_VCAN(7);
+  std::vector<std::string> args = kCia402DrivesUp;
+  for (const char* a : {"--cia402-nmt-delay-ms", "3", "--cia402-only-used-pdos", "--cia402-repeat-sdo-answers"}) {
+    args.emplace_back(a);
+  }
+  bring_up_all("cia402_classic7.yaml", args);
+}
+
 TEST(Hil, BringUpAll19DrivesMitWithCanFdArm) {
   REQUIRE_VCAN(5);
   bring_up_all("mit_fd5.yaml");
@@ -236,6 +251,19 @@ TEST(Hil, BringUpAll19DrivesMitWithCanFdArm) {
 // CAN.md 1.4: the drives reply on their CAN_MASTER id (factory default 0, here shared by
 // all), in the CubeMars variant with 8 bytes; the host matches on byte 0 and ignores bytes
 // 6..7 of a drive not configured as a vendor drive.
+// CAN.md 1.4: drives never configured reply on their factory CAN_MASTER, 0, while the host's
+// config names 0x100 + id (the distinct ids CAN.md advises): the host matches on byte 0 either
+// way. Before, their replies were filtered out and start-up failed ("no reply to
+// exit-motor-mode").
+TEST(Hil, BringUpAll19DrivesMitLeftAtTheirFactoryMasterId) {
+  REQUIRE_VCAN(7);
+  bring_up_all("mit_classic7.yaml", {"--mit-master-id", "0"}, [](CanConfig& cfg) {
+    for (const BusConfig& b : cfg.buses) {
+      for (const DriveConfig& d : b.drives) ASSERT_EQ(d.mit_reply_id, 0x100 + d.drive_id);
+    }
+  });
+}
+
 TEST(Hil, BringUpAll19DrivesMitReplyingOnMasterIdZeroWithEightBytes) {
   REQUIRE_VCAN(7);
   bring_up_all("mit_classic7.yaml", {"--mit-master-id", "0", "--mit-reply-dlc", "8"}, [](CanConfig& cfg) {

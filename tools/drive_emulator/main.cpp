@@ -6,6 +6,7 @@
 //   drive_emulator --config can.yaml [--faults faults.yaml] [--pose stance|zero]
 //                  [--mit-master-id ID] [--mit-reply-dlc 6|8]   (the MIT drives' flash settings)
 //                  [--cia402-heartbeat-ms MS] [--cia402-boot-after-ms MS]   (CiA 402: stored 0x1017, power-on)
+//                  [--cia402-nmt-delay-ms MS] [--cia402-only-used-pdos] [--cia402-repeat-sdo-answers]
 //   drive_emulator --config can.yaml --motion bullet [--truth-log trunk.txt]
 //   drive_emulator --config can.yaml --print-layout      (no CAN needed)
 //
@@ -88,7 +89,7 @@ int main(int argc, char** argv) {
   double imu_gyro_noise = 0.0, imu_accel_noise = 0.0, imu_gyro_bias = 0.0, imu_accel_bias = 0.0;
   std::uint64_t imu_seed = 1;
   int mit_master_id = -1, mit_reply_dlc = 0;  // -1 / 0: as the config says
-  std::uint16_t cia402_heartbeat_ms = 0;
+  emu::Cia402Options cia402;
   std::uint32_t cia402_boot_after_ms = 0;
   app.add_option("--config", config_path, "YAML file with the `can:` section (the same the firmware reads)")->required();
   app.add_option("--faults", faults_path, "YAML fault script (`faults:` list)");
@@ -104,7 +105,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({6, 8}));
   // The CiA 402 drives' stored 0x1017 and when they are powered on (CAN.md 4.3 step 1: the host
   // waits for each node's boot-up, and resets a node it hears heartbeats from).
-  app.add_option("--cia402-heartbeat-ms", cia402_heartbeat_ms,
+  app.add_option("--cia402-heartbeat-ms", cia402.stored_heartbeat_ms,
                  "CiA 402: every drive's stored producer heartbeat time (0x1017 after power-on and NMT reset "
                  "communication), ms; 0: no heartbeat until the host writes 0x1017")
       ->check(CLI::Range(0, 65535));
@@ -112,6 +113,13 @@ int main(int argc, char** argv) {
                  "CiA 402: the drives power on (boot-up frame) this long after the ready file is written; 0: before "
                  "it (a host started later misses their boot-up)")
       ->check(CLI::Range(0, 600000));
+  // What else CAN.md allows a CiA 402 drive (emu::Cia402Options).
+  app.add_option("--cia402-nmt-delay-ms", cia402.nmt_delay_ms,
+                 "CiA 402: NMT commands take effect this long after they arrive (the drive's own cycle), ms")
+      ->check(CLI::Range(0, 1000));
+  app.add_flag("--cia402-only-used-pdos", cia402.only_used_pdos,
+               "CiA 402: the drives have RPDO1, TPDO1 and TPDO2 only (the others: object does not exist)");
+  app.add_flag("--cia402-repeat-sdo-answers", cia402.repeat_sdo_answers, "CiA 402: every SDO answer is sent twice");
   app.add_option("--motion", motion,
                  "joint: a 1-DoF model per drive; bullet: the joints of the simulated robot (sim_hal), "
                  "stepped once per host tick, the robot spawned crouched on its feet")
@@ -269,7 +277,7 @@ int main(int argc, char** argv) {
         if (mit_reply_dlc > 0) flash.mit_vendor_reply = mit_reply_dlc == 8;
         buses[b].drives.push_back(std::make_unique<emu::MitDrive>(flash, bc.fd, model, mine, can_timeout_ms));
       } else {
-        buses[b].drives.push_back(std::make_unique<emu::Cia402Drive>(d, model, mine, t0, cia402_heartbeat_ms));
+        buses[b].drives.push_back(std::make_unique<emu::Cia402Drive>(d, model, mine, t0, cia402));
       }
       buses[b].drives.back()->attach(world.get());
     }

@@ -113,18 +113,20 @@ bool CanHardware::accept_position(int j, double q_rad) noexcept {
   return false;
 }
 
-void CanHardware::process_mit_reply(int b, const Frame& f) noexcept {
-  Bus& bus = buses_[static_cast<std::size_t>(b)];
-  // The reply id picks the ranges to decode with; byte 0 (the drive id) is authoritative.
-  int by_id = -1;
+bool CanHardware::is_mit_reply_id(int b, std::uint32_t id) const noexcept {
+  const Bus& bus = buses_[static_cast<std::size_t>(b)];
+  if (!bus.any_mit) return false;
+  if (id == kMitFactoryMasterId) return true;
   for (int k = 0; k < bus.count; ++k) {
     const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
-    if (jr.cfg.protocol == Protocol::mit && jr.cfg.mit_reply_id == f.id) by_id = bus.joints[k];
+    if (jr.cfg.protocol == Protocol::mit && jr.cfg.mit_reply_id == id) return true;
   }
-  if (by_id < 0) {
-    ++bus.diag.unexpected_frames;
-    return;
-  }
+  return false;
+}
+
+void CanHardware::process_mit_reply(int b, const Frame& f) noexcept {
+  Bus& bus = buses_[static_cast<std::size_t>(b)];
+  // Byte 0 (the drive id) is authoritative and picks the ranges to decode with.
   if (f.len < 1) {
     ++bus.diag.bad_frames;
     return;
@@ -315,12 +317,7 @@ void CanHardware::process_frame(int b, const Frame& f) noexcept {
   }
   if (process_sensor_frame(b, f)) return;
   const Bus& bus = buses_[static_cast<std::size_t>(b)];
-  bool mit_reply_id = false;
-  for (int k = 0; k < bus.count; ++k) {
-    const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
-    mit_reply_id = mit_reply_id || (jr.cfg.protocol == Protocol::mit && jr.cfg.mit_reply_id == f.id);
-  }
-  if (mit_reply_id) {
+  if (is_mit_reply_id(b, f.id)) {
     process_mit_reply(b, f);
   } else if (bus.any_cia) {
     process_cia402_frame(b, f);

@@ -65,6 +65,7 @@ LifecycleResult CanHardware::open_bus(int b) {
   for (const DriveConfig& d : bc.drives) {
     if (d.protocol == Protocol::mit) {
       ids.push_back(d.mit_reply_id);
+      ids.push_back(kMitFactoryMasterId);  // a drive left at its factory CAN_MASTER (CAN.md 1.4)
     } else {
       for (std::uint32_t base : {cia402::cob::emcy, cia402::cob::tpdo1, cia402::cob::tpdo2, cia402::cob::sdo_response,
                                  cia402::cob::heartbeat}) {
@@ -363,13 +364,16 @@ CanHardware::SdoOutcome CanHardware::sdo(int j, bool write, std::uint16_t index,
     cia402::encode_sdo_request(jr.cfg.drive_id, req, f);
     jr.sdo_answered = false;
     send_now(jr.bus, f);
-    if (!pump_until(after_ms(config_.timing.sdo_timeout_ms), [&] { return jr.sdo_answered; })) continue;
+    // The answer names the request's object; another (a late answer to an earlier request, after
+    // its retry went out, or a repeat) is dropped and the wait goes on.
     cia402::SdoResponse res;
-    if (cia402::decode_sdo_response(jr.sdo_answer, jr.cfg.drive_id, res) != FrameStatus::ok || res.index != index ||
-        res.sub != sub) {
-      out.kind = SdoOutcome::Kind::bad_answer;
-      return out;
-    }
+    const auto answered = [&] {
+      if (!jr.sdo_answered) return false;
+      jr.sdo_answered = false;
+      return cia402::decode_sdo_response(jr.sdo_answer, jr.cfg.drive_id, res) == FrameStatus::ok && res.index == index &&
+             res.sub == sub;
+    };
+    if (!pump_until(after_ms(config_.timing.sdo_timeout_ms), answered)) continue;
     if (res.kind == cia402::SdoResponse::Kind::abort) {
       out.kind = SdoOutcome::Kind::abort;
       out.abort_code = res.value;
@@ -408,7 +412,10 @@ LifecycleResult CanHardware::configure_node(int j) {
     const SdoOutcome o = sdo(j, true, index, sub, value, size);
     if (o.kind == SdoOutcome::Kind::ok) return {};
     if (optional && o.kind == SdoOutcome::Kind::abort &&
-        (o.abort_code == cia402::abort_code::no_object || o.abort_code == cia402::abort_code::no_subindex)) {
+        (o.abort_code == cia402::abort_code::no_object || o.abort_code == cia402::abort_code::no_subindex ||
+         o.abort_code == cia402::abort_code::unsupported_access || o.abort_code == cia402::abort_code::read_only)) {
+      startup_notes_ += "can start-up: " + drive_name(j) + ": " + hex(index, 4) + ":" + std::to_string(sub) +
+                        " not written (" + cia402::abort_code_name(o.abort_code) + "): where present (CAN.md 2)\n";
       return {};  // "where present"
     }
     return describe(o, true, index, sub);
@@ -450,12 +457,15 @@ LifecycleResult CanHardware::configure_node(int j) {
   std::array<SdoWrite, kMaxMappingWrites> seq{};
   const int n = pdo_mapping_sequence(jr.cfg.drive_id, jr.cfg.mapping, seq);
   for (int i = 0; i < n; ++i) {
-    if (!(err = write(seq[i].index, seq[i].sub, seq[i].value, seq[i].size, false)).empty()) return LifecycleResult::failure(err);
+    if (!(err = write(seq[i].index, seq[i].sub, seq[i].value, seq[i].size, seq[i].optional)).empty()) {
+      return LifecycleResult::failure(err);
+    }
   }
   if (!(err = write(object::modes_of_operation, 0, static_cast<std::uint8_t>(kModeCst), 1, false)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::interpolation_period, 1, 1, 1, false)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::interpolation_period, 2, static_cast<std::uint8_t>(-3), 1, false)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::max_torque, 0, jr.torque_scale.max_permille, 2, false)).empty()) return LifecycleResult::failure(err);
+  if (!(err = write(object::cycle_period, 0, config_.timing.tick_us, 4, true)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::abort_connection, 0, 3, 2, true)).empty()) return LifecycleResult::failure(err);
   if (!(err = write(object::error_behaviour, 1, 0, 1, true)).empty()) return LifecycleResult::failure(err);
   // 0x6061 must read back 10 before enabling (CAN.md 2.4); a drive may switch modes in its own
@@ -628,7 +638,12 @@ LifecycleResult CanHardware::enable_cia402(int b) {
       }
       return true;
     };
-    pump_until(after_ms(config_.timing.state_step_timeout_ms), all_tpdo);
+    // The TPDOs of this SYNC are awaited as a tick's replies are (rx_deadline_us), then the next
+    // SYNC goes: a drive that missed one (its NMT start taken in its own cycle, a lost frame)
+    // answers the next, and only a state held past state_step_timeout_ms fails.
+    pump_until(std::min<std::int64_t>(after_ms(config_.timing.state_step_timeout_ms),
+                                      monotonic_ns() + 1000LL * static_cast<std::int64_t>(config_.timing.rx_deadline_us)),
+               all_tpdo);
     if (LifecycleResult r = startup_fault(nodes, "enable"); !r.ok) return r;
     next_cycle += 1000LL * config_.timing.tick_us;
     sleep_until_ns(std::max(next_cycle, monotonic_ns()));

@@ -251,9 +251,8 @@ std::uint16_t controlword_towards_enabled(State s, std::uint16_t previous) noexc
 // ---- PDO mapping ---------------------------------------------------------------------
 int pdo_mapping_sequence(std::uint8_t node, Mapping m, std::array<SdoWrite, kMaxMappingWrites>& out) noexcept {
   int n = 0;
-  const auto add = [&](std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size) {
-    out[n++] = SdoWrite{index, sub, value, size};
-  };
+  const auto add = [&](std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size,
+                       bool optional = false) { out[n++] = SdoWrite{index, sub, value, size, optional}; };
   const auto map_pdo = [&](std::uint16_t comm, std::uint16_t map, std::uint32_t cob_id, const std::uint32_t* entries,
                            int count) {
     add(comm, 1, cob_id | kPdoInvalid, 4);
@@ -269,7 +268,7 @@ int pdo_mapping_sequence(std::uint8_t node, Mapping m, std::array<SdoWrite, kMax
     const std::uint32_t tpdo1[] = {mapping_entry(object::statusword, 0, 16), mapping_entry(object::position_actual, 0, 32),
                                    mapping_entry(object::torque_actual, 0, 16)};
     map_pdo(object::tpdo_comm, object::tpdo_map, cob::tpdo1 + node, tpdo1, 3);
-    add(object::tpdo_comm + 1, 1, (cob::tpdo2 + node) | kPdoInvalid, 4);
+    add(object::tpdo_comm + 1, 1, (cob::tpdo2 + node) | kPdoInvalid, 4, true);
   } else {
     const std::uint32_t tpdo1[] = {mapping_entry(object::statusword, 0, 16), mapping_entry(object::position_actual, 0, 32)};
     const std::uint32_t tpdo2[] = {mapping_entry(object::velocity_actual, 0, 32), mapping_entry(object::torque_actual, 0, 16)};
@@ -277,10 +276,10 @@ int pdo_mapping_sequence(std::uint8_t node, Mapping m, std::array<SdoWrite, kMax
     map_pdo(object::tpdo_comm + 1, object::tpdo_map + 1, cob::tpdo2 + node, tpdo2, 2);
   }
   for (std::uint16_t k = 1; k < 4; ++k) {
-    add(static_cast<std::uint16_t>(object::rpdo_comm + k), 1, (0x200u + 0x100u * k + node) | kPdoInvalid, 4);
+    add(static_cast<std::uint16_t>(object::rpdo_comm + k), 1, (0x200u + 0x100u * k + node) | kPdoInvalid, 4, true);
   }
   for (std::uint16_t k = 2; k < 4; ++k) {
-    add(static_cast<std::uint16_t>(object::tpdo_comm + k), 1, (0x180u + 0x100u * k + node) | kPdoInvalid, 4);
+    add(static_cast<std::uint16_t>(object::tpdo_comm + k), 1, (0x180u + 0x100u * k + node) | kPdoInvalid, 4, true);
   }
   return n;
 }

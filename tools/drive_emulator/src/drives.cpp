@@ -263,8 +263,8 @@ void MitDrive::on_time(std::int64_t now_ns, std::vector<Frame>&) {
 
 // ---- CiA 402 ----------------------------------------------------------------------------------------
 Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns,
-                         std::uint16_t stored_heartbeat_ms)
-    : Drive(cfg, false, model, std::move(faults)), stored_heartbeat_ms_(stored_heartbeat_ms) {
+                         const Cia402Options& options)
+    : Drive(cfg, false, model, std::move(faults)), options_(options) {
   // 0x6076: the config's rated torque, else the joint's effort limit, unless the script says otherwise.
   const double rated_nm = cfg_.rated_torque_nm > 0.0 ? cfg_.rated_torque_nm
                                                      : robot::kJoints[static_cast<std::size_t>(cfg_.joint)].limits.effort_nm;
@@ -280,7 +280,7 @@ Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vec
 
 void Cia402Drive::reset_communication() {
   const std::uint8_t n = cfg_.drive_id;
-  heartbeat_ms_ = stored_heartbeat_ms_;
+  heartbeat_ms_ = options_.stored_heartbeat_ms;
   error_behaviour_ = 1;
   cycle_period_us_ = 0;
   // Vendor defaults: event-driven PDOs with the drive's own mapping (the host must re-map and disable).
@@ -456,6 +456,7 @@ std::uint32_t Cia402Drive::read_object(std::uint16_t index, std::uint8_t sub, st
     case supported_modes: return one(c4::kSupportedModeCstBit | (1u << 7) | (1u << 8), 4);
     default: break;
   }
+  if (!has_pdo(index)) return c4::abort_code::no_object;
   if (index >= rpdo_comm && index < rpdo_comm + 4) return pdo_comm(rpdo_[index - rpdo_comm]);
   if (index >= rpdo_map && index < rpdo_map + 4) return pdo_map(rpdo_[index - rpdo_map]);
   if (index >= tpdo_comm && index < tpdo_comm + 4) return pdo_comm(tpdo_[index - tpdo_comm]);
@@ -499,7 +500,7 @@ std::uint32_t Cia402Drive::write_object(std::uint16_t index, std::uint8_t sub, s
   const bool is_rpdo = (index >= rpdo_comm && index < rpdo_comm + 4) || (index >= rpdo_map && index < rpdo_map + 4);
   const bool is_comm = (index >= rpdo_comm && index < rpdo_comm + 4) || (index >= tpdo_comm && index < tpdo_comm + 4);
   const bool is_map = (index >= rpdo_map && index < rpdo_map + 4) || (index >= tpdo_map && index < tpdo_map + 4);
-  if (!is_comm && !is_map) return c4::abort_code::no_object;
+  if ((!is_comm && !is_map) || !has_pdo(index)) return c4::abort_code::no_object;
   if (nmt_ == 0x05) return c4::abort_code::wrong_state;  // PDO parameters only in Pre-operational
   Pdo& p = is_rpdo ? rpdo_[(index & 0xFF) % 4] : tpdo_[(index & 0xFF) % 4];
   if (is_comm) {
@@ -579,6 +580,7 @@ void Cia402Drive::handle_sdo(const Frame& f, std::vector<Frame>& out) {
   Frame a;
   c4::encode_sdo_response(cfg_.drive_id, res, a);
   emit(a, out);
+  if (options_.repeat_sdo_answers) emit(a, out);
   ++sdo_requests_;
   for (const Fault& flt : faults_) {
     if (flt.kind == FaultKind::emcy && flt.at_sdo == sdo_requests_) on_fault_event(flt, out);
@@ -620,22 +622,13 @@ void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Fram
     if (c4::decode_nmt(f, cs, node) != can::FrameStatus::ok || (node != 0 && node != n)) return;
     if (!take_frame()) return;
     ++frames_in_;
-    switch (cs) {
-      case c4::NmtCommand::start: nmt_ = 0x05; break;
-      case c4::NmtCommand::stop: nmt_ = 0x04; break;
-      case c4::NmtCommand::enter_pre_operational: nmt_ = 0x7F; break;
-      case c4::NmtCommand::reset_node:
-        ++nmt_resets_;
-        state_ = St::switch_on_disabled;
-        mode_ = mode_before_ = 0;
-        mode_display_at_ns_ = 0;
-        [[fallthrough]];
-      case c4::NmtCommand::reset_communication:
-        if (cs == c4::NmtCommand::reset_communication) ++nmt_resets_;
-        reset_communication();
-        boot(now_ns, out);
-        break;
+    if (options_.nmt_delay_ms > 0) {  // taken in the drive's own cycle (on_time)
+      nmt_pending_ = true;
+      pending_nmt_ = cs;
+      nmt_due_ns_ = now_ns + 1000000LL * options_.nmt_delay_ms;
+      return;
     }
+    take_nmt(cs, now_ns, out);
     return;
   }
   if (f.id == c4::cob::sync) {
@@ -674,11 +667,41 @@ void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Fram
   }
 }
 
+void Cia402Drive::take_nmt(c4::NmtCommand cs, std::int64_t now_ns, std::vector<Frame>& out) {
+  switch (cs) {
+    case c4::NmtCommand::start: nmt_ = 0x05; break;
+    case c4::NmtCommand::stop: nmt_ = 0x04; break;
+    case c4::NmtCommand::enter_pre_operational: nmt_ = 0x7F; break;
+    case c4::NmtCommand::reset_node:
+      ++nmt_resets_;
+      state_ = St::switch_on_disabled;
+      mode_ = mode_before_ = 0;
+      mode_display_at_ns_ = 0;
+      [[fallthrough]];
+    case c4::NmtCommand::reset_communication:
+      if (cs == c4::NmtCommand::reset_communication) ++nmt_resets_;
+      reset_communication();
+      boot(now_ns, out);
+      break;
+  }
+}
+
+bool Cia402Drive::has_pdo(std::uint16_t index) const noexcept {
+  using namespace c4::object;
+  if (!options_.only_used_pdos) return true;
+  return index == rpdo_comm || index == rpdo_map || index == tpdo_comm || index == tpdo_map || index == tpdo_comm + 1 ||
+         index == tpdo_map + 1;
+}
+
 bool Cia402Drive::cyclic(const Frame& f) const noexcept {
   return !f.error && f.id == c4::cob::sync && f.len == 0 && nmt_ == 0x05 && state_ == St::enabled;
 }
 
 void Cia402Drive::on_time(std::int64_t now_ns, std::vector<Frame>& out) {
+  if (nmt_pending_ && now_ns >= nmt_due_ns_ && nmt_ != 0x00 && !unplugged_) {
+    nmt_pending_ = false;
+    take_nmt(pending_nmt_, now_ns, out);
+  }
   if (nmt_ == 0x00 || unplugged_ || heartbeat_ms_ == 0 || now_ns < next_heartbeat_ns_) return;
   for (const Fault& flt : faults_) {
     if ((flt.kind == FaultKind::silent || flt.kind == FaultKind::no_heartbeat) && active(flt)) return;

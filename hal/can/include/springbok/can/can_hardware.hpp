@@ -269,6 +269,9 @@ class CanHardware final : public hal::Hardware {
   bool process_sensor_frame(int b, const Frame& f) noexcept;
   void fill_sensors(hal::Measurements& out) noexcept;
   void process_mit_reply(int b, const Frame& f) noexcept;
+  // A CAN id an MIT reply may come on, on bus b: a configured reply id of one of its MIT drives,
+  // or 0, the drives' factory CAN_MASTER (CAN.md 1.4: the host matches on byte 0 either way).
+  bool is_mit_reply_id(int b, std::uint32_t id) const noexcept;
   void process_cia402_frame(int b, const Frame& f) noexcept;
   void process_error_frame(int b, const Frame& f) noexcept;
   bool accept_position(int j, double q_rad) noexcept;

@@ -160,11 +160,15 @@ struct SdoWrite {
   std::uint8_t sub = 0;
   std::uint32_t value = 0;
   std::uint8_t size = 4;
+  // Where present: a drive without the object does as well (an unused PDO it does not have
+  // cannot transmit); CanHardware takes the "no such object" aborts as done.
+  bool optional = false;
 };
 
 inline constexpr int kMaxMappingWrites = 40;
 // The re-mapping sequence of CAN.md 2.6 for RPDO1 and the TPDOs of `m`, with
-// the unused PDOs (RPDO2..4, TPDO2..4 as the mapping needs) disabled. Returns the count.
+// the unused PDOs (RPDO2..4, TPDO2..4 as the mapping needs) disabled, where the drive has
+// them (CAN.md 2 asks for nothing beyond the PDOs it uses). Returns the count.
 int pdo_mapping_sequence(std::uint8_t node, Mapping m, std::array<SdoWrite, kMaxMappingWrites>& out) noexcept;
 
 struct Rpdo1 {

@@ -19,13 +19,18 @@ const char* to_string(Protocol p) noexcept;
 inline constexpr int kMaxBuses = 10;
 inline constexpr int kMaxDrivesPerBus = 8;
 
+// The MIT drives' factory CAN_MASTER (CAN.md 1.4): the reply id of a drive whose flash setting
+// was never changed.
+inline constexpr std::uint16_t kMitFactoryMasterId = 0;
+
 struct DriveConfig {
   int joint = -1;                  // index into springbok::robot::kJoints (0..18)
   std::uint8_t drive_id = 0;       // MIT drive id / CANopen node id, 1..127, unique on the robot
   Protocol protocol = Protocol::mit;
   // MIT mode
   // The drive's CAN master id (CAN_MASTER): the CAN id of its replies. Drives may share
-  // one (the factory default is 0): replies are matched on byte 0, the drive id.
+  // one (the factory default is 0): replies are matched on byte 0, the drive id. Replies on
+  // the factory id are taken too (kMitFactoryMasterId), from a drive never configured.
   std::uint16_t mit_reply_id = 0;
   // CubeMars AK: bytes 6 and 7 of an 8-byte reply are the temperature and an error code
   // (non-zero = fault). Replies of 6 or 8 bytes are accepted either way; bytes 6..7 are

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "springbok/can/cia402.hpp"
 #include "springbok/can/config.hpp"
 #include "springbok/can/frame.hpp"
 
@@ -200,14 +201,28 @@ class MitDrive final : public Drive {
   std::uint64_t classic_frames_ = 0;
 };
 
+// What a CiA 402 drive does that CAN.md allows and the plainest drive does not (the emulator's
+// --cia402-* options).
+struct Cia402Options {
+  // The stored producer heartbeat time, 0x1017 after power-on and after NMT reset communication
+  // (0: no heartbeat until the host writes 0x1017).
+  std::uint16_t stored_heartbeat_ms = 0;
+  // NMT commands take effect this long after they arrive (a CANopen stack runs NMT in its own
+  // cycle); frames in between meet the old NMT state.
+  std::uint32_t nmt_delay_ms = 0;
+  // The drive has only the PDOs CAN.md uses (RPDO1, TPDO1, TPDO2): the others' objects answer
+  // "object does not exist".
+  bool only_used_pdos = false;
+  // Every SDO answer goes out twice (a repeat the host must not take for the next one's).
+  bool repeat_sdo_answers = false;
+};
+
 // CiA 402 subset: NMT, heartbeat, SDO (expedited + aborts), PDO mapping by SDO,
 // SYNC-driven TPDOs, the state machine, CST, EMCY.
 class Cia402Drive final : public Drive {
  public:
-  // `stored_heartbeat_ms`: the drive's stored producer heartbeat time, 0x1017 after power-on and
-  // after NMT reset communication (0: no heartbeat until the host writes 0x1017).
   Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns,
-              std::uint16_t stored_heartbeat_ms = 0);
+              const Cia402Options& options = {});
   void on_frame(const can::Frame& f, std::int64_t now_ns, std::vector<can::Frame>& out) override;
   void on_time(std::int64_t now_ns, std::vector<can::Frame>& out) override;
   bool cyclic(const can::Frame& f) const noexcept override;
@@ -227,6 +242,8 @@ class Cia402Drive final : public Drive {
     std::array<std::uint32_t, 8> entries{};
   };
   void reset_communication();
+  void take_nmt(can::cia402::NmtCommand cs, std::int64_t now_ns, std::vector<can::Frame>& out);
+  bool has_pdo(std::uint16_t index) const noexcept;
   void on_sync(std::vector<can::Frame>& out);
   void handle_sdo(const can::Frame& f, std::vector<can::Frame>& out);
   // SDO access to the object dictionary: returns 0 or an abort code.
@@ -244,7 +261,10 @@ class Cia402Drive final : public Drive {
   std::uint16_t controlword_ = 0, applied_controlword_ = 0;
   std::int16_t target_torque_ = 0, applied_target_torque_ = 0;
   std::uint16_t heartbeat_ms_ = 0;
-  std::uint16_t stored_heartbeat_ms_ = 0;  // 0x1017 after power-on and reset communication
+  Cia402Options options_;
+  bool nmt_pending_ = false;               // an NMT command waiting for options_.nmt_delay_ms
+  can::cia402::NmtCommand pending_nmt_{};
+  std::int64_t nmt_due_ns_ = 0;
   std::uint64_t nmt_resets_ = 0;
   std::int64_t next_heartbeat_ns_ = 0;
   std::int8_t mode_ = 0;
