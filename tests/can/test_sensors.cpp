@@ -197,6 +197,25 @@ TEST_F(Imu, AUnitQuaternionComponentAtTheRailIsNoClipping) {
   EXPECT_TRUE(imu.diagnostics().clip_streak_fault);
 }
 
+// CAN.md 6.4: "clipping (the sample is used, the count rises; a streak is a fault)". A saturated
+// measurement need not sit at the int16 rail: a gyro whose range is 31.9 rad/s (32666 counts),
+// with the orientation off the rail, makes a streak on the bit alone (it made none before: only
+// fields at the rail counted).
+TEST_F(Imu, AClippingStreakBelowTheRailIsAFault) {
+  cfg.clip_streak = 3;
+  imu.configure(cfg, 0);
+  ImuRaw raw;
+  raw.q = {0, 30000, 0};
+  raw.w = {32666, 0, 0};
+  for (int k = 1; k <= 2; ++k) EXPECT_EQ(sample(static_cast<std::uint8_t>(k), k, 0x05, raw), SensorEvent::accepted);
+  EXPECT_FALSE(imu.diagnostics().clip_streak_fault);
+  EXPECT_EQ(sample(3, 3, 0x05, raw), SensorEvent::accepted);
+  EXPECT_TRUE(imu.diagnostics().clip_streak_fault);
+  EXPECT_EQ(imu.diagnostics().clip_streak_max, 3u);
+  EXPECT_EQ(sample(4, 4, 0x01, raw), SensorEvent::accepted);  // the bit gone: the streak ends
+  EXPECT_FALSE(imu.diagnostics().clip_streak_fault);
+}
+
 TEST_F(Imu, CounterWrapsAround) {
   std::uint64_t tick = 0;
   for (int c : {252, 253, 254, 255, 0, 1, 2}) EXPECT_EQ(sample(static_cast<std::uint8_t>(c), ++tick), SensorEvent::accepted) << c;
@@ -494,6 +513,25 @@ TEST(Ft, DecodesHandBuiltFramesWithCountsPerUnit) {
   EXPECT_EQ(ft.diagnostics().clipped, 1u);
   ft.update(2);
   EXPECT_EQ(ft.reading().force_n.x(), 32767.0 / 64.0);
+}
+
+// The F/T's torque range is 32.7 N m (32700 counts at CPT 1000, CAN.md 6.2): a torque held
+// there with the clipping bit makes a streak (a fault at clip_streak samples) though no field
+// reaches the int16 rail.
+TEST(Ft, AClippingStreakAtTheTorqueRangeIsAFault) {
+  FtConfig cfg;
+  cfg.enabled = true;
+  cfg.clip_streak = 4;
+  FtAssembler ft;
+  ft.configure(cfg, 0);
+  for (int k = 1; k <= 4; ++k) {
+    const auto c = static_cast<std::uint8_t>(k);
+    EXPECT_EQ(ft.push(frame_of(0x6B0, {0x00, 0x00, 0x00, 0x00, 0x00, 0x00, c, 0x05}), k), SensorEvent::stored);
+    // T_x = 32700 counts = 0x7FBC.
+    EXPECT_EQ(ft.push(frame_of(0x6B1, {0xBC, 0x7F, 0x00, 0x00, 0x00, 0x00, c, 0x05}), k), SensorEvent::accepted);
+    EXPECT_EQ(ft.diagnostics().clip_streak_fault, k == 4) << "sample " << k;
+  }
+  EXPECT_EQ(ft.diagnostics().clipped, 4u);
 }
 
 TEST(Ft, OffsetExpressesTheWrenchInTheEndEffectorFrame) {

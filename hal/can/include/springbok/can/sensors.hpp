@@ -204,8 +204,8 @@ struct SensorDiagnostics {
   std::uint64_t duplicate_frames = 0;    // a frame of a pending sample replaced by a newer copy
   std::uint64_t incomplete_dropped = 0;  // partial samples superseded by a newer complete one (or evicted)
   std::uint64_t clipped = 0;             // accepted samples with the clipping bit (used, counted)
-  std::uint32_t clip_streak = 0;         // accepted samples in a row with the clipping bit and a ranged
-                                         // field at the int16 rail (see SampleAssembler::configure)
+  std::uint32_t clip_streak = 0;         // accepted samples in a row with the clipping bit, but for one that
+                                         // may mean a unit quaternion's 1 (see SampleAssembler::configure)
   std::uint32_t clip_streak_max = 0;
   bool clip_streak_fault = false;        // clip_streak >= the configured clip_streak (now)
   bool have_sample = false;              // a sample was accepted since configure
@@ -234,10 +234,12 @@ class SampleAssembler {
 
   SampleAssembler() = default;
   // ranged_frames: the frames (bit i = frame i) whose fields are measurements with a range. A
-  // clipped sample counts toward the streak only when one of their fields sits at the int16
-  // rail: a unit quaternion's component of 1 cannot be sent (2^15 counts) and may be flagged
-  // by a sensor as saturated, but nothing was out of range (the IMU mounted upside down in
-  // hyq_gen3.urdf reads q_y ~ 1 whenever the trunk is level).
+  // clipped sample counts toward the streak unless the bit may be about a field of another frame
+  // at the int16 rail with none of theirs there: a unit quaternion's component of 1 cannot be
+  // sent (2^15 counts) and may be flagged by a sensor as saturated, but nothing was out of range
+  // (the IMU mounted upside down in hyq_gen3.urdf reads q_y ~ 1 whenever the trunk is level).
+  // A saturated measurement need not sit at the rail (an F/T torque range of 32.7 N m is 32700
+  // counts; a saturated gauge leaves the six axes anywhere): the bit alone says so.
   void configure(std::uint32_t stale_ticks, std::uint32_t clip_streak, std::uint64_t tick,
                  std::uint32_t ranged_frames = (1u << N) - 1u) noexcept {
     stale_ticks_ = stale_ticks;
@@ -387,7 +389,7 @@ class SampleAssembler {
     diag_.last_status = s.status;
     diag_.not_ready = (s.status & sensor_status::not_ready) != 0;
     if ((s.status & sensor_status::clipping) != 0) ++diag_.clipped;
-    if ((s.status & sensor_status::clipping) != 0 && ranged_field_at_rail(s)) {
+    if ((s.status & sensor_status::clipping) != 0 && (field_at_rail(s, ranged_frames_) || !field_at_rail(s, ~ranged_frames_))) {
       ++diag_.clip_streak;
       if (diag_.clip_streak > diag_.clip_streak_max) diag_.clip_streak_max = diag_.clip_streak;
     } else {
@@ -397,9 +399,10 @@ class SampleAssembler {
     return SensorEvent::accepted;
   }
 
-  bool ranged_field_at_rail(const Sample& s) const noexcept {
+  // A field of one of `frames` (bit i = frame i) at the int16 rail.
+  static bool field_at_rail(const Sample& s, std::uint32_t frames) noexcept {
     for (int i = 0; i < N; ++i) {
-      if ((ranged_frames_ & (1u << i)) == 0) continue;
+      if ((frames & (1u << i)) == 0) continue;
       for (const std::int16_t v : s.fields[static_cast<std::size_t>(i)]) {
         if (v == std::numeric_limits<std::int16_t>::max() || v == std::numeric_limits<std::int16_t>::min()) return true;
       }
