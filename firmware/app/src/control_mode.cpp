@@ -117,6 +117,7 @@ void ControlMode::telemetry(TelemetryRecord& r) const noexcept {
   put_quaternion(r.hand_rest_quaternion_xyzw, ref.ee_rotation);
   put(r.external_force_n, o.external_force_world_n);
   put(r.external_torque_nm, o.external_torque_world_nm);
+  put(r.unmeasured_force_n, c.input().unmeasured_force_world_n);
   for (int f = 0; f < kFeet; ++f) put(r.foot_force_n[static_cast<std::size_t>(f)], o.foot_force_n[f]);
 }
 

@@ -103,6 +103,7 @@ std::string telemetry_json(const TelemetryRecord& r) {
   triple(out, "base_displacement", "m", r.base_displacement_m);
   triple(out, "hand_displacement", "m", r.hand_displacement_m);
   triple(out, "fe", "n", r.external_force_n);
+  triple(out, "unmeasured", "n", r.unmeasured_force_n);
   triple(out, "te", "nm", r.external_torque_nm);
   for (int f = 0; f < kFeet; ++f) {
     triple(out, std::string(kFootNames[f]) + "_force", "n", r.foot_force_n[static_cast<std::size_t>(f)]);

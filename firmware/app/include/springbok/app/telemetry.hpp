@@ -69,6 +69,7 @@ struct TelemetryRecord {
   Triple hand_displacement_m{};
   Triple external_force_n{};         // F_e, from the tared wrist F/T
   Triple external_torque_nm{};       // T_e (about the hand's origin)
+  Triple unmeasured_force_n{};       // pushes the wrist does not measure (wbc::WbcInput)
   std::array<Triple, kFeet> foot_force_n{};  // the QP's ground forces
   std::array<bool, kFeet> stance{};
   std::array<double, kNj> q_rad{};
