@@ -140,6 +140,37 @@ double stance(int j) {
   return (j / 3 < 2 ? 1.0 : -1.0) * front[j % 3];
 }
 
+// The emulator's summary, per drive.
+struct EmulatedDrive {
+  int enabled = -1;
+  unsigned long long frames_in = 0;  // frames the drive took (commands, special frames, SDO, ...)
+  unsigned statusword = 0, nmt = 0;
+  unsigned long long nmt_resets = 0;  // NMT reset node / reset communication taken
+  unsigned long long sync_timeouts = 0;  // quick stops for lost communication (--cia402-sync-timeout-ms)
+};
+std::map<int, EmulatedDrive> emulated_drives(const std::string& summary) {
+  std::map<int, EmulatedDrive> out;
+  std::istringstream in(summary);
+  for (std::string line; std::getline(in, line);) {
+    int id = 0;
+    unsigned sw = 0, nmt = 0;
+    unsigned long long resets = 0, sync_timeouts = 0;
+    if (std::sscanf(line.c_str(), "cia402 drive %d statusword 0x%x nmt 0x%x nmt_resets %llu sync_timeouts %llu", &id, &sw,
+                    &nmt, &resets, &sync_timeouts) == 5) {
+      out[id].statusword = sw;
+      out[id].nmt = nmt;
+      out[id].nmt_resets = resets;
+      out[id].sync_timeouts = sync_timeouts;
+    } else if (std::sscanf(line.c_str(), "drive %d", &id) == 1) {
+      const auto at = line.find(" enabled ");
+      if (at != std::string::npos) out[id].enabled = std::atoi(line.c_str() + at + 9);
+      const auto in = line.find(" frames_in ");
+      if (in != std::string::npos) out[id].frames_in = std::strtoull(line.c_str() + in + 11, nullptr, 10);
+    }
+  }
+  return out;
+}
+
 // `emulator_args`: the drives' own settings where they differ from the config's (e.g. the
 // MIT CAN_MASTER id); `host`: what the host's config then says of them.
 void bring_up_all(const std::string& config_name, const std::vector<std::string>& emulator_args = {},
@@ -189,6 +220,7 @@ void bring_up_all(const std::string& config_name, const std::vector<std::string>
   }
   hw.deactivate();
   const std::string summary = emu.stop();
+  for (const auto& [id, dr] : emulated_drives(summary)) EXPECT_EQ(dr.sync_timeouts, 0u) << "drive " << id << ": lost communication";
   // Every drive was disabled at shut-down (MIT exit motor mode / CiA 402 disable operation),
   // and the last position the backend decoded is the emulator's own (its oracle), within quantization.
   int drives = 0, disabled = 0, fd_drives = 0;
@@ -240,6 +272,19 @@ TEST(Hil, BringUpAll19DrivesCia402DoingWhatCanMdAllows) {
   for (const char* a : {"--cia402-nmt-delay-ms", "3", "--cia402-only-used-pdos", "--cia402-repeat-sdo-answers"}) {
     args.emplace_back(a);
   }
+  bring_up_all("cia402_classic7.yaml", args);
+}
+
+// CAN.md 4.3 step 3: SYNC every tick from NMT start on. A drive that takes a silence as lost
+// communication (0x6007 = 3: quick stop; here after 60 ms without SYNC) stays enabled: the
+// buses enabled first keep getting SYNC and their RPDO1 (enable operation, zero torque) while
+// the later ones are enabled (each bus's walk waits 20 ms here for its drives' NMT start).
+// Before, they got nothing until the first tick, quick-stopped, and the first tick found them
+// left Operation enabled (a drive fault).
+TEST(Hil, BringUpAll19DrivesCia402WhoseDrivesWatchForLostCommunication) {
+  REQUIRE_VCAN(7);
+  std::vector<std::string> args = kCia402DrivesUp;
+  for (const char* a : {"--cia402-sync-timeout-ms", "60", "--cia402-nmt-delay-ms", "20"}) args.emplace_back(a);
   bring_up_all("cia402_classic7.yaml", args);
 }
 
@@ -531,32 +576,6 @@ TEST(Hil, MitVendorErrorDuringStartUpFailsItNamingTheDriveAndTheCode) {
 
 // What the emulator's summary says of each drive at its end: enabled (MIT motor mode / CiA 402
 // Operation enabled) and, for a CiA 402 drive, its statusword and NMT state.
-struct EmulatedDrive {
-  int enabled = -1;
-  unsigned long long frames_in = 0;  // frames the drive took (commands, special frames, SDO, ...)
-  unsigned statusword = 0, nmt = 0;
-  unsigned long long nmt_resets = 0;  // NMT reset node / reset communication taken
-};
-std::map<int, EmulatedDrive> emulated_drives(const std::string& summary) {
-  std::map<int, EmulatedDrive> out;
-  std::istringstream in(summary);
-  for (std::string line; std::getline(in, line);) {
-    int id = 0;
-    unsigned sw = 0, nmt = 0;
-    unsigned long long resets = 0;
-    if (std::sscanf(line.c_str(), "cia402 drive %d statusword 0x%x nmt 0x%x nmt_resets %llu", &id, &sw, &nmt, &resets) == 4) {
-      out[id].statusword = sw;
-      out[id].nmt = nmt;
-      out[id].nmt_resets = resets;
-    } else if (std::sscanf(line.c_str(), "drive %d", &id) == 1) {
-      const auto at = line.find(" enabled ");
-      if (at != std::string::npos) out[id].enabled = std::atoi(line.c_str() + at + 9);
-      const auto in = line.find(" frames_in ");
-      if (in != std::string::npos) out[id].frames_in = std::strtoull(line.c_str() + in + 11, nullptr, 10);
-    }
-  }
-  return out;
-}
 
 // CAN.md 4.4 step 2 after a failed activate(): drive 10 (bus rh, vcan3) is unplugged after the
 // start-up's presence check and zero command (its third frame), so its enter-motor-mode goes

@@ -7,6 +7,7 @@
 //                  [--mit-master-id ID] [--mit-reply-dlc 6|8]   (the MIT drives' flash settings)
 //                  [--cia402-heartbeat-ms MS] [--cia402-boot-after-ms MS]   (CiA 402: stored 0x1017, power-on)
 //                  [--cia402-nmt-delay-ms MS] [--cia402-only-used-pdos] [--cia402-repeat-sdo-answers]
+//                  [--cia402-sync-timeout-ms MS]
 //   drive_emulator --config can.yaml --motion bullet [--truth-log trunk.txt]
 //   drive_emulator --config can.yaml --print-layout      (no CAN needed)
 //
@@ -120,6 +121,10 @@ int main(int argc, char** argv) {
   app.add_flag("--cia402-only-used-pdos", cia402.only_used_pdos,
                "CiA 402: the drives have RPDO1, TPDO1 and TPDO2 only (the others: object does not exist)");
   app.add_flag("--cia402-repeat-sdo-answers", cia402.repeat_sdo_answers, "CiA 402: every SDO answer is sent twice");
+  app.add_option("--cia402-sync-timeout-ms", cia402.sync_timeout_ms,
+                 "CiA 402: a drive Operation enabled (0x6007 = 3) quick-stops when no SYNC came for this long, ms "
+                 "(lost communication); 0: never")
+      ->check(CLI::Range(0, 60000));
   app.add_option("--motion", motion,
                  "joint: a 1-DoF model per drive; bullet: the joints of the simulated robot (sim_hal), "
                  "stepped once per host tick, the robot spawned crouched on its feet")
@@ -416,8 +421,9 @@ int main(int argc, char** argv) {
                   static_cast<unsigned long long>(d->frames_in()), static_cast<unsigned long long>(d->replies_out()),
                   d->enabled() ? 1 : 0, d->model().q_rad, d->model().tau_nm);
       if (const auto* c = dynamic_cast<const emu::Cia402Drive*>(d.get()); c != nullptr) {
-        std::printf("cia402 drive %d statusword 0x%04X nmt 0x%02X nmt_resets %llu\n", d->config().drive_id,
-                    c->status_word(), c->nmt_state(), static_cast<unsigned long long>(c->nmt_resets()));
+        std::printf("cia402 drive %d statusword 0x%04X nmt 0x%02X nmt_resets %llu sync_timeouts %llu\n",
+                    d->config().drive_id, c->status_word(), c->nmt_state(), static_cast<unsigned long long>(c->nmt_resets()),
+                    static_cast<unsigned long long>(c->sync_timeouts()));
       }
       if (const auto* mit = dynamic_cast<const emu::MitDrive*>(d.get()); mit != nullptr && cfg.config.buses[b].fd) {
         std::printf("fd_bus drive %d classic_frames %llu\n", d->config().drive_id,

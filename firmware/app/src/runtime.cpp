@@ -86,15 +86,16 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   const auto log_ring = std::make_unique<rt::LogRing>();
   rt::LogDrainer drainer(*log_ring, log_file, 10, describe_log_record);
 
-  for (auto step : {&hal::Hardware::configure, &hal::Hardware::activate}) {
+  const auto lifecycle_step = [&hardware](hal::LifecycleResult (hal::Hardware::*step)()) {
     const hal::LifecycleResult r = (hardware.*step)();
     if (!r.ok) {
       std::fprintf(stderr, "hal %.*s: %s\n", static_cast<int>(hardware.name().size()), hardware.name().data(),
                    r.message.c_str());
       hardware.deactivate();
-      return 1;
     }
-  }
+    return r.ok;
+  };
+  if (!lifecycle_step(&hal::Hardware::configure)) return 1;
 
   safety::Supervisor supervisor(config.safety);
   const auto control = std::make_unique<ControlMode>(config);
@@ -127,6 +128,12 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   }
   server.start();
 
+  // The drives are enabled last, right before the loop starts: from then on they expect a
+  // command (CiA 402: SYNC) every tick (CAN.md 4.3 step 3).
+  if (!lifecycle_step(&hal::Hardware::activate)) {
+    server.stop();
+    return 1;
+  }
   std::atomic<bool> stop{false};
   auto body = [&] {
     executive->start();

@@ -49,14 +49,39 @@ bool CanHardware::pump_until(std::int64_t deadline_ns, Done&& done) {
   std::array<int, kMaxBuses> fds{};
   const int n = handles(fds);
   for (;;) {
+    keep_alive();
     for (int b = 0; b < bus_count_; ++b) {
       if (buses_[static_cast<std::size_t>(b)].socket.is_open()) (void)drain(b, kMaxRxFramesPerBusPerTick);
     }
     if (done()) return true;
     const std::int64_t now = monotonic_ns();
     if (now >= deadline_ns) return false;
-    wait_readable(std::span<const int>(fds.data(), static_cast<std::size_t>(n)), (deadline_ns - now) / 1000 + 1);
+    const std::int64_t wake = std::min(deadline_ns, next_keep_alive_ns_ > now ? next_keep_alive_ns_ : deadline_ns);
+    wait_readable(std::span<const int>(fds.data(), static_cast<std::size_t>(n)), (wake - now) / 1000 + 1);
   }
+}
+
+void CanHardware::keep_alive() noexcept {
+  if (active_) return;  // read() sends the tick's frames
+  const std::int64_t now = monotonic_ns();
+  if (now < next_keep_alive_ns_) return;
+  bool any = false;
+  for (int b = 0; b < bus_count_; ++b) {
+    const Bus& bus = buses_[static_cast<std::size_t>(b)];
+    if (!bus.synced || !bus.socket.is_open() || !bus_commanded(bus.diag.fault)) continue;
+    any = true;
+    for (int k = 0; k < bus.count; ++k) {
+      const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+      if (jr.cfg.protocol != Protocol::cia402) continue;
+      Frame f;
+      cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{cia402::controlword::enable_operation, 0}, f);
+      send_now(b, f);
+    }
+    Frame sync;
+    cia402::encode_sync(sync);
+    send_now(b, sync);
+  }
+  if (any) next_keep_alive_ns_ = now + 1000LL * config_.timing.tick_us;
 }
 
 LifecycleResult CanHardware::open_bus(int b) {
@@ -104,7 +129,7 @@ LifecycleResult CanHardware::configure() {
   for (int b = 0; b < bus_count_; ++b) {
     Bus& bus = buses_[static_cast<std::size_t>(b)];
     bus.count = 0;
-    bus.any_mit = bus.any_cia = false;
+    bus.any_mit = bus.any_cia = bus.synced = false;
     const std::string& name = config_.buses[static_cast<std::size_t>(b)].name;
     bus.has_imu = config_.sensors.imu.enabled && config_.sensors.imu.bus == name;
     bus.has_ft = config_.sensors.wrist_ft.enabled && config_.sensors.wrist_ft.bus == name;
@@ -171,6 +196,7 @@ LifecycleResult CanHardware::enable_bus(int b) {
     if (LifecycleResult r = enable_cia402(b); !r.ok) return r;
   }
   if (LifecycleResult r = bus_fault_failure(b, "enable"); !r.ok) return r;
+  buses_[static_cast<std::size_t>(b)].synced = bus.any_cia;
   // The first cyclic command, sent by the first read before the loop's first write: damping
   // (CAN.md 4.2 step 5, 4.3 step 5), never zero torque.
   hal::JointCommands damping;
@@ -196,6 +222,7 @@ LifecycleResult CanHardware::activate() {
   for (int b = 0; b < bus_count_; ++b) {
     if (LifecycleResult r = enable_bus(b); !r.ok) return disable_after_failed_enable(0, b, std::move(r));
   }
+  for (JointRuntime& jr : joints_) jr.replies_this_tick = 0;  // the keep-alive's TPDOs are not the first tick's
   active_ = true;
   last_send_ns_ = monotonic_ns();
   return LifecycleResult::success();
@@ -672,6 +699,7 @@ LifecycleResult CanHardware::recover_bus(int b) {
 // disabled like a healthy one (disabling resumes nothing).
 void CanHardware::disable_bus(int b) noexcept {
   Bus& bus = buses_[static_cast<std::size_t>(b)];
+  bus.synced = false;
   if (!bus.socket.is_open() || !bus_reachable(bus.diag)) return;
   const std::int64_t period_ns = 1000LL * config_.timing.tick_us;
   for (const std::uint16_t cw : {cia402::controlword::disable_operation, cia402::controlword::shutdown}) {

@@ -280,6 +280,7 @@ Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vec
 
 void Cia402Drive::reset_communication() {
   const std::uint8_t n = cfg_.drive_id;
+  last_sync_ns_ = 0;
   heartbeat_ms_ = options_.stored_heartbeat_ms;
   error_behaviour_ = 1;
   cycle_period_us_ = 0;
@@ -351,6 +352,7 @@ void Cia402Drive::step_state_machine() {
 
 void Cia402Drive::on_sync(std::vector<Frame>& out) {
   if (nmt_ != 0x05) return;
+  last_sync_ns_ = now_ns_;
   // The RPDO received before this SYNC takes effect now (CAN.md 2.6).
   const std::uint16_t previous = applied_controlword_;
   applied_controlword_ = controlword_;
@@ -701,6 +703,11 @@ void Cia402Drive::on_time(std::int64_t now_ns, std::vector<Frame>& out) {
   if (nmt_pending_ && now_ns >= nmt_due_ns_ && nmt_ != 0x00 && !unplugged_) {
     nmt_pending_ = false;
     take_nmt(pending_nmt_, now_ns, out);
+  }
+  if (options_.sync_timeout_ms > 0 && nmt_ == 0x05 && state_ == St::enabled && abort_connection_ == 3 &&
+      last_sync_ns_ > 0 && now_ns - last_sync_ns_ > 1000000LL * options_.sync_timeout_ms) {
+    state_ = St::quick_stop;  // lost communication: the host went silent
+    ++sync_timeouts_;
   }
   if (nmt_ == 0x00 || unplugged_ || heartbeat_ms_ == 0 || now_ns < next_heartbeat_ns_) return;
   for (const Fault& flt : faults_) {

@@ -238,6 +238,9 @@ class CanHardware final : public hal::Hardware {
     TxBufferFull tx_full;
     int rx_budget = kMaxRxFramesPerBusPerTick;  // frames this read() may still take from this bus
     bool has_imu = false, has_ft = false;       // sensors on this bus
+    // Its CiA 402 nodes are Operation enabled: SYNC goes every tick from then on (CAN.md 4.3
+    // step 3), while later buses are enabled too (keep_alive) until read() takes over.
+    bool synced = false;
     BusDiagnostics diag;
   };
   struct SdoOutcome {
@@ -247,6 +250,9 @@ class CanHardware final : public hal::Hardware {
   };
 
   hal::LifecycleResult open_bus(int b);
+  // While activate() runs: RPDO1 (enable operation, zero torque) to every CiA 402 node of the
+  // synced buses and their SYNC, once per tick (called from pump_until).
+  void keep_alive() noexcept;
   hal::LifecycleResult start_bus(int b);
   hal::LifecycleResult enable_bus(int b);
   hal::LifecycleResult start_mit(int b);
@@ -301,6 +307,7 @@ class CanHardware final : public hal::Hardware {
   bool configured_ = false;
   bool active_ = false;
   std::int64_t last_send_ns_ = 0;
+  std::int64_t next_keep_alive_ns_ = 0;
   std::string startup_notes_;
   std::array<JointRuntime, kNj> joints_{};
   std::array<Bus, kMaxBuses> buses_{};

@@ -215,6 +215,9 @@ struct Cia402Options {
   bool only_used_pdos = false;
   // Every SDO answer goes out twice (a repeat the host must not take for the next one's).
   bool repeat_sdo_answers = false;
+  // Lost communication (0x6007 = 3: quick stop): Operation enabled, and no SYNC for this long
+  // (0: never); armed by the first SYNC in Operational.
+  std::uint32_t sync_timeout_ms = 0;
 };
 
 // CiA 402 subset: NMT, heartbeat, SDO (expedited + aborts), PDO mapping by SDO,
@@ -233,6 +236,8 @@ class Cia402Drive final : public Drive {
   bool powered() const noexcept { return nmt_ != 0x00; }  // boot() was called
   // NMT reset node / reset communication commands taken since power-on.
   std::uint64_t nmt_resets() const noexcept { return nmt_resets_; }
+  // Quick stops for lost communication (Cia402Options::sync_timeout_ms).
+  std::uint64_t sync_timeouts() const noexcept { return sync_timeouts_; }
 
  private:
   struct Pdo {
@@ -265,7 +270,9 @@ class Cia402Drive final : public Drive {
   bool nmt_pending_ = false;               // an NMT command waiting for options_.nmt_delay_ms
   can::cia402::NmtCommand pending_nmt_{};
   std::int64_t nmt_due_ns_ = 0;
+  std::int64_t last_sync_ns_ = 0;          // in Operational (0: none yet)
   std::uint64_t nmt_resets_ = 0;
+  std::uint64_t sync_timeouts_ = 0;
   std::int64_t next_heartbeat_ns_ = 0;
   std::int8_t mode_ = 0;
   // 0x6061: shows mode_ from mode_display_at_ns_ on, mode_before_ until then (mode_display_delay).
