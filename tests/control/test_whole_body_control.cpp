@@ -91,6 +91,17 @@ TEST_F(Control, TheTareIsTheMeanOfItsReadingsAndIsSubtracted) {
   m.wrist.force_n = Vec3(12, 2, 3);
   ASSERT_EQ(c->tick(m, kDt_s, cmd), TickStatus::ok);
   EXPECT_EQ(c->wrist_force_n(), Vec3(10, 0, 0));
+  {  // the WBC, the footholds and the unmeasured pushes take it in world axes: the sensor's
+     // rotation at the tick's pose (kinematics computed here from the tick's state)
+    const dyn::Model model;
+    auto data = std::make_unique<dyn::Data>();
+    dyn::compute_tick(model, *data, c->input().state.q, c->input().state.v);
+    const Mat3& r = data->frames[kWristFtFrame].rotation;
+    EXPECT_LT((c->input().wrist_force_world_n - r * Vec3(10, 0, 0)).norm(), 1e-12);
+    EXPECT_LT((c->input().wrist_torque_world_nm - r * (m.wrist.torque_nm - Vec3(1, 1, 1.5))).norm(), 1e-12);
+    EXPECT_EQ(c->output().external_force_world_n, c->input().wrist_force_world_n);
+    EXPECT_GT((r * Vec3(10, 0, 0) - Vec3(10, 0, 0)).norm(), 1.0) << "the sensor's axes are not the world's here";
+  }
   // A re-tare collects in stand only, never in the control mode (a push is not a bias);
   // a reading that is not valid counts as no wrench and is not collected.
   c->request_tare();

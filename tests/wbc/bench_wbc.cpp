@@ -31,7 +31,7 @@ void BM_WbcTick(benchmark::State& state) {
   wbc::WbcInput in;
   in.state.q = q;
   in.state.set_rotation_from_q();
-  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(50.0, 0.0, 0.0);
+  in.wrist_force_world_n = Vec3(50.0, 0.0, 0.0);
   dyn::compute_tick(model, *data, q, in.state.v);
   controller->tick(in, *data);  // warm start, as every tick after the first
   for (auto _ : state) {  // the dynamics (computed once per tick by springbok::control) and the controller

@@ -145,7 +145,7 @@ struct Controller : test::WbcFixture {
 TEST_F(Controller, TorqueOnTheHandIsRenderedWithEveryRowOfTheDynamics) {
   dyn::compute_tick(model, *data, in.state.q, in.state.v);
   const Vec3 torque_world(0.0, 5.0, -2.0);
-  in.wrist_torque_nm = data->frames[kWristFtFrame].rotation.transpose() * torque_world;
+  in.wrist_torque_world_nm = torque_world;
   const auto& out = tick();
   ASSERT_EQ(out.qp_status, qp::Status::optimal);
   EXPECT_LT((out.external_torque_world_nm - torque_world).norm(), 1e-9);
@@ -227,15 +227,15 @@ TEST_F(Controller, OffByDefaultTheHandsOrientationIsFree) {
   wbc = std::make_unique<wbc::WholeBodyController>(params);
   wbc->set_reference(in.state.q, *data);
   dyn::compute_tick(model, *data, in.state.q, in.state.v);
-  in.wrist_torque_nm = Vec3(0.0, 0.0, 3.0);
+  in.wrist_torque_world_nm = Vec3(0.0, 0.0, 3.0);
   const auto& out = tick();
   ASSERT_EQ(out.qp_status, qp::Status::optimal);
   EXPECT_EQ(out.ee_angular_acceleration_desired, Vec3::Zero());
 }
 
 TEST_F(Controller, TicksDoNotAllocate) {
-  in.wrist_force_n = Vec3(10.0, -5.0, 3.0);
-  in.wrist_torque_nm = Vec3(1.0, 2.0, -3.0);
+  in.wrist_force_world_n = Vec3(10.0, -5.0, 3.0);
+  in.wrist_torque_world_nm = Vec3(1.0, 2.0, -3.0);
   EXPECT_EQ(allocations_over_ticks(), 0u);
 }
 

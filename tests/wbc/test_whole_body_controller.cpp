@@ -29,7 +29,7 @@ TEST_F(Fixture, StandingStillIsAnEquilibrium) {
 }
 
 TEST_F(Fixture, PushOnTheHandObeysNewtonForTheWholeRobot) {
-  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(50.0, 0.0, 0.0);  // 50 N along world x
+  in.wrist_force_world_n = Vec3(50.0, 0.0, 0.0);  // 50 N along world x
   const auto& out = tick();
   ASSERT_EQ(out.qp_status, qp::Status::optimal);
   EXPECT_NEAR(out.external_force_world_n.x(), 50.0, 1e-9);
@@ -114,10 +114,9 @@ TEST_F(Fixture, TheHandsTemplateAccelerationIsBoundedInNorm) {
   params.ee_acceleration_limit_m_s2 = 100.0;
   WholeBodyController light(params);
   light.set_reference(in.state.q, *data);
-  const Mat3& ft = data->frames[kWristFtFrame].rotation;
-  in.wrist_force_n = ft.transpose() * Vec3(30.0, 0.0, 0.0);  // 75 m/s^2: below
+  in.wrist_force_world_n = Vec3(30.0, 0.0, 0.0);  // 75 m/s^2: below
   EXPECT_LT((tick(light).ee_acceleration_desired - Vec3(75.0, 0.0, 0.0)).norm(), 1e-9);
-  in.wrist_force_n = ft.transpose() * Vec3(80.0, -60.0, 0.0);  // 250 m/s^2: bounded to 100
+  in.wrist_force_world_n = Vec3(80.0, -60.0, 0.0);  // 250 m/s^2: bounded to 100
   const auto& out = tick(light);
   ASSERT_EQ(out.qp_status, qp::Status::optimal);
   EXPECT_NEAR(out.ee_acceleration_desired.norm(), 100.0, 1e-9);
@@ -133,7 +132,7 @@ TEST_F(Fixture, JointFrictionIsCompensatedInTheTorquesAndTheirLimits) {
   // torque b qd higher (the equations of motion of a robot with that friction: M udot + h + B qd
   // = S^T tau + J^T F).
   in.state.v.tail<kNj>() = VecNj::LinSpaced(-0.4, 0.5);
-  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(30.0, 0.0, 10.0);
+  in.wrist_force_world_n = Vec3(30.0, 0.0, 10.0);
   WbcParams with_friction = params;
   with_friction.joint_viscous_friction_nms_per_rad = VecNj::LinSpaced(0.2, 2.0);
   WholeBodyController rubbing(with_friction);
@@ -158,7 +157,7 @@ TEST_F(Fixture, JointFrictionIsCompensatedInTheTorquesAndTheirLimits) {
   EXPECT_LE(std::abs(limited.tau_nm[kElbow]), limit_nm + 1e-6);
   EXPECT_LT(limited.udot[6 + kElbow], -1.0);
   Vec6 wrench;
-  wrench << data->frames[kWristFtFrame].rotation * in.wrist_force_n, Vec3::Zero();
+  wrench << in.wrist_force_world_n, Vec3::Zero();
   VecNv residual = dynamics_residual(limited, wrench);
   residual.tail<kNj>() += with_friction.joint_viscous_friction_nms_per_rad.cwiseProduct(in.state.v.tail<kNj>());
   EXPECT_LT(residual.cwiseAbs().maxCoeff(), 1e-6) << "the motion obeys the dynamics with friction";
@@ -170,7 +169,7 @@ TEST_F(Fixture, JointAccelerationsKeepTheSpeedsWithinTheirLimits) {
   constexpr int kWrist2 = kFirstArmJoint + 5;  // Gen3 joint 6, 1.2218 rad/s
   const double v_max = robot::kJoints[kWrist2].limits.velocity_rad_s;
   ASSERT_NEAR(v_max, 1.2218, 1e-12) << "the URDF's figure, through urdf2model";
-  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(0.0, 60.0, -40.0);
+  in.wrist_force_world_n = Vec3(0.0, 60.0, -40.0);
   const double t_s = params.joint_velocity_horizon_s;
   for (const double speed : {0.99 * v_max, 1.3 * v_max, -1.3 * v_max}) {
     in.state.v.tail<kNj>().setZero();
@@ -186,7 +185,7 @@ TEST_F(Fixture, JointAccelerationsKeepTheSpeedsWithinTheirLimits) {
       EXPECT_LT(out.udot[6 + kWrist2] * speed, 0.0) << "a joint past its limit is slowed: " << speed;
     }
     Vec6 wrench;
-    wrench << data->frames[kWristFtFrame].rotation * in.wrist_force_n, Vec3::Zero();
+    wrench << in.wrist_force_world_n, Vec3::Zero();
     EXPECT_LT(dynamics_residual(out, wrench).cwiseAbs().maxCoeff(), 1e-6);
   }
 }
@@ -222,7 +221,7 @@ TEST_F(Fixture, SpeedRowsGiveWayWhereTheTorqueCannotBrake) {
 TEST_F(Fixture, AnArmOverloadedByAPushYieldsAndTheBaseKeepsItsTask) {
   tick();  // warm up
   const Vec3 push(150.0, 0.0, 0.0);
-  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * push;
+  in.wrist_force_world_n = push;
   constexpr int kElbow = kFirstArmJoint + 3;
   std::size_t allocations = 0;
   const wbc::WbcOutput out = tick_counting_allocations(allocations);
@@ -255,7 +254,7 @@ TEST_F(Fixture, AnArmOverloadedByAPushYieldsAndTheBaseKeepsItsTask) {
   EXPECT_LT(fast.base_wrench_applied.tail<3>().norm(), 1.0) << fast.base_wrench_applied.transpose();
 
   // The push gone, the arm holds again and its bounds are back.
-  in.wrist_force_n.setZero();
+  in.wrist_force_world_n.setZero();
   in.state.v.setZero();
   const wbc::WbcOutput& calm = tick();
   ASSERT_EQ(calm.qp_status, qp::Status::optimal);
@@ -268,7 +267,7 @@ TEST_F(Fixture, AnArmOverloadedByAPushYieldsAndTheBaseKeepsItsTask) {
 // the push (plus 10 N). The same displaced hand without an overload pulls with its full spring.
 TEST_F(Fixture, AfterAnOverloadTheHandSpringPullsTheBaseByAtMostThePush) {
   const Vec3 push(150.0, 0.0, 0.0);
-  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * push;
+  in.wrist_force_world_n = push;
   ASSERT_TRUE(tick().arm_overloaded);
   // The arm folded by the push: the elbow 0.8 rad further, the hand ~0.3 m away.
   const VecNq folded = [this] {
@@ -277,9 +276,9 @@ TEST_F(Fixture, AfterAnOverloadTheHandSpringPullsTheBaseByAtMostThePush) {
     return q;
   }();
   in.state.q = folded;
-  in.wrist_force_n = Vec3::Zero();
+  in.wrist_force_world_n = Vec3::Zero();
   dyn::compute_tick(model, *data, in.state.q, in.state.v);
-  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * push;
+  in.wrist_force_world_n = push;
   const Vec3 spring = params.template_params.stiffness_ee_n_per_m.cwiseProduct(
       data->frames[kEeFrame].translation - wbc->reference().ee_position_m);
   ASSERT_GT(spring.norm(), push.norm() + 10.0) << "the case: a spring stretched beyond the push";
@@ -298,7 +297,7 @@ TEST_F(Fixture, AfterAnOverloadTheHandSpringPullsTheBaseByAtMostThePush) {
   WholeBodyController fresh(params);
   fresh.set_reference(standing_q(), *data);
   in.state.q = folded;
-  in.wrist_force_n = Vec3::Zero();
+  in.wrist_force_world_n = Vec3::Zero();
   const wbc::WbcOutput& full = tick(fresh);
   EXPECT_FALSE(full.hand_coupling_limited);
   EXPECT_LT((full.base_wrench_desired.head<3>() - spring).norm(), 1e-9);
@@ -317,7 +316,7 @@ TEST_F(Fixture, AnArmReferenceBeyondItsTorquesIsCutToWhatTheyGive) {
   wbc->set_reference(in.state.q, *data);
   tick();
   const Vec3 push(50.0, 0.0, 0.0);
-  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * push;
+  in.wrist_force_world_n = push;
   const wbc::WbcOutput& out = tick();
   ASSERT_EQ(out.qp_status, qp::Status::optimal);
   EXPECT_TRUE(out.arm_reference_saturated);
@@ -387,7 +386,7 @@ TEST_F(Fixture, TheSupportLimitHoldsTheBaseBackFromTheEdgeAPushTipsItOver) {
     const Eigen::Vector2d n = Eigen::Vector2d(a.y() - b.y(), b.x() - a.x()).normalized();
     ASSERT_LT(n.y(), -0.99) << "the left edge runs along x";
     const double fy = (n.dot(com.head<2>() - a) - target_m) / (-n.y()) * weight_n / lever_m;
-    in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(0.0, fy, 0.0);
+    in.wrist_force_world_n = Vec3(0.0, fy, 0.0);
     std::size_t allocations = 0;
     const wbc::WbcOutput out = tick_counting_allocations(allocations);
     EXPECT_EQ(allocations, 0u);
@@ -407,8 +406,8 @@ TEST_F(Fixture, TheSupportLimitHoldsTheBaseBackFromTheEdgeAPushTipsItOver) {
 
   // The same CoP from a push the wrist does not measure (WbcInput::unmeasured_force_world_n,
   // at the centre of mass): it moves the CoP by (c_z - z_g) F / W.
-  const Vec3 wrist_push_n = in.wrist_force_n;
-  in.wrist_force_n.setZero();
+  const Vec3 wrist_push_n = in.wrist_force_world_n;
+  in.wrist_force_world_n.setZero();
   {
     const Eigen::Vector2d a = data->frames[kFootFrames[0]].translation.head<2>();
     const double target_m = params.support_margin_m - 0.015;
@@ -419,7 +418,7 @@ TEST_F(Fixture, TheSupportLimitHoldsTheBaseBackFromTheEdgeAPushTipsItOver) {
     EXPECT_LT(out.base_wrench_desired.y(), -1.0);
   }
   in.unmeasured_force_world_n.setZero();
-  in.wrist_force_n = wrist_push_n;
+  in.wrist_force_world_n = wrist_push_n;
 
   // The same push while a foot's force ramps (stepping), on two feet, or right after a stance
   // change: no limit.
@@ -481,7 +480,7 @@ TEST_F(Fixture, QpFailureIsReportedAndCounted) {
 // Tick after tick with the same contacts, the last tick's active set is this tick's:
 // the solver takes it directly (its shortcut), and the answer is the cold one.
 TEST_F(Fixture, SteadyTicksAreSolvedOnTheLastActiveSet) {
-  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(50.0, 0.0, 0.0);
+  in.wrist_force_world_n = Vec3(50.0, 0.0, 0.0);
   const wbc::WbcOutput first = tick();  // cold
   ASSERT_EQ(first.qp_status, qp::Status::optimal);
   EXPECT_FALSE(first.qp_from_hint);
@@ -511,7 +510,7 @@ TEST_F(Fixture, SteadyTicksAreSolvedOnTheLastActiveSet) {
 // it: through a sequence of switches (feet lifting, landing, the other diagonal, three feet)
 // every tick's answer is that of a fresh controller built for that tick's stance.
 TEST_F(Fixture, ContactSwitchesLeaveNoStaleEntriesInTheProblem) {
-  in.wrist_force_n = data->frames[kWristFtFrame].rotation.transpose() * Vec3(20.0, 5.0, 0.0);
+  in.wrist_force_world_n = Vec3(20.0, 5.0, 0.0);
   const std::array<Stance, 7> stances = {{{true, true, true, true},
                                           {true, false, false, true},
                                           {true, false, false, true},
@@ -535,7 +534,7 @@ TEST_F(Fixture, ContactSwitchesLeaveNoStaleEntriesInTheProblem) {
 }
 
 TEST_F(Fixture, TicksDoNotAllocate) {
-  in.wrist_force_n = Vec3(10.0, -5.0, 3.0);
+  in.wrist_force_world_n = Vec3(10.0, -5.0, 3.0);
   EXPECT_EQ(allocations_over_ticks(), 0u);
 }
 }  // namespace

@@ -75,8 +75,8 @@ void WholeBodyControl::take_wrist(const hal::Measurements& m, bool collect) noex
       ++tare_.completed;
     }
   }
-  input_.wrist_force_n = valid ? Vec3(m.wrist.force_n - tare_.force_n) : Vec3::Zero();
-  input_.wrist_torque_nm = valid ? Vec3(m.wrist.torque_nm - tare_.torque_nm) : Vec3::Zero();
+  wrist_force_n_ = valid ? Vec3(m.wrist.force_n - tare_.force_n) : Vec3::Zero();
+  wrist_torque_nm_ = valid ? Vec3(m.wrist.torque_nm - tare_.torque_nm) : Vec3::Zero();
 }
 
 bool WholeBodyControl::request_velocity(const Vec3& velocity) noexcept {
@@ -166,8 +166,7 @@ Vec3 WholeBodyControl::footholds_shift_h(const Mat3& yaw) const noexcept {
   const Vec3 push = magnitude > kUnmeasuredForceDeadband_n ? Vec3((1.0 - kUnmeasuredForceDeadband_n / magnitude) * unmeasured)
                                                            : Vec3::Zero();
   Vec3 centre = dyn::static_zmp(com, model_.total_mass_kg * kGravity_m_s2, wrist.translation,
-                                 wrist.rotation * input_.wrist_force_n, wrist.rotation * input_.wrist_torque_nm,
-                                 feet_z_m - kFootRadius_m, push);
+                                 input_.wrist_force_world_n, input_.wrist_torque_world_nm, feet_z_m - kFootRadius_m, push);
   centre.z() = feet_z_m;
   if (!centre.allFinite()) return Vec3::Zero();
   return yaw.transpose() * (centre - state_.q.head<3>()) - trot_.nominal_centre_h();
@@ -181,7 +180,7 @@ void WholeBodyControl::observe_unmeasured_force(double dt_s, bool engaging) noex
     estimate.setZero();
     return;
   }
-  Vec3 force = foot_forces_.external_force_world_n() - data_->frames[kWristFtFrame].rotation * input_.wrist_force_n;
+  Vec3 force = foot_forces_.external_force_world_n() - input_.wrist_force_world_n;
   for (int f = 0; f < kFeet; ++f) force -= foot_forces_.force_world_n()[f];
   if (!force.allFinite()) return;
   const double alpha = dt_s / (kUnmeasuredForceFilter_s + dt_s);
@@ -371,6 +370,9 @@ TickStatus WholeBodyControl::tick(const hal::Measurements& m, double dt_s, hal::
   if (!engaging) control_time_s_ += dt_s;
   step_tuning(dt_s);
   dyn::compute_tick(model_, *data_, state_.q, state_.v);  // the tick's kinematics and dynamics, once
+  const Mat3& wrist_rotation = data_->frames[kWristFtFrame].rotation;  // the wrist wrench in world axes, once
+  input_.wrist_force_world_n = wrist_rotation * wrist_force_n_;
+  input_.wrist_torque_world_nm = wrist_rotation * wrist_torque_nm_;
   if (engaging) foot_forces_.reset();
   foot_forces_.update(*data_, state_.v, state_.rotation_wb, m.tau_nm,
                       params_.wbc.joint_viscous_friction_nms_per_rad.cwiseProduct(state_.v.tail<kNj>()), dt_s);

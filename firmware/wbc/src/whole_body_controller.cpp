@@ -593,9 +593,7 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& 
       swing_kinematics(d, in.state, f, swing_[f]);
     }
   }
-  const Mat3& ee_rot = d.frames[kWristFtFrame].rotation;
-  wrench_ee_world_.head<3>() = ee_rot * in.wrist_force_n;
-  wrench_ee_world_.tail<3>() = ee_rot * in.wrist_torque_nm;
+  wrench_ee_world_ << in.wrist_force_world_n, in.wrist_torque_world_nm;
   out_.external_force_world_n = wrench_ee_world_.head<3>();
   out_.external_torque_world_nm = wrench_ee_world_.tail<3>();
   out_.ee_rotation = d.frames[kEeFrame].rotation;

@@ -208,7 +208,7 @@ class WholeBodyControl {
   GaitState gait_state() const noexcept { return gait_state_; }
   const Tare& tare() const noexcept { return tare_; }
   // The wrist wrench the controller used this tick (tared; zero when not valid), EE frame.
-  const Vec3& wrist_force_n() const noexcept { return input_.wrist_force_n; }
+  const Vec3& wrist_force_n() const noexcept { return wrist_force_n_; }
   std::uint64_t stance_changes() const noexcept { return stance_changes_; }
   std::uint64_t failed_ticks() const noexcept { return failed_ticks_; }
   const ControlParams& params() const noexcept { return params_; }
@@ -230,6 +230,8 @@ class WholeBodyControl {
   std::unique_ptr<wbc::WholeBodyController> wbc_;
   gait::TrotGait trot_;
   wbc::WbcInput input_;       // input_.state is the tick's RobotState
+  Vec3 wrist_force_n_ = Vec3::Zero();    // the tick's wrist reading less the tare, sensor axes
+  Vec3 wrist_torque_nm_ = Vec3::Zero();  // (in world axes: input_, after the kinematics)
   RobotState& state_ = input_.state;
   Eigen::Vector2d start_xy_m_ = Eigen::Vector2d::Zero();
   bool have_sequence_ = false;

@@ -167,9 +167,11 @@ struct WbcInput {
   std::array<double, kFeet> normal_force_cap_n{
       std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
       std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
-  // The wrist F/T measurement (external wrench on the EE, sensor axes, about its origin).
-  Vec3 wrist_force_n = Vec3::Zero();
-  Vec3 wrist_torque_nm = Vec3::Zero();
+  // The wrist F/T measurement: the external wrench on the EE about the sensor's origin, in
+  // world axes (the caller turns the reading into them with the tick's kinematics, once:
+  // springbok::control does it for the WBC, the footholds and the unmeasured pushes).
+  Vec3 wrist_force_world_n = Vec3::Zero();
+  Vec3 wrist_torque_world_nm = Vec3::Zero();
   // Pushes the wrist sensor does not measure (on the trunk, a leg, the arm's links: the robot's
   // momentum balance, springbok::control), world axes, N; taken as acting at the centre of mass.
   Vec3 unmeasured_force_world_n = Vec3::Zero();
