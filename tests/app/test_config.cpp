@@ -7,6 +7,7 @@
 #include <string>
 
 #include "springbok/app/config.hpp"
+#include "springbok/app/control_mode.hpp"
 #include "springbok/app/drive_gains.hpp"
 
 namespace springbok::app {
@@ -102,6 +103,16 @@ TEST(AppConfig, ControlSectionErrorsNameTheField) {
   EXPECT_EQ(trot.config.gait.trot.duty_factor, 0.7);
   EXPECT_EQ(only_error(load_config_text(with(estimator_line, estimator_line + "\n  gait: {duty_factor: 0.3}"))),
             "control.gait.duty_factor: must be in [0.5, 0.95], got 0.3");
+  // control.push_stepping: optional, on by default; what the control mode's controller gets.
+  EXPECT_TRUE(defaults.config.push_stepping.enabled);
+  const ConfigResult off =
+      load_config_text(with(estimator_line, estimator_line + "\n  push_stepping: {enabled: false, delay: 0.1}"));
+  ASSERT_TRUE(off.ok) << off.errors.front();
+  EXPECT_FALSE(off.config.push_stepping.enabled);
+  EXPECT_EQ(off.config.push_stepping.delay_s, 0.1);
+  EXPECT_FALSE(springbok::app::control_params(off.config).push_stepping.enabled);
+  EXPECT_EQ(only_error(load_config_text(with(estimator_line, estimator_line + "\n  push_stepping: {settle: -1}"))),
+            "control.push_stepping.settle: must be in [0, 60], got -1");
 }
 
 TEST(AppConfig, UnknownKeyIsNamed) {

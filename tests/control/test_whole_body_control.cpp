@@ -249,6 +249,91 @@ TEST_F(Control, TheRestPoseWalksWithTheCommandedVelocity) {
   EXPECT_EQ(c->wbc().reference().base_position_m, stopped.base_position_m);
 }
 
+// Stepping to catch a push (PushStepping), on the controller alone: a wrist push held at the
+// hand whose static centre of pressure (the WBC's support_distance_m) comes within
+// trigger_inside_m of the feet's edge starts, delay_s later, a trot in place (no velocity, the
+// configured cycle); the robot's sensors report it standing still, so it has settled settle_s
+// later and stands again (through stopping). A push that keeps the CoP further in, or the
+// feature off, never steps; an operator's gait request ends it. kPush_n, sideways in world axes,
+// puts the CoP a few cm from the left edge (the sensor's rotation from the tick's kinematics).
+TEST_F(Control, APushNearTheFeetsEdgeStepsInPlaceUntilItSettles) {
+  constexpr double kPush_n = 250.0;
+  const dyn::Model model;
+  auto data = std::make_unique<dyn::Data>();
+  dyn::compute_tick(model, *data, standing_q(), VecNv::Zero());
+  const Mat3 wrist_rotation = data->frames[kWristFtFrame].rotation;
+  auto push_measurements = [&](double force_n) {
+    hal::Measurements m = next();
+    m.wrist.force_n = wrist_rotation.transpose() * Vec3(0.0, force_n, 0.0);
+    m.tau_nm = cmd.tau_ff_nm;  // the drives give what was commanded (the feet's forces, the unmeasured pushes' balance)
+    return m;
+  };
+  // The sensors report a robot that never moves: the momentum balance reads the trot's changing
+  // torques as pushes of +-40 N, which the settle test would take for a changing push (its
+  // push criterion is scored in the simulator, SimWbc.APushPastWhatStandingHoldsMakesTheRobotStep).
+  params.push_stepping.settle_push_change_n = 1e3;
+  for (const bool enabled : {true, false}) {
+    params.push_stepping.enabled = enabled;
+    make();
+    hal::Measurements m = push_measurements(0.0);
+    ASSERT_EQ(c->tick(m, kDt_s, cmd), TickStatus::ok);
+    for (int i = 0; i < 400; ++i) ASSERT_EQ(c->tick(m = push_measurements(0.0), kDt_s, cmd), TickStatus::ok);
+    EXPECT_GT(c->output().support_distance_m, 0.1) << "unpushed, the CoP is well inside";
+    int ticks_to_step = -1, ticks_to_stand = -1;
+    control::GaitState stepping_state = control::GaitState::stand;
+    Vec3 stepping_velocity = Vec3::Constant(1.0);
+    gait::TrotParams stepping_trot;
+    test::AllocationTrap trap;  // the stepping's start and end, tick by tick
+    for (int i = 0; i < 1000 && ticks_to_step < 0; ++i) {
+      m = push_measurements(kPush_n);
+      ASSERT_EQ(c->tick(m, kDt_s, cmd), TickStatus::ok);
+      if (c->stepping_for_push()) {
+        ticks_to_step = i;
+        stepping_state = c->gait_state();
+        stepping_velocity = c->walking_velocity();
+        stepping_trot = c->trot().params();
+      }
+    }
+    if (ticks_to_step >= 0) {
+      for (int i = 0; i < 3000 && ticks_to_stand < 0; ++i) {
+        m = push_measurements(kPush_n);
+        ASSERT_EQ(c->tick(m, kDt_s, cmd), TickStatus::ok);
+        if (c->gait_state() == control::GaitState::stand) ticks_to_stand = i;
+      }
+    }
+    EXPECT_EQ(trap.disarm(), 0u);
+    if (!enabled) {
+      EXPECT_EQ(ticks_to_step, -1) << "off";
+      EXPECT_EQ(c->gait_state(), control::GaitState::stand);
+      EXPECT_LT(c->output().support_distance_m, params.push_stepping.trigger_inside_m) << "the push is near the edge";
+      continue;
+    }
+    ASSERT_GE(ticks_to_step, 0) << "it never stepped";
+    EXPECT_EQ(stepping_state, control::GaitState::trot);
+    EXPECT_EQ(stepping_velocity, Vec3::Zero());
+    EXPECT_EQ(stepping_trot.step_frequency_hz, params.gait.trot.step_frequency_hz);
+    EXPECT_EQ(stepping_trot.velocity_x_m_s, 0.0);
+    EXPECT_EQ(stepping_trot.velocity_gain_s, params.push_stepping.velocity_gain_s);
+    // The CoP crossed trigger_inside_m some ticks after the push began (the WBC's figure is last
+    // tick's), then delay_s.
+    EXPECT_GE(ticks_to_step + 1, static_cast<int>(params.push_stepping.delay_s / kDt_s));
+    ASSERT_GE(ticks_to_stand, 0) << "it never stood again";
+    EXPECT_GE(ticks_to_stand + 1, static_cast<int>(params.push_stepping.settle_s / kDt_s));
+    EXPECT_FALSE(c->stepping_for_push());
+    // Stepping again, then an operator's stand request: the operator's gait from then on.
+    params.push_stepping.settle_s = 1e3;
+    make();
+    for (int i = 0; i < 400; ++i) ASSERT_EQ(c->tick(push_measurements(0.0), kDt_s, cmd), TickStatus::ok);
+    for (int i = 0; i < 1000 && !c->stepping_for_push(); ++i) ASSERT_EQ(c->tick(m = push_measurements(kPush_n), kDt_s, cmd), TickStatus::ok);
+    ASSERT_TRUE(c->stepping_for_push());
+    ASSERT_TRUE(c->request_gait(control::GaitCommand{}));
+    ASSERT_EQ(c->tick(push_measurements(kPush_n), kDt_s, cmd), TickStatus::ok);
+    EXPECT_FALSE(c->stepping_for_push());
+    EXPECT_NE(c->gait_state(), control::GaitState::trot);
+    params.push_stepping.settle_s = control::PushStepping{}.settle_s;
+  }
+}
+
 TEST_F(Control, TicksDoNotAllocate) {
   make();
   c->observe(next(), kDt_s, true);

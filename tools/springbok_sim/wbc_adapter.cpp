@@ -76,11 +76,12 @@ WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
       idle_columns_(static_cast<int>(std::ranges::count(csv_columns(), ','))),
       data_(std::make_unique<dyn::Data>()) {
   control::ControlParams cp;
-  // `estimator` and `gait` are the controller's own parts, every other key the WBC's.
+  // `estimator`, `gait` and `push_stepping` are the controller's own parts, every other key the WBC's.
   if (params["estimator"].present()) {
     cp.estimator = params::read_estimator_params(params["estimator"]);
     use_estimator_ = true;
   }
+  if (params["push_stepping"].present()) cp.push_stepping = params::read_push_stepping(params["push_stepping"]);
   if (params["gait"].present()) {
     cp.gait.kind = control::GaitKind::trot;
     cp.gait.trot = params::read_trot_params(params["gait"], params::WithVelocitySchedule::yes);
@@ -239,6 +240,7 @@ std::string WbcAdapter::csv_columns() const {
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",hand_rest_r{}_rad", a);
   h += ",arm_reference_saturated,arm_overloaded,hand_coupling_limited,support_limited,support_distance_m";
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",unmeasured_f{}_n", a);
+  h += ",stepping_for_push";
   return h;
 }
 
@@ -324,6 +326,11 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   if (at_limit) ++any_torque_limit_ticks_;
   if (o.arm_overloaded) ++arm_overloaded_ticks_;
   if (o.support_limited) ++support_limited_ticks_;
+  if (control_->stepping_for_push()) {
+    ++push_stepping_ticks_;
+    if (!was_stepping_for_push_) ++push_steppings_;
+  }
+  was_stepping_for_push_ = control_->stepping_for_push();
 
   row += ",1";
   for (int a = 0; a < 6; ++a) put(row, s.measured[a]);
@@ -360,6 +367,7 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   row += o.support_limited ? ",1" : ",0";
   put(row, std::isfinite(o.support_distance_m) ? o.support_distance_m : -1.0);
   for (int a = 0; a < 3; ++a) put(row, control_->input().unmeasured_force_world_n[a]);
+  row += control_->stepping_for_push() ? ",1" : ",0";
 }
 
 std::string WbcAdapter::summary_fields() const {
@@ -479,6 +487,8 @@ std::string WbcAdapter::summary_fields() const {
                    robot::kJoints[static_cast<std::size_t>(most_at_limit - torque_limit_ticks_.begin())].name);
   j += fmt::format("  \"arm_overloaded_s\": {:.6g},\n", static_cast<double>(arm_overloaded_ticks_) * dt_s_);
   j += fmt::format("  \"support_limited_s\": {:.6g},\n", static_cast<double>(support_limited_ticks_) * dt_s_);
+  j += fmt::format("  \"push_stepping\": {{\"times\": {}, \"s\": {:.6g}}},\n", push_steppings_,
+                   static_cast<double>(push_stepping_ticks_) * dt_s_);
   j += fmt::format("  \"max_joint_speed_ratio\": {:.6g},\n", max_speed_ratio_);
   j += fmt::format("  \"max_joint_speed_joint\": \"{}\",\n", robot::kJoints[static_cast<std::size_t>(max_speed_joint_)].name);
   j += fmt::format("  \"nrmse\": {},\n", json_axes(nrmse));

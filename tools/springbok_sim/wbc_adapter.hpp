@@ -129,6 +129,9 @@ class WbcAdapter final : public Controller {
   std::uint64_t any_torque_limit_ticks_ = 0;              // ticks with some joint there
   std::uint64_t arm_overloaded_ticks_ = 0;                // ticks the arm yielded to a push it could not hold
   std::uint64_t support_limited_ticks_ = 0;               // ticks the base was held back from its support's edge
+  std::uint64_t push_stepping_ticks_ = 0;                 // ticks trotting for a push (control::PushStepping)
+  std::uint64_t push_steppings_ = 0;                      // times it started
+  bool was_stepping_for_push_ = false;
   double max_speed_ratio_ = 0.0;                          // max |qd| / velocity limit
   int max_speed_joint_ = 0;
   std::uint64_t failed_ticks_ = 0;

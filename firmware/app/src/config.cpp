@@ -100,7 +100,7 @@ AppConfig read_config(const Field& root) {
       }
     }
   }
-  if (const Field n = root["control"]; section(n, {"controller", "wbc", "estimator", "gait"})) {
+  if (const Field n = root["control"]; section(n, {"controller", "wbc", "estimator", "gait", "push_stepping"})) {
     int kind = 0;
     if (need(n, "controller").choice(kind, {"wbc", "joint_pd"})) {
       c.control_mode = kind == 0 ? ControlModeKind::wbc : ControlModeKind::joint_pd;
@@ -118,6 +118,8 @@ AppConfig read_config(const Field& root) {
       c.gait.kind = control::GaitKind::trot;
       c.gait.trot = params::read_trot_params(n["gait"]);
     }
+    // optional: stepping to catch a push standing cannot hold (on by default)
+    if (n["push_stepping"].present()) c.push_stepping = params::read_push_stepping(n["push_stepping"]);
   }
   if (const Field n = root["operator"]; section(n, {"socket"}) && need(n, "socket").text(c.operator_socket)) {
     constexpr std::size_t kMaxSocketPath = sizeof(sockaddr_un::sun_path) - 1;  // what bind(2) takes

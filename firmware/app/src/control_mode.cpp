@@ -12,6 +12,7 @@ control::ControlParams control_params(const AppConfig& config) {
   p.wbc = config.wbc;
   p.estimator = config.estimator;
   p.gait = config.gait;
+  p.push_stepping = config.push_stepping;
   p.tare_samples = config.wrist_tare_samples;
   return p;
 }
@@ -65,6 +66,7 @@ void ControlMode::publish(rt::LatestValue<ControllerSnapshot>& out) noexcept {
     const control::WholeBodyControl& c = *control_;
     s.engaged = c.engaged();
     s.gait = c.gait_state();
+    s.stepping_for_push = c.stepping_for_push();
     s.trot = c.trot().params();
     s.last_tick = last_status_;
     s.stance = c.state().stance;

@@ -125,13 +125,14 @@ std::string OperatorServer::controller_line() {
       text, sizeof text,
       "ok controller controller=wbc engaged=%d gait=%s step_frequency=%.3g duty_factor=%.3g stance=%s "
       "last_tick=%s failed_ticks=%llu stance_changes=%llu tare=%s tares=%u tare_force_n=%.3f,%.3f,%.3f "
-      "wrist_force_n=%.3f,%.3f,%.3f base_position_m=%.4f,%.4f,%.4f base_velocity_m_s=%.4f,%.4f,%.4f",
+      "wrist_force_n=%.3f,%.3f,%.3f base_position_m=%.4f,%.4f,%.4f base_velocity_m_s=%.4f,%.4f,%.4f "
+      "stepping_for_push=%d",
       c.engaged ? 1 : 0, control::to_string(c.gait), c.trot.step_frequency_hz, c.trot.duty_factor,
       stance_list(c.stance).c_str(), control::to_string(c.last_tick), static_cast<unsigned long long>(c.failed_ticks),
       static_cast<unsigned long long>(c.stance_changes), t.running ? "collecting" : (t.completed > 0 ? "done" : "none"),
       t.completed, t.force_n.x(), t.force_n.y(), t.force_n.z(), c.wrist_force_n.x(), c.wrist_force_n.y(),
       c.wrist_force_n.z(), c.base_position_m.x(), c.base_position_m.y(), c.base_position_m.z(),
-      c.base_velocity_m_s.x(), c.base_velocity_m_s.y(), c.base_velocity_m_s.z());
+      c.base_velocity_m_s.x(), c.base_velocity_m_s.y(), c.base_velocity_m_s.z(), c.stepping_for_push ? 1 : 0);
   return text;
 }
 

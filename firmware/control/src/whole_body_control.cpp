@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Geometry>
 
@@ -187,6 +188,43 @@ void WholeBodyControl::observe_unmeasured_force(double dt_s, bool engaging) noex
   estimate += alpha * (force - estimate);
 }
 
+// PushStepping, standing: for delay_s the support limit's centre of pressure (the WBC's, last
+// tick) has been closer than trigger_inside_m to the feet's edge (or past it), or a foot's
+// normal force (the QP's) within unloaded_within_n of its minimum. Only while the limit has
+// settled on the stance (its distance computed: not right after a stance change). rt: no alloc
+bool WholeBodyControl::push_needs_a_step(double dt_s) noexcept {
+  const PushStepping& p = params_.push_stepping;
+  const wbc::WbcOutput& o = wbc_->output();
+  double least_normal_n = std::numeric_limits<double>::infinity();
+  for (int f = 0; f < kFeet; ++f) least_normal_n = std::min(least_normal_n, o.foot_force_n[f].z());
+  const bool near_edge =
+      std::isfinite(o.support_distance_m) &&
+      (o.support_distance_m < p.trigger_inside_m || least_normal_n < params_.wbc.normal_force_min_n + p.unloaded_within_n);
+  push_near_edge_s_ = p.enabled && near_edge ? push_near_edge_s_ + dt_s : 0.0;
+  if (!(push_near_edge_s_ >= p.delay_s)) return false;
+  push_near_edge_s_ = 0.0;
+  push_settled_s_ = 0.0;
+  return true;
+}
+
+// PushStepping, trotting for a push: for settle_s the trunk has stayed within settle_drift_m
+// (horizontally) and the push (the unmeasured one and the wrist's) within settle_push_change_n
+// of where they were when that interval began (the trot's own sway is no drift). rt: no alloc
+bool WholeBodyControl::push_settled(double dt_s) noexcept {
+  const PushStepping& p = params_.push_stepping;
+  const Vec3 push = input_.unmeasured_force_world_n + input_.wrist_force_world_n;
+  const Vec3& base = state_.q.head<3>();
+  if (push_settled_s_ == 0.0 || !((base - base_at_settle_m_).head<2>().norm() < p.settle_drift_m) ||
+      !((push - push_at_settle_n_).head<2>().norm() < p.settle_push_change_n)) {
+    push_settled_s_ = dt_s;  // a new interval from this tick
+    push_at_settle_n_ = push;
+    base_at_settle_m_ = base;
+    return false;
+  }
+  push_settled_s_ += dt_s;
+  return push_settled_s_ >= p.settle_s;
+}
+
 // Stance set and swing targets for this tick (data_ holds its kinematics). rt: no alloc
 void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
   if (engaging) {
@@ -197,6 +235,7 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
     velocity_command_.setZero();
   }
   bool start_trot = false;
+  if (gait_request_pending_ || engaging) stepping_for_push_ = false;  // the operator's gait from now on
   if (gait_request_pending_) {
     if (gait_state_ == GaitState::trot) {
       gait_state_ = GaitState::stopping;  // to stand, or to restart with new parameters once stood
@@ -212,6 +251,21 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
       start_trot = true;
       gait_request_pending_ = false;
     }
+  }
+  const bool standing = gait_state_ == GaitState::stand && !start_trot && !engaging;
+  if (!standing) push_near_edge_s_ = 0.0;
+  if (standing && push_needs_a_step(dt_s)) {
+    gait::TrotParams in_place = params_.gait.trot;
+    in_place.velocity_x_m_s = in_place.velocity_y_m_s = in_place.yaw_rate_rad_s = 0.0;
+    in_place.velocity_gain_s = std::max(in_place.velocity_gain_s, params_.push_stepping.velocity_gain_s);
+    trot_ = gait::TrotGait(in_place);
+    velocity_command_.setZero();
+    gait_state_ = GaitState::trot;
+    gait_time_s_ = 0.0;
+    start_trot = true;
+    stepping_for_push_ = true;
+  } else if (stepping_for_push_ && gait_state_ == GaitState::trot && push_settled(dt_s)) {
+    gait_state_ = GaitState::stopping;
   }
   move_rest_pose(dt_s);
   Stance stance = kAllFeet;
@@ -248,6 +302,7 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
     }
     if (gait_state_ == GaitState::stopping && all_down) gait_state_ = GaitState::stand;
   }
+  if (gait_state_ == GaitState::stand) stepping_for_push_ = false;
   for (int f = 0; f < kFeet; ++f) stance_changes_ += stance[f] != state_.stance[f] ? 1 : 0;
   state_.stance = stance;
 }

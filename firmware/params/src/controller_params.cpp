@@ -76,7 +76,7 @@ void read_rotational_template(const Field& f, wbc::RotationalTemplateParams& t) 
 wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
   if (parts == WithControllerParts::yes) {
     f.allow_only({"template", "rotational_template", "base_orientation", "arm", "weights", "contact", "limits", "swing",
-                  "joint_friction", "estimator", "gait", "hand_trajectory"});
+                  "joint_friction", "estimator", "gait", "push_stepping", "hand_trajectory"});
   } else {
     f.allow_only({"template", "rotational_template", "base_orientation", "arm", "weights", "contact", "limits", "swing",
                   "joint_friction"});
@@ -181,6 +181,21 @@ gait::TrotParams read_trot_params(const Field& f, WithVelocitySchedule schedule)
       (void)read_walking_velocity(v, p);
     }
   }
+  return p;
+}
+
+control::PushStepping read_push_stepping(const Field& f) {
+  f.allow_only({"enabled", "trigger_inside", "unloaded_within", "delay", "velocity_gain", "settle", "settle_drift",
+                "settle_push_change"});
+  control::PushStepping p;
+  f["enabled"].boolean(p.enabled);
+  f["trigger_inside"].number(p.trigger_inside_m, -0.5, 0.5);
+  f["unloaded_within"].number(p.unloaded_within_n, 0.0, 1e4);
+  f["delay"].number(p.delay_s, 0.0, 1.0);
+  f["settle"].number(p.settle_s, 0.0, 60.0);
+  f["velocity_gain"].number(p.velocity_gain_s, 0.0, 1.0);
+  f["settle_drift"].number(p.settle_drift_m, 0.0, 1.0);
+  f["settle_push_change"].number(p.settle_push_change_n, 0.0, 1e4);
   return p;
 }
 

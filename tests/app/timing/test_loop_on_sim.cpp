@@ -272,6 +272,7 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
             std::string::npos)
       << report;
   EXPECT_NE(report.find("tare=collecting tares=2 "), std::string::npos) << report;
+  EXPECT_NE(report.find(" stepping_for_push=0"), std::string::npos) << report;
   EXPECT_EQ(rig->supervisor.mode(), safety::Mode::control);
   EXPECT_EQ(rig->supervisor.faults(), 0u) << fault_list(rig->supervisor.faults());
   EXPECT_GT(robot.robot().ground_truth().q[2], 0.5);

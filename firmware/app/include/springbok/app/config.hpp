@@ -50,6 +50,7 @@ struct AppConfig {
   wbc::WbcParams wbc;                    // control.wbc (wbc_config.hpp's YAML)
   est::EstimatorParams estimator;        // control.estimator (every key optional)
   control::GaitCommand gait;             // control.gait (optional trot map): the gait the control mode engages with
+  control::PushStepping push_stepping;   // control.push_stepping (optional)
   std::uint32_t wrist_tare_samples = 500;  // the wrist F/T tare: the backend's (can.sensors.wrist_ft.tare_samples)
   std::string operator_socket;
   std::string log_path;                  // "-" = standard error

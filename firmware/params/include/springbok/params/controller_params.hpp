@@ -40,6 +40,10 @@
 // (step_frequency 0.1..5 Hz, duty_factor 0.5..0.95, step_height, velocity_gain, touchdown_depth,
 // touchdown_force, late_touchdown, force_ramp, velocity_x, velocity_y, yaw_rate), and `velocity: [v_x, v_y, yaw_rate]` for the last three at once.
 // With `schedule` yes the map may also hold `velocity_schedule` (a scenario's; its reader is the tool's).
+//
+// push_stepping (read_push_stepping; control::PushStepping), every key optional:
+//   {enabled: true, trigger_inside: 0.02, unloaded_within: 5, delay: 0.05, velocity_gain: 0.25,
+//    settle: 1.0, settle_drift: 0.05, settle_push_change: 20}   # m, N, s, s, s, m, N
 #pragma once
 
 #include "springbok/config/reader.hpp"
@@ -50,8 +54,9 @@
 
 namespace springbok::params {
 
-// `yes`: the map may also hold `estimator` and `gait` (a scenario's controller.params, whose
-// other keys are the WBC's); they are read by read_estimator_params / read_trot_params.
+// `yes`: the map may also hold `estimator`, `gait` and `push_stepping` (a scenario's
+// controller.params, whose other keys are the WBC's); they are read by read_estimator_params /
+// read_trot_params / read_push_stepping.
 enum class WithControllerParts : bool { no, yes };
 wbc::WbcParams read_wbc_params(const config::Field& f, WithControllerParts parts = WithControllerParts::no);
 est::EstimatorParams read_estimator_params(const config::Field& f);
@@ -60,5 +65,6 @@ gait::TrotParams read_trot_params(const config::Field& f, WithVelocitySchedule s
 // A walking velocity `[v_x, v_y, yaw_rate]` (a list of 3, each within its kTrotFields range)
 // into p's velocity_x / velocity_y / yaw_rate; false (and an error) when `f` is not such a list.
 bool read_walking_velocity(const config::Field& f, gait::TrotParams& p);
+control::PushStepping read_push_stepping(const config::Field& f);
 
 }  // namespace springbok::params
