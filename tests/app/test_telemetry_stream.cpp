@@ -115,7 +115,7 @@ TEST_P(TelemetryStream, TheDeployedProgramStreamsPlotJugglerJsonAtTheConfiguredR
   // joints, the QP, the tick's time.
   const YAML::Node last = YAML::Load(datagrams.back());
   for (const char* key : {"mode", "faults", "compute_us", "wake_latency_us", "wbc", "engaged", "qp_status",
-                          "qp_iterations", "arm_overloaded", "support_limited", "base_x_m", "base_qw", "base_roll_rad", "base_velocity_x_m_s",
+                          "qp_iterations", "arm_overloaded", "support_limited", "stepping_for_push", "base_x_m", "base_qw", "base_roll_rad", "base_velocity_x_m_s",
                           "base_rate_z_rad_s", "hand_x_m", "base_rest_x_m", "hand_rest_z_m", "base_displacement_x_m",
                           "hand_displacement_y_m", "hand_qw", "hand_rest_qx", "fe_x_n", "te_z_nm", "unmeasured_y_n", "lf_force_z_n", "rh_stance", "q_lf_haa_joint_rad",
                           "qd_arm_joint_7_rad_s", "tau_rh_kfe_joint_nm"}) {

@@ -110,6 +110,7 @@ void ControlMode::telemetry(TelemetryRecord& r) const noexcept {
   r.qp_iterations = o.qp_iterations;
   r.arm_overloaded = o.arm_overloaded;
   r.support_limited = o.support_limited;
+  r.stepping_for_push = c.stepping_for_push();
   put(r.base_rest_m, ref.base_position_m);
   put(r.hand_rest_m, ref.ee_position_m);
   put(r.base_displacement_m, o.base_displacement_m);

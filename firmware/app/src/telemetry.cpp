@@ -88,6 +88,7 @@ std::string telemetry_json(const TelemetryRecord& r) {
   number(out, "qp_iterations", r.qp_iterations);
   number(out, "arm_overloaded", r.arm_overloaded ? 1.0 : 0.0);
   number(out, "support_limited", r.support_limited ? 1.0 : 0.0);
+  number(out, "stepping_for_push", r.stepping_for_push ? 1.0 : 0.0);
   triple(out, "base", "m", r.base_position_m);
   quaternion(out, "base", r.base_quaternion_xyzw);
   number(out, "base_roll_rad", r.base_rpy_rad[0]);

@@ -55,6 +55,7 @@ struct TelemetryRecord {
   std::int32_t qp_iterations = 0;
   bool arm_overloaded = false;       // the arm yields to a push it cannot hold (wbc::WbcOutput)
   bool support_limited = false;      // the base held back from its support's edge (wbc::WbcOutput)
+  bool stepping_for_push = false;    // trotting to catch a push standing could not hold (control::PushStepping)
   Triple base_position_m{};          // estimated
   std::array<double, 4> base_quaternion_xyzw{0.0, 0.0, 0.0, 1.0};
   Triple base_rpy_rad{};
