@@ -107,6 +107,14 @@ std::string push_scenario(const std::string& arm, const std::string& axis, const
          "  - {frame: " + frame + ", axis: " + axis + ", profile: step, amplitude: " + force + ", start_s: 1.0}\n";
 }
 
+// A run's summary says the robot stood to the end, every QP solved, the supervisor in control
+// without a fault.
+void expect_stood(const std::string& json, const std::string& name) {
+  EXPECT_FALSE(json_true(json, "fell")) << name;
+  EXPECT_EQ(json_number(json, "qp_failures"), 0.0) << name;
+  EXPECT_NE(json.find("\"supervisor\": {\"mode\": \"control\", \"faults\": 0}"), std::string::npos) << name;
+}
+
 // A push the arm cannot hold leaves the robot standing: the paper's 50 N and 100 N on the
 // straight arm (`stance`: the hand 0.9 m above the shoulder, whose 39 N m hold 43 N there) and
 // 120 N on the bent arm of the experiments. The arm yields (arm_overloaded_s) and the base keeps
@@ -123,9 +131,7 @@ TEST(SimWbc, APushTheArmCannotHoldLeavesTheRobotStanding) {
     const CliResult r = run(write_file(dir, "push.yaml", text).string(), dir / "out");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const std::string json = slurp(dir / "out" / "summary.json");
-    EXPECT_FALSE(json_true(json, "fell")) << name;
-    EXPECT_EQ(json_number(json, "qp_failures"), 0.0) << name;
-    EXPECT_NE(json.find("\"supervisor\": {\"mode\": \"control\", \"faults\": 0}"), std::string::npos) << name;
+    expect_stood(json, name);
     EXPECT_GT(json_number(json, "arm_overloaded_s"), 1.0) << name << ": the arm could not hold it";
     EXPECT_LE(member(json, "peak_deviation", "base_x"), 0.1) << name;
     EXPECT_LE(member(json, "peak_deviation", "base_z"), 0.1) << name;
@@ -164,9 +170,7 @@ TEST(SimWbc, APushTowardTippingLeavesTheRobotStanding) {
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const std::string json = slurp(dir / "out" / "summary.json");
     if (std::string(margin).empty()) {
-      EXPECT_FALSE(json_true(json, "fell")) << name;
-      EXPECT_EQ(json_number(json, "qp_failures"), 0.0) << name;
-      EXPECT_NE(json.find("\"supervisor\": {\"mode\": \"control\", \"faults\": 0}"), std::string::npos) << name;
+      expect_stood(json, name);
       EXPECT_GT(json_number(json, "support_limited_s"), 0.5) << name << ": the limit held the base";
       EXPECT_LE(member(json, "peak_deviation", "base_z"), 0.1) << name;
       if (frame == trunk) {
@@ -206,9 +210,7 @@ TEST(SimWbc, APushPastWhatStandingHoldsMakesTheRobotStep) {
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const std::string json = slurp(dir / "out" / "summary.json");
     if (std::string(extra).empty()) {
-      EXPECT_FALSE(json_true(json, "fell")) << name;
-      EXPECT_EQ(json_number(json, "qp_failures"), 0.0) << name;
-      EXPECT_NE(json.find("\"supervisor\": {\"mode\": \"control\", \"faults\": 0}"), std::string::npos) << name;
+      expect_stood(json, name);
       EXPECT_GE(member(json, "push_stepping", "times"), 1.0) << name << ": it stepped";
       EXPECT_LE(member(json, "peak_deviation", "base_z"), 0.1) << name;
     } else {
