@@ -112,12 +112,12 @@ inline constexpr TuningRange kPostureKpRange{0.0, 1e5}, kPostureKdRange{0.0, 1e4
 // the front feet unload first: the static CoP leaves out the trunk's deceleration). When the CoP
 // has been closer than trigger_inside_m to the edge, or a foot's normal force (the QP's, last
 // tick) within unloaded_within_n of its minimum (wbc.normal_force_min_n), for delay_s, the
-// robot trots in place (the
-// configured gait's cycle, params().gait.trot, without its velocity), its footholds centred
-// under that CoP and leading the trunk's velocity by velocity_gain_s (the capture point's
-// sqrt(h / g) for h ~ 0.6 m: the trot's foothold correction, at least this); once the trunk has
-// stayed within settle_drift_m and the push within settle_push_change_n of where they were
-// for settle_s, it stands again on the feet it has placed. Needs the support limit
+// robot trots in place (the configured gait's cycle, params().gait.trot, without its
+// velocity), its footholds centred under that CoP and leading the trunk's velocity by
+// velocity_gain_s (the capture point's sqrt(h / g) for h ~ 0.6 m: the trot's foothold
+// correction, at least this); once the trunk has stayed within settle_drift_m and the push
+// within settle_push_change_n of where they were for settle_s, it stands again on the feet it
+// has placed. Needs the support limit
 // (wbc.contact.support_margin > 0): its CoP is the trigger. An operator's gait request takes
 // over. Measured (springbok-sim, base_step_mb92's robot and template, the push a step at 1 s):
 // standing alone falls under 170 N along y and 250 N along -x on the trunk, 200 N along +-x at
