@@ -187,9 +187,9 @@ TEST(SimWbc, APushTowardTippingLeavesTheRobotStanding) {
 }
 
 // A push past what standing can hold: 250 N along y on the trunk toppled the standing robot at
-// 2.3 s (the support limit leans the trunk against a push only until the centre of pressure
+// 2.2 s (the support limit leans the trunk against a push only until the centre of pressure
 // reaches the feet's edge), 250 N backwards (-x) at 3.4 s, and 200 N along x at the hand at
-// 2.1 s. Stepping (control::PushStepping: the centre of pressure within 2 cm of the edge, or a
+// 2.9 s. Stepping (control::PushStepping: the centre of pressure within 2 cm of the edge, or a
 // foot's normal force within 5 N of its minimum - backwards the front feet unload first -, for
 // 0.05 s, starts
 // a trot in place whose footholds centre under it and lead the trunk's velocity by 0.25 s) all stand;
