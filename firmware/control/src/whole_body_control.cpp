@@ -225,6 +225,14 @@ bool WholeBodyControl::push_settled(double dt_s) noexcept {
   return push_settled_s_ >= p.settle_s;
 }
 
+// A trot with `p` from this tick on (its cycle starts from the feet where they stand). rt: no alloc
+void WholeBodyControl::begin_trot(const gait::TrotParams& p) noexcept {
+  trot_ = gait::TrotGait(p);
+  velocity_command_ = Vec3(p.velocity_x_m_s, p.velocity_y_m_s, p.yaw_rate_rad_s);
+  gait_state_ = GaitState::trot;
+  gait_time_s_ = 0.0;
+}
+
 // Stance set and swing targets for this tick (data_ holds its kinematics). rt: no alloc
 void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
   if (engaging) {
@@ -243,11 +251,7 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
     if (requested_gait_.kind == GaitKind::stand) {
       gait_request_pending_ = false;
     } else if (gait_state_ == GaitState::stand) {
-      trot_ = gait::TrotGait(requested_gait_.trot);
-      velocity_command_ = Vec3(requested_gait_.trot.velocity_x_m_s, requested_gait_.trot.velocity_y_m_s,
-                               requested_gait_.trot.yaw_rate_rad_s);
-      gait_state_ = GaitState::trot;
-      gait_time_s_ = 0.0;
+      begin_trot(requested_gait_.trot);
       start_trot = true;
       gait_request_pending_ = false;
     }
@@ -258,10 +262,7 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
     gait::TrotParams in_place = params_.gait.trot;
     in_place.velocity_x_m_s = in_place.velocity_y_m_s = in_place.yaw_rate_rad_s = 0.0;
     in_place.velocity_gain_s = std::max(in_place.velocity_gain_s, params_.push_stepping.velocity_gain_s);
-    trot_ = gait::TrotGait(in_place);
-    velocity_command_.setZero();
-    gait_state_ = GaitState::trot;
-    gait_time_s_ = 0.0;
+    begin_trot(in_place);
     start_trot = true;
     stepping_for_push_ = true;
   } else if (stepping_for_push_ && gait_state_ == GaitState::trot && push_settled(dt_s)) {

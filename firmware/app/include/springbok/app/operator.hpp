@@ -15,7 +15,8 @@
 // only; `tare` asks for a new wrist F/T tare, collected while the robot stands
 // (now in stand, at the next stand otherwise); `controller` reports the
 // whole-body controller's state (stepping_for_push=1: the trot under way was started by a push
-// standing could not hold, control::PushStepping; a gait request takes it over). `tune` (control mode) retunes the template's M, D, K per
+// standing could not hold, control::PushStepping; a gait request takes it over). `tune`
+// (control mode) retunes the template's M, D, K per
 // body (base.mass .. ee.stiffness: a number or [x,y,z]; with the rotational template
 // rot.base.damping, rot.base.stiffness, rot.ee.inertia, rot.ee.damping, rot.ee.stiffness) and the arm's posture gains
 // (posture_kp, posture_kd) over `ramp` seconds (default 1), with the config's ranges

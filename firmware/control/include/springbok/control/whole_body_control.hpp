@@ -117,11 +117,10 @@ inline constexpr TuningRange kPostureKpRange{0.0, 1e5}, kPostureKdRange{0.0, 1e4
 // velocity_gain_s (the capture point's sqrt(h / g) for h ~ 0.6 m: the trot's foothold
 // correction, at least this); once the trunk has stayed within settle_drift_m and the push
 // within settle_push_change_n of where they were for settle_s, it stands again on the feet it
-// has placed. Needs the support limit
-// (wbc.contact.support_margin > 0): its CoP is the trigger. An operator's gait request takes
-// over. Measured (springbok-sim, base_step_mb92's robot and template, the push a step at 1 s):
-// standing alone falls under 170 N along y and 250 N along -x on the trunk, 200 N along +-x at
-// the hand; stepping, it stands under 250 N along +-x, +-y and 300 N along +x, +-y on the
+// has placed. Needs the support limit (wbc.contact.support_margin > 0): its CoP is the
+// trigger. An operator's gait request takes over. Measured (springbok-sim, base_step_mb92's
+// robot and template, the push a step at 1 s): standing alone falls under 170 N along y and
+// 250 N along -x on the trunk, 200 N along +-x at the hand; stepping, it stands under 250 N along +-x, +-y and 300 N along +x, +-y on the
 // trunk, 200 N along +-x, +-y at the hand (300 N along -x falls). Without the velocity lead
 // 250 N along y fell and 200 N overshot to 0.74 m; triggering at the edge (0 m) was too late
 // for 250 N along x, and without the unloaded foot 250 N along -x fell.
@@ -252,6 +251,7 @@ class WholeBodyControl {
   est::EstimateStatus estimate(const hal::Measurements& m, double dt_s, const Stance& stance) noexcept;
   void take_wrist(const hal::Measurements& m, bool collect) noexcept;
   void plan_gait(double dt_s, bool engaging) noexcept;
+  void begin_trot(const gait::TrotParams& p) noexcept;
   void observe_unmeasured_force(double dt_s, bool engaging) noexcept;
   bool push_needs_a_step(double dt_s) noexcept;
   bool push_settled(double dt_s) noexcept;
