@@ -189,10 +189,12 @@ TEST(SimWbc, APushTowardTippingLeavesTheRobotStanding) {
 // A push past what standing can hold: 250 N along y on the trunk toppled the standing robot at
 // 2.2 s (the support limit leans the trunk against a push only until the centre of pressure
 // reaches the feet's edge), 250 N backwards (-x) at 3.4 s, and 200 N along x at the hand at
-// 2.9 s. Stepping (control::PushStepping: the centre of pressure within 2 cm of the edge, or a
-// foot's normal force within 5 N of its minimum - backwards the front feet unload first -, for
-// 0.05 s, starts
-// a trot in place whose footholds centre under it and lead the trunk's velocity by 0.25 s) all stand;
+// 2.9 s. Stepping (control::PushStepping: the centre of pressure or its capture point within
+// 2 cm of the edge, or a foot's normal force within 5 N of its minimum - backwards the front
+// feet unload first -, for 0.05 s, starts a trot in place whose footholds centre under it and
+// lead the trunk's velocity by 0.25 s) all stand, and so does 300 N backwards, which fell at
+// 2.1 s while stepping when only the static centre of pressure and the feet triggered it (at
+// 1.8 s; the capture point, at 1.5 s);
 // the trunk's stands again on its new footholds once the robot and the push have settled
 // (stepping_for_push back to 0, all feet down), still pushed, the base over by about the
 // template's F / K_b. With push_stepping off the first falls, as before. (Without the
@@ -202,6 +204,7 @@ TEST(SimWbc, APushPastWhatStandingHoldsMakesTheRobotStep) {
   for (const auto& [name, frame, axis, force, extra, duration] :
        {std::tuple{"trunk_y250", "trunk", "[0, 1, 0]", "250", "", "5.0"},
         std::tuple{"trunk_mx250", "trunk", "[-1, 0, 0]", "250", "", "4.0"},
+        std::tuple{"trunk_mx300", "trunk", "[-1, 0, 0]", "300", "", "4.0"},
         std::tuple{"hand_x200", "arm_end_effector_link", "[1, 0, 0]", "200", "", "4.0"},
         std::tuple{"trunk_y250_off", "trunk", "[0, 1, 0]", "250", "    push_stepping: {enabled: false}\n", "4.0"}}) {
     const fs::path dir = scratch(std::string("wbc_push_step_") + name);

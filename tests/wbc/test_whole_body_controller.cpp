@@ -344,24 +344,27 @@ TEST_F(Fixture, AnArmReferenceBeyondItsTorquesIsCutToWhatTheyGive) {
 // within support_margin_m of an edge, and only then, the base is pushed back along the
 // edge's inward normal, in proportion to how far inside the margin the CoP is; only after
 // the stance has held 250 ticks, never while a foot's force ramps or on two feet.
+// Signed distance of a point inside the four feet's polygon (min over its edges, in the feet's
+// known counter-clockwise order lf, lh, rh, rf), and that edge's inward normal.
+double inside_four_feet(const dyn::Data& data, const Eigen::Vector2d& p, Eigen::Vector2d& normal) {
+  const std::array<int, 4> ccw = {0, 2, 3, 1};
+  double best = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d a = data.frames[kFootFrames[ccw[k]]].translation.head<2>();
+    const Eigen::Vector2d b = data.frames[kFootFrames[ccw[(k + 1) % 4]]].translation.head<2>();
+    const Eigen::Vector2d n = Eigen::Vector2d(a.y() - b.y(), b.x() - a.x()).normalized();
+    if (n.dot(p - a) < best) best = n.dot(p - a), normal = n;
+  }
+  return best;
+}
+
 TEST_F(Fixture, TheSupportLimitHoldsTheBaseBackFromTheEdgeAPushTipsItOver) {
   dyn::Data other;
   const Vec3 com = dyn::center_of_mass(model, other, in.state.q);
   const double weight_n = total_mass_kg() * kGravity_m_s2;
-  const std::array<int, 4> ccw = {0, 2, 3, 1};  // lf, lh, rh, rf
   double ground_z = 0.0;
   for (int f = 0; f < kFeet; ++f) ground_z += data->frames[kFootFrames[f]].translation.z() / kFeet;
-  // Signed distance of a point inside the polygon (min over its edges), and that edge's normal.
-  auto inside = [&](const Eigen::Vector2d& p, Eigen::Vector2d& normal) {
-    double best = std::numeric_limits<double>::infinity();
-    for (int k = 0; k < 4; ++k) {
-      const Eigen::Vector2d a = data->frames[kFootFrames[ccw[k]]].translation.head<2>();
-      const Eigen::Vector2d b = data->frames[kFootFrames[ccw[(k + 1) % 4]]].translation.head<2>();
-      const Eigen::Vector2d n = Eigen::Vector2d(a.y() - b.y(), b.x() - a.x()).normalized();
-      if (n.dot(p - a) < best) best = n.dot(p - a), normal = n;
-    }
-    return best;
-  };
+  auto inside = [&](const Eigen::Vector2d& p, Eigen::Vector2d& normal) { return inside_four_feet(*data, p, normal); };
   Eigen::Vector2d normal;
   const double at_rest_m = inside(com.head<2>(), normal);
   ASSERT_GT(at_rest_m, params.support_margin_m);
@@ -435,6 +438,36 @@ TEST_F(Fixture, TheSupportLimitHoldsTheBaseBackFromTheEdgeAPushTipsItOver) {
   WholeBodyController off(params);
   off.set_reference(in.state.q, *data);
   for (int t = 0; t < 300; ++t) ASSERT_FALSE(tick(off).support_limited);
+}
+
+// The capture point of that centre of pressure: the CoP moved by the trunk's horizontal
+// velocity times sqrt(h / g), h the centre of mass's height over the feet (the linear
+// inverted pendulum's time constant), against the same independent polygon; the support
+// distance itself does not see the velocity. At rest the two coincide.
+TEST_F(Fixture, TheCapturePointLeadsTheCentreOfPressureByTheTrunksVelocity) {
+  dyn::Data other;
+  const Vec3 com = dyn::center_of_mass(model, other, in.state.q);
+  double ground_z = 0.0;
+  for (int f = 0; f < kFeet; ++f) ground_z += data->frames[kFootFrames[f]].translation.z() / kFeet;
+  const double lead_s = std::sqrt((com.z() - ground_z) / kGravity_m_s2);
+  ASSERT_GT(lead_s, 0.2);
+  ASSERT_LT(lead_s, 0.3);
+  for (int t = 0; t < 250; ++t) tick();
+  Eigen::Vector2d normal;
+  const double at_rest_m = inside_four_feet(*data, com.head<2>(), normal);
+  EXPECT_NEAR(tick().capture_distance_m, at_rest_m, 1e-9);
+  for (const Vec3& v_world : {Vec3(0.3, 0.0, 0.0), Vec3(-0.5, 0.2, 0.1), Vec3(0.0, 1.5, 0.0)}) {
+    in.state.v.head<3>() = in.state.rotation_wb.transpose() * v_world;  // trunk axes
+    const wbc::WbcOutput& out = tick();
+    EXPECT_NEAR(out.support_distance_m, at_rest_m, 1e-9);
+    const double expected_m = inside_four_feet(*data, com.head<2>() + lead_s * v_world.head<2>(), normal);
+    EXPECT_NEAR(out.capture_distance_m, expected_m, 1e-9) << v_world.transpose();
+    EXPECT_LT(out.capture_distance_m, at_rest_m) << "toward an edge";
+  }
+  EXPECT_LT(tick().capture_distance_m, 0.0) << "1.5 m/s sideways: past the left edge, no stopping on these feet";
+  // Fewer than three feet, or the stance not settled: not computed.
+  in.state.stance = {true, false, false, true};
+  EXPECT_TRUE(std::isinf(tick().capture_distance_m));
 }
 
 TEST_F(Fixture, SwingFootCarriesNoForceAndTracksItsTarget) {

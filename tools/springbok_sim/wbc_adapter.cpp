@@ -238,7 +238,7 @@ std::string WbcAdapter::csv_columns() const {
   }
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",te_{}_nm", a);
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",hand_rest_r{}_rad", a);
-  h += ",arm_reference_saturated,arm_overloaded,hand_coupling_limited,support_limited,support_distance_m";
+  h += ",arm_reference_saturated,arm_overloaded,hand_coupling_limited,support_limited,support_distance_m,capture_distance_m";
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",unmeasured_f{}_n", a);
   h += ",stepping_for_push";
   return h;
@@ -366,6 +366,7 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   row += o.hand_coupling_limited ? ",1" : ",0";
   row += o.support_limited ? ",1" : ",0";
   put(row, std::isfinite(o.support_distance_m) ? o.support_distance_m : -1.0);
+  put(row, std::isfinite(o.capture_distance_m) ? o.capture_distance_m : -1.0);
   for (int a = 0; a < 3; ++a) put(row, control_->input().unmeasured_force_world_n[a]);
   row += control_->stepping_for_push() ? ",1" : ",0";
 }

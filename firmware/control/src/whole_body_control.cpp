@@ -188,10 +188,11 @@ void WholeBodyControl::observe_unmeasured_force(double dt_s, bool engaging) noex
   estimate += alpha * (force - estimate);
 }
 
-// PushStepping, standing: for delay_s the support limit's centre of pressure (the WBC's, last
-// tick) has been closer than trigger_inside_m to the feet's edge (or past it), or a foot's
-// normal force (the QP's) within unloaded_within_n of its minimum. Only while the limit has
-// settled on the stance (its distance computed: not right after a stance change). rt: no alloc
+// PushStepping, standing: for delay_s the support limit's centre of pressure or its capture
+// point (the WBC's, last tick) has been closer than trigger_inside_m to the feet's edge (or
+// past it), or a foot's normal force (the QP's) within unloaded_within_n of its minimum. Only
+// while the limit has settled on the stance (its distance computed: not right after a stance
+// change). rt: no alloc
 bool WholeBodyControl::push_needs_a_step(double dt_s) noexcept {
   const PushStepping& p = params_.push_stepping;
   const wbc::WbcOutput& o = wbc_->output();
@@ -199,7 +200,8 @@ bool WholeBodyControl::push_needs_a_step(double dt_s) noexcept {
   for (int f = 0; f < kFeet; ++f) least_normal_n = std::min(least_normal_n, o.foot_force_n[f].z());
   const bool near_edge =
       std::isfinite(o.support_distance_m) &&
-      (o.support_distance_m < p.trigger_inside_m || least_normal_n < params_.wbc.normal_force_min_n + p.unloaded_within_n);
+      (o.support_distance_m < p.trigger_inside_m || o.capture_distance_m < p.trigger_inside_m ||
+       least_normal_n < params_.wbc.normal_force_min_n + p.unloaded_within_n);
   push_near_edge_s_ = p.enabled && near_edge ? push_near_edge_s_ + dt_s : 0.0;
   if (!(push_near_edge_s_ >= p.delay_s)) return false;
   push_near_edge_s_ = 0.0;

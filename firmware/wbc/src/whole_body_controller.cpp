@@ -136,6 +136,7 @@ void WholeBodyController::support_limit(const WbcInput& in, const dyn::Data& d, 
                                         Vec3& force) noexcept {
   out_.support_limited = false;
   out_.support_distance_m = kInf;
+  out_.capture_distance_m = kInf;
   if (!(params_.support_margin_m > 0.0) || stance_ticks_ < kSupportSettleTicks) return;
   std::array<Eigen::Vector2d, kFeet> pts;
   int count = 0;
@@ -168,7 +169,14 @@ void WholeBodyController::support_limit(const WbcInput& in, const dyn::Data& d, 
     order[k] = k;
   }
   std::sort(order.begin(), order.begin() + count, [&angle](int a, int b) noexcept { return angle[a] < angle[b]; });
-  double inside_m = kInf;
+  // The capture point of that centre of pressure: where it would have to be for the trunk's
+  // horizontal velocity to die out (a linear inverted pendulum of the centre of mass's height,
+  // omega = sqrt(g / h)). The static centre of pressure leaves the trunk's motion out: a
+  // backward push unloads the front feet while it is still 7 cm inside.
+  const double height_m = com.z() - ground_z;
+  const Eigen::Vector2d capture =
+      cop + (height_m > 0.0 ? std::sqrt(height_m / kGravity_m_s2) : 0.0) * base_vel_world.head<2>();
+  double inside_m = kInf, capture_inside_m = kInf;
   Eigen::Vector2d normal = Eigen::Vector2d::Zero();
   for (int k = 0; k < count; ++k) {
     const Eigen::Vector2d& a = pts[order[k]];
@@ -181,8 +189,10 @@ void WholeBodyController::support_limit(const WbcInput& in, const dyn::Data& d, 
       inside_m = s;
       normal = n;
     }
+    capture_inside_m = std::min(capture_inside_m, n.dot(capture - a));
   }
   out_.support_distance_m = inside_m;
+  out_.capture_distance_m = capture_inside_m;
   if (!(inside_m < params_.support_margin_m)) return;
   const double mass = params_.template_params.mass_base_kg.head<2>().mean();
   const double push_n = mass * kSupportOmega * kSupportOmega * (params_.support_margin_m - inside_m) -

@@ -110,8 +110,10 @@ inline constexpr TuningRange kPostureKpRange{0.0, 1e5}, kPostureKdRange{0.0, 1e4
 // unmeasured ones) support_margin_m inside the feet by leaning the trunk against them; near
 // the robot's tipping limit it cannot, and the CoP nears the feet's edge (or, pushed backwards,
 // the front feet unload first: the static CoP leaves out the trunk's deceleration). When the CoP
-// has been closer than trigger_inside_m to the edge, or a foot's normal force (the QP's, last
-// tick) within unloaded_within_n of its minimum (wbc.normal_force_min_n), for delay_s, the
+// or its capture point (the CoP moved by the trunk's horizontal velocity times sqrt(h / g):
+// where the trunk's motion would end) has been closer than trigger_inside_m to the edge, or a
+// foot's normal force (the QP's, last tick) within unloaded_within_n of its minimum
+// (wbc.normal_force_min_n), for delay_s, the
 // robot trots in place (the configured gait's cycle, params().gait.trot, without its
 // velocity), its footholds centred under that CoP and leading the trunk's velocity by
 // velocity_gain_s (the capture point's sqrt(h / g) for h ~ 0.6 m: the trot's foothold
@@ -120,10 +122,12 @@ inline constexpr TuningRange kPostureKpRange{0.0, 1e5}, kPostureKdRange{0.0, 1e4
 // has placed. Needs the support limit (wbc.contact.support_margin > 0): its CoP is the
 // trigger. An operator's gait request takes over. Measured (springbok-sim, base_step_mb92's
 // robot and template, the push a step at 1 s): standing alone falls under 170 N along y and
-// 250 N along -x on the trunk, 200 N along +-x at the hand; stepping, it stands under 250 N along +-x, +-y and 300 N along +x, +-y on the
-// trunk, 200 N along +-x, +-y at the hand (300 N along -x falls). Without the velocity lead
-// 250 N along y fell and 200 N overshot to 0.74 m; triggering at the edge (0 m) was too late
-// for 250 N along x, and without the unloaded foot 250 N along -x fell.
+// 250 N along -x on the trunk, 200 N along +-x at the hand; stepping, it stands under 260-300 N
+// along +-x, +-y on the trunk (320 N: all but -y; 360 N: -x only) and 200 N along +-x, +-y at
+// the hand. Without the velocity lead 250 N along y fell and 200 N overshot to 0.74 m;
+// triggering at the edge (0 m) was too late for 250 N along x; without the unloaded foot
+// 250 N along -x fell, and without the capture point 300 N along -x (the trunk already
+// moving fast when the static CoP neared the edge).
 struct PushStepping {
   bool enabled = true;
   double trigger_inside_m = 0.02;  // half the default support margin

@@ -238,6 +238,10 @@ struct WbcOutput {
   // computed, fewer than three feet in stance or the limit off).
   bool support_limited = false;
   double support_distance_m = std::numeric_limits<double>::infinity();
+  // The same for that centre of pressure's capture point (it moved by the trunk's horizontal
+  // velocity times sqrt(h / g), h the centre of mass's height): negative, the trunk cannot
+  // stop over these feet.
+  double capture_distance_m = std::numeric_limits<double>::infinity();
   // What the tasks asked for, for logs and plots.
   Vec6 base_wrench_desired = Vec6::Zero();     // [F_b^d; T_b^d], world
   // The wrench the solution renders on the template's base (the base task's rows at
