@@ -13,17 +13,7 @@ namespace springbok::test {
 namespace {
 
 std::string scenario(const std::string& estimator) {
-  return "duration_s: 3.0\n"
-         "initial:\n"
-         "  joint_positions_rad: [0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0.6, 0, 1.9, 0, 0.9, 0]\n"
-         "  feet_clearance_m: 0.0\n"
-         "controller:\n"
-         "  type: wbc\n"
-         "  settle_s: 0.2\n"
-         "  params:\n"
-         "    template:\n"
-         "      base: {mass: 4, damping: 126.5, stiffness: 1000}\n"
-         "      ee: {mass: 4, damping: 90, stiffness: 500}\n"
+  return wbc_scenario_head("3.0", "0.2", "{mass: 4, damping: 126.5, stiffness: 1000}", "{mass: 4, damping: 90, stiffness: 500}") +
          "    estimator: " + estimator + "\n"
          "external_wrenches:\n"
          "  - {frame: arm_end_effector_link, axis: [1, 0, 0], profile: step, amplitude: 50, start_s: 0.5}\n";

@@ -17,17 +17,7 @@ namespace springbok::test {
 namespace {
 
 std::string scenario(const std::string& gait) {
-  return "duration_s: 2.5\n"
-         "initial:\n"
-         "  joint_positions_rad: [0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0.6, 0, 1.9, 0, 0.9, 0]\n"
-         "  feet_clearance_m: 0.0\n"
-         "controller:\n"
-         "  type: wbc\n"
-         "  settle_s: 0.5\n"
-         "  params:\n"
-         "    template:\n"
-         "      base: {mass: 92, damping: 610, stiffness: 1000}\n"
-         "      ee: {mass: 4, damping: 90, stiffness: 500}\n"
+  return wbc_scenario_head("2.5", "0.5", "{mass: 92, damping: 610, stiffness: 1000}", "{mass: 4, damping: 90, stiffness: 500}") +
          "    gait: " + gait + "\n";
 }
 

@@ -19,17 +19,8 @@ namespace {
 
 // M_b 4 kg settles within a second of the push: 3 s of simulation suffices.
 std::string step_scenario(const std::string& base_mass) {
-  return "duration_s: 3.0\n"
-         "initial:\n"
-         "  joint_positions_rad: [0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0.6, 0, 1.9, 0, 0.9, 0]\n"
-         "  feet_clearance_m: 0.0\n"
-         "controller:\n"
-         "  type: wbc\n"
-         "  settle_s: 0.2\n"
-         "  params:\n"
-         "    template:\n"
-         "      base: {mass: " + base_mass + ", damping: 126.5, stiffness: 1000}\n"
-         "      ee: {mass: 4, damping: 90, stiffness: 500}\n"
+  return wbc_scenario_head("3.0", "0.2", "{mass: " + base_mass + ", damping: 126.5, stiffness: 1000}",
+                           "{mass: 4, damping: 90, stiffness: 500}") +
          "    contact: {foot_radius: 0.02175}\n"
          "external_wrenches:\n"
          "  - {frame: arm_end_effector_link, axis: [1, 0, 0], profile: step, amplitude: 50, start_s: 0.5}\n";
@@ -91,17 +82,8 @@ TEST(SimWbc, StepRendersTheTemplate) {
 std::string push_scenario(const std::string& arm, const std::string& axis, const std::string& force,
                           const std::string& contact_extra, const std::string& duration_s,
                           const std::string& frame = "arm_end_effector_link", const std::string& params_extra = "") {
-  return "duration_s: " + duration_s + "\n" +
-         "initial:\n"
-         "  joint_positions_rad: " + arm + "\n"
-         "  feet_clearance_m: 0.0\n"
-         "controller:\n"
-         "  type: wbc\n"
-         "  settle_s: 0.5\n"
-         "  params:\n"
-         "    template:\n"
-         "      base: {mass: 92, damping: 610, stiffness: 1000}\n"
-         "      ee: {mass: 4, damping: 90, stiffness: 500}\n"
+  return wbc_scenario_head(duration_s, "0.5", "{mass: 92, damping: 610, stiffness: 1000}", "{mass: 4, damping: 90, stiffness: 500}",
+                           arm) +
          "    contact: {foot_radius: 0.02175" + contact_extra + "}\n" + params_extra +
          "external_wrenches:\n"
          "  - {frame: " + frame + ", axis: " + axis + ", profile: step, amplitude: " + force + ", start_s: 1.0}\n";
@@ -125,7 +107,7 @@ void expect_stood(const std::string& json, const std::string& name) {
 TEST(SimWbc, APushTheArmCannotHoldLeavesTheRobotStanding) {
   for (const auto& [name, arm, force] :
        {std::tuple{"straight_50n", "stance", "50"}, std::tuple{"straight_100n", "stance", "100"},
-        std::tuple{"bent_120n", "[0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0.6, 0, 1.9, 0, 0.9, 0]", "120"}}) {
+        std::tuple{"bent_120n", kBentArm.c_str(), "120"}}) {
     const fs::path dir = scratch(std::string("wbc_overload_") + name);
     const std::string text = push_scenario(arm, "[1, 0, 0]", force, "", "4.0");
     const CliResult r = run(write_file(dir, "push.yaml", text).string(), dir / "out");
@@ -153,7 +135,7 @@ TEST(SimWbc, APushTheArmCannotHoldLeavesTheRobotStanding) {
 // (push_stepping: the straight arm's 100 N comes within its 2 cm of the edge and would step):
 // these are the limit's cases; APushPastWhatStandingHoldsMakesTheRobotStep is stepping's.
 TEST(SimWbc, APushTowardTippingLeavesTheRobotStanding) {
-  const std::string bent = "[0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0.6, 0, 1.9, 0, 0.9, 0]";
+  const std::string& bent = kBentArm;
   const std::string hand = "arm_end_effector_link", trunk = "trunk";
   for (const auto& [name, arm, frame, axis, force, margin] :
        {std::tuple{"bent_y100", bent.c_str(), hand.c_str(), "[0, 1, 0]", 100.0, ""},
@@ -200,7 +182,7 @@ TEST(SimWbc, APushTowardTippingLeavesTheRobotStanding) {
 // template's F / K_b. With push_stepping off the first falls, as before. (Without the
 // velocity lead the trunk's case fell too; 200 N overshot to 0.74 m and sagged 13 cm.)
 TEST(SimWbc, APushPastWhatStandingHoldsMakesTheRobotStep) {
-  const std::string bent = "[0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0.6, 0, 1.9, 0, 0.9, 0]";
+  const std::string& bent = kBentArm;
   for (const auto& [name, frame, axis, force, extra, duration] :
        {std::tuple{"trunk_y250", "trunk", "[0, 1, 0]", "250", "", "5.0"},
         std::tuple{"trunk_mx250", "trunk", "[-1, 0, 0]", "250", "", "4.0"},
