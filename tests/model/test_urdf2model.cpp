@@ -25,8 +25,13 @@ GenResult run_generator(const std::string& urdf_text, const fs::path& out) {
   const std::string cmd = std::string(SPRINGBOK_BIN_DIR) + "/urdf2model " + in.string() + " " + out.string() +
                           " 2>" + log.string();
   const int status = std::system(cmd.c_str());
-  std::ifstream l(log);
-  return {status, std::string(std::istreambuf_iterator<char>(l), {})};
+  std::string err;
+  {
+    std::ifstream l(log);
+    err.assign(std::istreambuf_iterator<char>(l), {});
+  }
+  fs::remove_all(dir);  // the input and the log: what the test reads is in err
+  return {status, err};
 }
 
 const char* kLink = R"(<inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial>)";
@@ -45,6 +50,7 @@ class Urdf2Model : public ::testing::Test {
  protected:
   fs::path out = fs::temp_directory_path() / ("urdf2model_out_" + std::to_string(::getpid()) + ".hpp");
   void SetUp() override { fs::remove(out); }
+  void TearDown() override { fs::remove(out); }
   void expect_error(const std::string& urdf, const std::string& needle) {
     const GenResult r = run_generator(urdf, out);
     EXPECT_NE(r.status, 0);

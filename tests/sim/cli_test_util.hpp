@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -43,8 +44,26 @@ inline std::string wbc_scenario_head(const std::string& duration_s, const std::s
          "      ee: " + ee + "\n";
 }
 
+// Where this test process writes its runs (scratch()).
+inline fs::path scratch_root() { return fs::temp_directory_path() / ("springbok_sim_cli_" + std::to_string(getpid())); }
+
+// After the last test of the process: its runs (logs of tens of MB) are removed when every test
+// passed, and kept for a look when one failed.
+class ScratchCleanup : public ::testing::Environment {
+ public:
+  void TearDown() override {
+    if (::testing::UnitTest::GetInstance()->Failed()) {
+      std::fprintf(stderr, "the runs are kept in %s\n", scratch_root().c_str());
+      return;
+    }
+    std::error_code ec;
+    fs::remove_all(scratch_root(), ec);
+  }
+};
+inline ::testing::Environment* const kScratchCleanup = ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
+
 inline fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("springbok_sim_cli_" + std::to_string(getpid())) / name;
+  const fs::path dir = scratch_root() / name;
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
