@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "scenario.hpp"
+#include "sim_scenario_text.hpp"
 #include "springbok/app/control_mode.hpp"
 #include "springbok/config/reader.hpp"
 #include "springbok/estimation/base_estimator.hpp"
@@ -34,18 +35,8 @@ struct Recorded {
 
 std::string scenario_yaml(bool trot) {
   std::string y =
-      "name: one_controller\n"
-      "duration_s: 2.0\n"
-      "initial:\n"
-      "  joint_positions_rad: [0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0.6, 0, 1.9, 0, 0.9, 0]\n"
-      "  feet_clearance_m: 0.0\n"
-      "controller:\n"
-      "  type: wbc\n"
-      "  settle_s: 0.5\n"
-      "  params:\n"
-      "    template:\n"
-      "      base: {mass: 92, damping: 610, stiffness: 1000}\n"
-      "      ee: {mass: 10, damping: 142, stiffness: 500}\n"
+      "name: one_controller\n" +
+      test::wbc_scenario_head("2.0", "0.5", "{mass: 92, damping: 610, stiffness: 1000}", "{mass: 10, damping: 142, stiffness: 500}") +
       "    estimator: {velocity_gain: 30, position_gain: 10}\n";
   if (trot) y += "    gait: {step_frequency: 1.4, duty_factor: 0.65, step_height: 0.08}\n";
   y += "external_wrenches:\n"

@@ -15,34 +15,13 @@
 
 #include <gtest/gtest.h>
 
+#include "sim_scenario_text.hpp"
+
 namespace springbok::test {
 namespace fs = std::filesystem;
 
 inline const std::string kBin = std::string(SPRINGBOK_BIN_DIR) + "/springbok-sim";
 inline const std::string kScenarios = std::string(SPRINGBOK_SOURCE_DIR) + "/tools/scenarios/";
-
-// The experiments' robot standing with its arm bent: the initial joint positions (legs, then arm) most
-// scenarios start from.
-inline const std::string kBentArm = "[0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0.6, 0, 1.9, 0, 0.9, 0]";
-
-// A springbok-sim scenario's head with the WBC: its length, the robot standing on the ground
-// (`arm`: the initial joint positions), the settle time and the template's base and ee maps. It ends
-// inside controller.params: callers add their keys (4-space lines), then their wrenches.
-inline std::string wbc_scenario_head(const std::string& duration_s, const std::string& settle_s,
-                                     const std::string& base, const std::string& ee,
-                                     const std::string& arm = kBentArm) {
-  return "duration_s: " + duration_s + "\n" +
-         "initial:\n"
-         "  joint_positions_rad: " + arm + "\n" +
-         "  feet_clearance_m: 0.0\n"
-         "controller:\n"
-         "  type: wbc\n"
-         "  settle_s: " + settle_s + "\n" +
-         "  params:\n"
-         "    template:\n"
-         "      base: " + base + "\n" +
-         "      ee: " + ee + "\n";
-}
 
 // Where this test process writes its runs (scratch()).
 inline fs::path scratch_root() { return fs::temp_directory_path() / ("springbok_sim_cli_" + std::to_string(getpid())); }
