@@ -364,9 +364,8 @@ TEST_F(Fixture, TheSupportLimitHoldsTheBaseBackFromTheEdgeAPushTipsItOver) {
   const double weight_n = total_mass_kg() * kGravity_m_s2;
   double ground_z = 0.0;
   for (int f = 0; f < kFeet; ++f) ground_z += data->frames[kFootFrames[f]].translation.z() / kFeet;
-  auto inside = [&](const Eigen::Vector2d& p, Eigen::Vector2d& normal) { return inside_four_feet(*data, p, normal); };
   Eigen::Vector2d normal;
-  const double at_rest_m = inside(com.head<2>(), normal);
+  const double at_rest_m = inside_four_feet(*data, com.head<2>(), normal);
   ASSERT_GT(at_rest_m, params.support_margin_m);
   for (int t = 0; t < 249; ++t) {
     const wbc::WbcOutput& out = tick();

@@ -123,7 +123,7 @@ inline constexpr TuningRange kPostureKpRange{0.0, 1e5}, kPostureKdRange{0.0, 1e4
 // trigger. An operator's gait request takes over. Measured (springbok-sim, base_step_mb92's
 // robot and template, the push a step at 1 s): standing alone falls under 170 N along y and
 // 250 N along -x on the trunk, 200 N along +-x at the hand; stepping, it stands under 260-300 N
-// along +-x, +-y on the trunk (320 N: all but -y; 360 N: -x only) and 200 N along +-x, +-y at
+// along +-x, +-y on the trunk (320 N: all but -y; 340 N: +-x; 360 N: -x) and 200 N along +-x, +-y at
 // the hand. Without the velocity lead 250 N along y fell and 200 N overshot to 0.74 m;
 // triggering at the edge (0 m) was too late for 250 N along x; without the unloaded foot
 // 250 N along -x fell, and without the capture point 300 N along -x (the trunk already
