@@ -383,6 +383,7 @@ void BulletRobot::Impl::add_colliders() {
 }
 
 void BulletRobot::Impl::set_state(const VecNq& q, const VecNv& v) noexcept {
+  truth.tau_limit_nm = torque_limits_nm(q.tail<kNj>());
   const Mat3 world_from_base = Quat(q[6], q[3], q[4], q[5]).normalized().toRotationMatrix();
   const Eigen::Isometry3d& base_com = body_from_com[0];
   const Vec3 com_offset = base_com.translation();
@@ -421,13 +422,13 @@ void BulletRobot::Impl::read_state(VecNq& q, VecNv& v) const noexcept {
 
 void BulletRobot::Impl::apply_drive_torques() noexcept {
   for (int j = 0; j < kNj; ++j) {
-    double tau = active ? hal::drive_torque_nm(applied, j, body->getJointPos(j), body->getJointVel(j)) : 0.0;
-    if (config.saturate_torques) {
-      const double limit = robot::kJoints[j].limits.effort_nm;
-      tau = std::clamp(tau, -limit, limit);
-    }
+    const double q = body->getJointPos(j);
+    double tau = active ? hal::drive_torque_nm(applied, j, q, body->getJointVel(j)) : 0.0;
+    const double limit = torque_limit_nm(j, q);
+    if (config.saturate_torques) tau = std::clamp(tau, -limit, limit);
     body->addJointTorque(j, tau);
     truth.tau_applied_nm[j] = tau;
+    truth.tau_limit_nm[j] = limit;
   }
 }
 

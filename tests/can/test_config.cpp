@@ -75,9 +75,9 @@ TEST(CanConfig, ExplicitBusesWithEveryDriveField) {
   EXPECT_TRUE(d.mit_vendor_reply);
   EXPECT_DOUBLE_EQ(d.mit_ranges.v_max_rad_s, 45.0);
   EXPECT_DOUBLE_EQ(d.mit_ranges.t_min_nm, -15.0);
-  // Defaults of the other drives: reply id 0x100 + id, torque range = effort limit.
+  // Defaults of the other drives: reply id 0x100 + id, torque range = the joint's peak limit.
   EXPECT_EQ(r.config.buses[0].drives[1].mit_reply_id, 0x102);
-  EXPECT_DOUBLE_EQ(r.config.buses[0].drives[1].mit_ranges.t_max_nm, 150.0);
+  EXPECT_DOUBLE_EQ(r.config.buses[0].drives[1].mit_ranges.t_max_nm, 162.0);  // lf_hfe: F b
   EXPECT_DOUBLE_EQ(r.config.buses[6].drives[1].mit_ranges.t_max_nm, 9.0);
 }
 
@@ -203,8 +203,8 @@ TEST(CanConfig, LayoutWideMitRangesOverrideTheGainRangesOfEveryMitDrive) {
       EXPECT_DOUBLE_EQ(d.mit_ranges.kp_max, 2000.0) << d.drive_id;
       EXPECT_DOUBLE_EQ(d.mit_ranges.kd_max, 50.0) << d.drive_id;
       EXPECT_DOUBLE_EQ(d.mit_ranges.p_max_rad, 12.5) << d.drive_id;  // not listed: unchanged
-      // The torque range stays the joint's effort limit.
-      EXPECT_DOUBLE_EQ(d.mit_ranges.t_max_nm, robot::kJoints[static_cast<std::size_t>(d.joint)].limits.effort_nm);
+      // The torque range stays the joint's peak limit (HFE / KFE: the cylinder's 162 N m).
+      EXPECT_DOUBLE_EQ(d.mit_ranges.t_max_nm, torque_limit_peak_nm(d.joint));
     }
   }
   // The torque range is per joint: not accepted layout-wide; bad ranges name the field.

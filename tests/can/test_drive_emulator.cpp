@@ -323,7 +323,7 @@ std::vector<Fault> script(const std::string& yaml) {
 
 TEST(DriveEmulator, Cia402RatedTorqueFromTheScriptScalesTheDrive) {
   const can::DriveConfig cfg = can::default_drive(12, can::Protocol::cia402);  // node 13, arm_joint_1, 39 Nm
-  {  // Default: the joint's effort limit.
+  {  // Default: the joint's peak torque limit (flat on the arm).
     Cia402Drive drive(cfg, make_joint_model(12, 0.0), {}, 0);
     std::vector<Frame> out;
     drive.boot(0, out);

@@ -6,9 +6,11 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <utility>
 
 #include "alloc_trap.hpp"
+#include "hyq_actuator_oracle.hpp"
 #include "springbok/safety/supervisor.hpp"
 
 namespace springbok::safety {
@@ -61,7 +63,7 @@ struct SupervisorTest : ::testing::Test {
     EXPECT_EQ(cmd.mode, hal::CommandMode::enabled);
     for (int j = 0; j < kNj; ++j) {
       const double qd = meas.qd_rad_s[j];
-      const double lim = sup.limits().effort_nm[j];
+      const double lim = torque_limit_nm(j, meas.q_rad[j]);
       // CAN.md 4.4: the drive damps (kd = D, no target); the torque it applies at the measured
       // speed is -D qd within the limits.
       EXPECT_EQ(cmd.kp_nm_per_rad[j], 0.0);
@@ -454,9 +456,28 @@ TEST_F(SupervisorTest, DampingIsBoundedByTheTorqueLimits) {
   tick();
   expect_damping();
   const auto torque_nm = [&](int j) { return hal::drive_torque_nm(cmd, j, meas.q_rad[j], meas.qd_rad_s[j]); };
-  EXPECT_EQ(torque_nm(0), 150.0);              // leg effort limit
+  EXPECT_EQ(torque_nm(0), 150.0);              // HAA: flat
   EXPECT_EQ(torque_nm(kFirstArmJoint), 39.0);  // arm joints 1-4
   EXPECT_EQ(torque_nm(kNj - 1), 9.0);          // arm joints 5-7
+  // HFE / KFE: the cylinder's limit at the measured angle (ACTUATORS.md).
+  for (int j : {1, 2, 4, 5, 7, 8, 10, 11}) {
+    EXPECT_NEAR(torque_nm(j), test::hyq_leg_limit_nm(j, meas.q_rad[j]), 1e-9) << j;
+  }
+}
+
+TEST_F(SupervisorTest, DampingAtAKneeNearItsStopHasTheCylindersSmallerLimit) {
+  go_to_control();
+  meas.q_rad[robot::kJoint_lh_kfe_joint] = 2.4;  // 137.5 deg: the lever is short (~88 N m)
+  meas.q_rad[robot::kJoint_lf_kfe_joint] = std::numeric_limits<double>::quiet_NaN();  // unknown
+  meas.qd_rad_s.setConstant(-100.0);
+  ASSERT_EQ(ask(OperatorCommand::stop), Verdict::accepted);
+  tick();
+  const double lh = hal::drive_torque_nm(cmd, robot::kJoint_lh_kfe_joint, 2.4, -100.0);
+  EXPECT_NEAR(lh, test::hyq_kfe_limit_nm(2.4), 1e-9);
+  EXPECT_LT(lh, 90.0);
+  // A knee whose angle is unknown: the smallest limit over its range (the 140 deg end).
+  const double lf = hal::drive_torque_nm(cmd, robot::kJoint_lf_kfe_joint, 0.0, -100.0);
+  EXPECT_NEAR(lf, test::hyq_kfe_limit_nm(140.0 * std::numbers::pi / 180.0), 1e-9);
 }
 
 TEST_F(SupervisorTest, CommandsAreClampedToTheLimitsAtTheMeasuredState) {
@@ -472,9 +493,11 @@ TEST_F(SupervisorTest, CommandsAreClampedToTheLimitsAtTheMeasuredState) {
   EXPECT_EQ(cmd.q_des_rad[12], 3.0);
   for (int j = 0; j < kNj; ++j) {
     const double tau = hal::drive_torque_nm(cmd, j, meas.q_rad[j], meas.qd_rad_s[j]);
-    EXPECT_LE(std::abs(tau), sup.limits().effort_nm[j] + 1e-9) << j;
+    const double limit = j < kFirstArmJoint ? test::hyq_leg_limit_nm(j, meas.q_rad[j]) : robot::kJoints[j].limits.effort_nm;
+    EXPECT_LE(std::abs(tau), limit + 1e-9) << j;
   }
-  EXPECT_NEAR(hal::drive_torque_nm(cmd, 5, meas.q_rad[5], 0.0), -150.0, 1e-9);
+  // The knee's limit at its measured angle (-1.3 rad: 74.5 deg in the hind legs' convention).
+  EXPECT_NEAR(hal::drive_torque_nm(cmd, 5, meas.q_rad[5], 0.0), -test::hyq_kfe_limit_nm(-meas.q_rad[5]), 1e-9);
   EXPECT_NEAR(hal::drive_torque_nm(cmd, 0, meas.q_rad[0], 0.0), 150.0, 1e-9);
 }
 

@@ -160,7 +160,7 @@ TEST_F(Controller, TorqueOnTheHandIsRenderedWithEveryRowOfTheDynamics) {
   const Vec6 ee_acc = data->J_ee * out.udot + data->dJv_ee;
   EXPECT_LT((ee_acc.tail<3>() - expected).norm(), 0.05 * expected.norm());
   EXPECT_LT(ee_acc.head<3>().norm(), 0.05);
-  for (int j = 0; j < kNj; ++j) EXPECT_LE(std::abs(out.tau_nm[j]), robot::kJoints[j].limits.effort_nm);
+  for (int j = 0; j < kNj; ++j) EXPECT_LE(std::abs(out.tau_nm[j]), out.torque_limit_nm[j]);
 }
 
 TEST_F(Controller, TrunkTorqueIsTheTemplatesLaw) {

@@ -92,6 +92,7 @@ std::string csv_header() {
   h += ",ground_fz_n";
   for (const auto& j : robot::kJoints) h += fmt::format(",tau_{}", j.name);
   for (const auto& j : robot::kJoints) h += fmt::format(",q_{}", j.name);
+  for (const auto& j : robot::kJoints) h += fmt::format(",tau_limit_{}", j.name);
   return h;
 }
 
@@ -132,6 +133,7 @@ void append_row(std::string& out, const sim::GroundTruth& t) {
   put(out, t.ground_force_n.z());
   for (int j = 0; j < kNj; ++j) put(out, t.tau_applied_nm[j]);
   for (int j = 0; j < kNj; ++j) put(out, t.q[7 + j]);
+  for (int j = 0; j < kNj; ++j) put(out, t.tau_limit_nm[j]);
 }
 
 int run(const std::string& scenario_path, const std::filesystem::path& out_dir, const char* memory_locked) {

@@ -305,7 +305,7 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   bool at_limit = false;
   for (int j = 0; j < kNj; ++j) {
     const auto& lim = robot::kJoints[j].limits;
-    const double torque_ratio = std::abs(truth.tau_applied_nm[j]) / lim.effort_nm;
+    const double torque_ratio = std::abs(truth.tau_applied_nm[j]) / truth.tau_limit_nm[j];
     max_torque_ratio_ = std::max(max_torque_ratio_, torque_ratio);
     if (torque_ratio >= kAtLimit) {
       ++torque_limit_ticks_[static_cast<std::size_t>(j)];

@@ -198,7 +198,8 @@ void Supervisor::damping_command(const hal::Measurements& meas, hal::JointComman
     const double qd = meas.qd_rad_s[j];
     if (!std::isfinite(qd)) continue;
     const double damping_nm = -config_.damping_nms_per_rad[j] * qd;
-    cmd.tau_ff_nm[j] = std::clamp(damping_nm, -limits_.effort_nm[j], limits_.effort_nm[j]) - damping_nm;
+    const double limit_nm = torque_limit_nm(j, meas.q_rad[j]);
+    cmd.tau_ff_nm[j] = std::clamp(damping_nm, -limit_nm, limit_nm) - damping_nm;
   }
 }
 
@@ -220,7 +221,8 @@ void Supervisor::clamp_to_limits(const hal::Measurements& meas, hal::JointComman
     // The drive applies tau_ff + kp (q_des - q) + kd (qd_des - qd): bound that
     // torque at the measured state by correcting the feed-forward part.
     const double predicted_nm = hal::drive_torque_nm(cmd, j, meas.q_rad[j], meas.qd_rad_s[j]);
-    const double bounded_nm = std::clamp(predicted_nm, -limits_.effort_nm[j], limits_.effort_nm[j]);
+    const double limit_nm = torque_limit_nm(j, meas.q_rad[j]);
+    const double bounded_nm = std::clamp(predicted_nm, -limit_nm, limit_nm);
     cmd.tau_ff_nm[j] += bounded_nm - predicted_nm;
   }
 }

@@ -357,7 +357,7 @@ void WholeBodyController::fit_arm_to_its_torques(const dyn::Data& d, const Vec6&
   out_.arm_reference_saturated = false;
   out_.arm_overloaded = false;
   for (int j = 0; j < kArmDofs; ++j) {
-    const double limit = params_.torque_limit_scale * robot::kJoints[kFirstArmJoint + j].limits.effort_nm;
+    const double limit = params_.torque_limit_scale * out_.torque_limit_nm[kFirstArmJoint + j];
     fit[j] = std::clamp(need[j], -limit, limit);
     out_.arm_reference_saturated = out_.arm_reference_saturated || fit[j] != need[j];
     out_.arm_overloaded = out_.arm_overloaded || std::abs(hold[j]) > limit;
@@ -476,13 +476,14 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
     ++row;
   }
   // Torque limits through the actuated rows of eq. 1 (c_j qd_j: the compensated friction):
-  //   tau = M_j udot + h_j + c_j qd_j - J_st,j^T F_g - J_e,j^T W_e  in [-tau_max, tau_max].
+  //   tau = M_j udot + h_j + c_j qd_j - J_st,j^T F_g - J_e,j^T W_e  in [-tau_max, tau_max],
+  // tau_max the joint's limit at the tick's angle (a hydraulic joint's lever: model.hpp).
   ain.block<kNj, kNv>(row, 0) = d.M.bottomRows<kNj>();  // column by column: both column-major
   for (int f = 0; f < kFeet; ++f) {
     if (in.state.stance[f]) ain.block<kNj, 3>(row, foot_var(f)) = -contact_[f].jacobian.rightCols<kNj>().transpose();
   }
   for (int j = 0; j < kNj; ++j) {
-    const double tau_max = params_.torque_limit_scale * robot::kJoints[j].limits.effort_nm;
+    const double tau_max = params_.torque_limit_scale * out_.torque_limit_nm[j];
     lb[row] = -tau_max - known_torque_nm_[j];
     ub[row] = tau_max - known_torque_nm_[j];
     ++row;
@@ -533,8 +534,7 @@ void WholeBodyController::torques_from_solution(const WbcInput& in, const dyn::D
     }
   }
   for (int j = 0; j < kNj; ++j) {
-    const double limit = robot::kJoints[j].limits.effort_nm;
-    out_.tau_nm[j] = std::clamp(tau_full[6 + j], -limit, limit);
+    out_.tau_nm[j] = std::clamp(tau_full[6 + j], -out_.torque_limit_nm[j], out_.torque_limit_nm[j]);
   }
 }
 
@@ -608,6 +608,7 @@ const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& 
   out_.external_torque_world_nm = wrench_ee_world_.tail<3>();
   out_.ee_rotation = d.frames[kEeFrame].rotation;
   joint_friction_nm_ = params_.joint_viscous_friction_nms_per_rad.cwiseProduct(in.state.v.tail<kNj>());
+  out_.torque_limit_nm = torque_limits_nm(in.state.q.tail<kNj>());
   // The joints' torques besides M udot and the contacts (eq. 19): h + c qd - J_e^T W_e; the
   // torque rows' bounds (build_qp) and the arm's fit (fit_arm_to_its_torques) both take it.
   {

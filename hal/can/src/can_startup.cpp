@@ -464,7 +464,7 @@ LifecycleResult CanHardware::configure_node(int j) {
   // before 0x6072 is computed and written below. The config's rated_torque_nm only documents
   // what is expected: a difference is noted, not fatal.
   if (!(err = read(object::rated_torque, 0, value)).empty()) return LifecycleResult::failure(err);
-  const double limit_nm = robot::kJoints[static_cast<std::size_t>(j)].limits.effort_nm;
+  const double limit_nm = torque_limit_peak_nm(j);
   switch (make_torque_scale(value, jr.cfg.gear_ratio, limit_nm, jr.cfg.max_torque_permille, jr.torque_scale)) {
     case TorqueScaleStatus::ok: break;
     case TorqueScaleStatus::zero_rating:

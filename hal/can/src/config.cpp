@@ -27,14 +27,16 @@ DriveConfig default_drive(int joint, Protocol p) {
   d.drive_id = static_cast<std::uint8_t>(joint + 1);
   d.protocol = p;
   d.mit_reply_id = static_cast<std::uint16_t>(0x100 + d.drive_id);
-  const double effort_nm = robot::kJoints[static_cast<std::size_t>(joint)].limits.effort_nm;
-  d.mit_ranges.t_min_nm = -effort_nm;
-  d.mit_ranges.t_max_nm = effort_nm;
+  // The torque range: the most the joint gives anywhere in its range (the supervisor bounds the
+  // command by the limit at the angle).
+  const double peak_nm = torque_limit_peak_nm(joint);
+  d.mit_ranges.t_min_nm = -peak_nm;
+  d.mit_ranges.t_max_nm = peak_nm;
   d.counts_per_rad = 524288.0 / (2.0 * std::numbers::pi);  // 19-bit joint-side encoder
   d.velocity_units_per_rad_s = 1000.0;           // mrad/s
   d.rated_torque_nm = 0.0;  // not given: the drive's 0x6076 scales the torques
   d.gear_ratio = 1.0;
-  d.max_torque_permille = 0;  // 0x6072 = the joint's effort limit
+  d.max_torque_permille = 0;  // 0x6072 = the joint's peak torque limit
   return d;
 }
 

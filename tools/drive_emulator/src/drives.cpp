@@ -265,9 +265,8 @@ void MitDrive::on_time(std::int64_t now_ns, std::vector<Frame>&) {
 Cia402Drive::Cia402Drive(const can::DriveConfig& cfg, JointModel model, std::vector<Fault> faults, std::int64_t now_ns,
                          const Cia402Options& options)
     : Drive(cfg, false, model, std::move(faults)), options_(options) {
-  // 0x6076: the config's rated torque, else the joint's effort limit, unless the script says otherwise.
-  const double rated_nm = cfg_.rated_torque_nm > 0.0 ? cfg_.rated_torque_nm
-                                                     : robot::kJoints[static_cast<std::size_t>(cfg_.joint)].limits.effort_nm;
+  // 0x6076: the config's rated torque, else the joint's peak torque limit, unless the script says otherwise.
+  const double rated_nm = cfg_.rated_torque_nm > 0.0 ? cfg_.rated_torque_nm : torque_limit_peak_nm(cfg_.joint);
   rated_torque_mnm_ = static_cast<std::uint32_t>(std::lround(rated_nm * 1000.0));
   for (const Fault& flt : faults_) {
     if (flt.kind == FaultKind::rated_torque) rated_torque_mnm_ = flt.param;

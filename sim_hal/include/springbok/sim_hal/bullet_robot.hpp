@@ -47,7 +47,7 @@ struct SimConfig {
   double ground_friction = 0.8;            // the Coulomb coefficient of a foot on the ground
   double ground_restitution = 0.0;
   bool fixed_base = false;                 // trunk welded to the world (tests)
-  bool saturate_torques = true;            // clamp drive torques to the model's effort limits
+  bool saturate_torques = true;            // clamp drive torques to the joints' limits at their angles
   Rotors rotors = Rotors::included;        // the actuators' rotors (springbok::kRotorInertia_kgm2)
   ImuNoise imu;
   Latency latency;
@@ -71,6 +71,7 @@ struct GroundTruth {
   Vec3 ground_force_n = Vec3::Zero();      // sum over every robot-ground contact
   bool non_foot_ground_contact = false;    // a link other than a foot touches the ground
   VecNj tau_applied_nm = VecNj::Zero();    // the joint torques of the last step
+  VecNj tau_limit_nm = VecNj::Zero();      // the joints' torque limits of the last step (at its angles)
 };
 
 class BulletRobot final : public hal::Hardware {

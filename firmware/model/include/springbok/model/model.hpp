@@ -2,12 +2,15 @@
 // and the matrix aliases every layer uses. All compile-time.
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
 #include "springbok/model/hyq_gen3.hpp"
+#include "springbok/model/hyq_gen3_actuators.hpp"
 #include "springbok/model/model_types.hpp"
 
 namespace springbok {
@@ -98,6 +101,48 @@ constexpr double joint_own_axis_inertia_kgm2(int j) {
   return in.inertia_com_kgm2[2] + in.mass_kg * (in.com_m[0] * in.com_m[0] + in.com_m[1] * in.com_m[1]);
 }
 
+// ---- torque limits -----------------------------------------------------------------------
+// The URDF's flat effort, or a lever actuator's force times its lever arm at the angle
+// (hyq_gen3_actuators.hpp), the same both directions.
+
+// The lever arm's ratio a b sin(phi) / c at the actuator angle phi [m]. rt: no alloc
+inline double lever_arm_m(const model::LeverActuator& l, double phi_rad) noexcept {
+  const double c2 = l.a_m * l.a_m + l.b_m * l.b_m - 2.0 * l.a_m * l.b_m * std::cos(phi_rad);
+  return l.a_m * l.b_m * std::abs(std::sin(phi_rad)) / std::sqrt(c2);
+}
+
+// Joint j's torque limit at q_rad [N m]. Beyond a bounded joint's stop the actuator is at its
+// end: the angle is taken within the range. A non-finite angle gives the smallest limit over
+// the range (the safe one where the angle is unknown). rt: no alloc
+inline double torque_limit_nm(int j, double q_rad) noexcept {
+  const model::Joint& joint = robot::kJoints[static_cast<std::size_t>(j)];
+  const model::TorqueLimit& t = robot::kTorqueLimits[static_cast<std::size_t>(j)];
+  if (t.kind == model::TorqueLimit::Kind::flat) return joint.limits.effort_nm;
+  const model::LeverActuator& l = t.lever;
+  if (!std::isfinite(q_rad)) {
+    return l.force_max_n * std::min(lever_arm_m(l, l.angle_sign * joint.limits.lower_rad + l.angle_offset_rad),
+                                     lever_arm_m(l, l.angle_sign * joint.limits.upper_rad + l.angle_offset_rad));
+  }
+  if (joint.limits.bounded) q_rad = std::clamp(q_rad, joint.limits.lower_rad, joint.limits.upper_rad);
+  return l.force_max_n * lever_arm_m(l, l.angle_sign * q_rad + l.angle_offset_rad);
+}
+
+// The largest of joint j's limits over its range [N m]: the arm is longest, b, where
+// cos(phi) = b / a (a > b), else at an end of the range. rt: no alloc
+inline double torque_limit_peak_nm(int j) noexcept {
+  const model::Joint& joint = robot::kJoints[static_cast<std::size_t>(j)];
+  const model::TorqueLimit& t = robot::kTorqueLimits[static_cast<std::size_t>(j)];
+  if (t.kind == model::TorqueLimit::Kind::flat) return joint.limits.effort_nm;
+  const model::LeverActuator& l = t.lever;
+  const double phi_lower = l.angle_sign * joint.limits.lower_rad + l.angle_offset_rad;
+  const double phi_upper = l.angle_sign * joint.limits.upper_rad + l.angle_offset_rad;
+  const double phi_peak = std::acos(l.b_m / l.a_m);
+  if (std::min(phi_lower, phi_upper) <= phi_peak && phi_peak <= std::max(phi_lower, phi_upper)) {
+    return l.force_max_n * l.b_m;
+  }
+  return l.force_max_n * std::max(lever_arm_m(l, phi_lower), lever_arm_m(l, phi_upper));
+}
+
 // ---- matrix aliases (fixed size: nothing on the tick path allocates) -------------------
 template <int R, int C>
 using Mat = Eigen::Matrix<double, R, C>;
@@ -116,5 +161,12 @@ using VecNj = Vec<kNj>;
 using MatNv = Eigen::Matrix<double, kNv, kNv>;
 using Mat3Nv = Eigen::Matrix<double, 3, kNv>;
 using Mat6Nv = Eigen::Matrix<double, 6, kNv>;
+
+// Every joint's torque limit at q [N m] (torque_limit_nm). rt: no alloc
+inline VecNj torque_limits_nm(const VecNj& q_rad) noexcept {
+  VecNj limits;
+  for (int j = 0; j < kNj; ++j) limits[j] = torque_limit_nm(j, q_rad[j]);
+  return limits;
+}
 
 }  // namespace springbok

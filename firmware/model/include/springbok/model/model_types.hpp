@@ -32,6 +32,26 @@ struct JointLimits {
   double velocity_rad_s;
 };
 
+// A linear actuator (a hydraulic cylinder) turning a joint through a lever: one end
+// attached at distance a from the joint's axis, the other at b, the angle between the two
+// attachments phi = angle_sign q + angle_offset. The cylinder's length is
+// c = sqrt(a^2 + b^2 - 2 a b cos(phi)), its lever arm about the joint a b sin(phi) / c, and
+// the joint's torque limit force_max times that arm.
+struct LeverActuator {
+  double force_max_n;        // the cylinder's force limit, the same both directions
+  double a_m;
+  double b_m;
+  double angle_sign;         // +1 or -1
+  double angle_offset_rad;
+};
+
+// A joint's torque limit: the URDF's flat effort, or that of a lever actuator at the angle.
+struct TorqueLimit {
+  enum class Kind { flat, lever };
+  Kind kind;
+  LeverActuator lever;       // kind == lever only
+};
+
 // A movable joint; it moves body (index + 1), whose inertia is `inertia`
 // (fixed-attached child links already merged). Body 0 is the floating base.
 struct Joint {

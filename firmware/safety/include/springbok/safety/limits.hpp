@@ -1,5 +1,6 @@
-// Joint position and torque limits, taken from the generated robot model
-// (springbok::robot::kJoints). Continuous joints have no position limit.
+// Joint position and speed limits, taken from the generated robot model
+// (springbok::robot::kJoints). Continuous joints have no position limit. The torque limits
+// depend on the angle: springbok::torque_limit_nm (model.hpp).
 #pragma once
 
 #include <array>
@@ -12,7 +13,6 @@ struct JointLimits {
   std::array<bool, kNj> bounded{};  // false for continuous joints
   VecNj lower_rad = VecNj::Zero();
   VecNj upper_rad = VecNj::Zero();
-  VecNj effort_nm = VecNj::Zero();
   VecNj velocity_rad_s = VecNj::Zero();
 };
 
@@ -23,7 +23,6 @@ inline JointLimits joint_limits_from_model() noexcept {
     limits.bounded[static_cast<std::size_t>(j)] = l.bounded;
     limits.lower_rad[j] = l.lower_rad;
     limits.upper_rad[j] = l.upper_rad;
-    limits.effort_nm[j] = l.effort_nm;
     limits.velocity_rad_s[j] = l.velocity_rad_s;
   }
   return limits;

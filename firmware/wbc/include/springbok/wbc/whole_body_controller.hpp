@@ -137,7 +137,7 @@ struct WbcParams {
   // 1.40 / 1.22 rad/s; a real arm faults beyond them).
   double joint_velocity_horizon_s = 0.02;
   double joint_velocity_limit_scale = 0.97;  // the rows aim 3 % below the URDF limit: the arm overshoots them by up to 0.5 %
-  double torque_limit_scale = 1.0;   // fraction of the URDF effort the QP may use
+  double torque_limit_scale = 1.0;   // fraction of the joints' torque limits the QP may use
 
   // Swing foot Cartesian PD (relative to the base, base axes).
   Vec3 swing_kp_per_s2{400.0, 400.0, 400.0};
@@ -217,6 +217,7 @@ struct PlanarMotion {
 
 struct WbcOutput {
   VecNj tau_nm = VecNj::Zero();
+  VecNj torque_limit_nm = VecNj::Zero();       // each joint's limit at the tick's angle (model.hpp)
   VecNv udot = VecNv::Zero();
   std::array<Vec3, kFeet> foot_force_n{};     // world axes; zero in swing
   qp::Status qp_status = qp::Status::bad_input;

@@ -49,7 +49,7 @@ struct DriveConfig {
   double rated_torque_nm = 0.0;
   double gear_ratio = 1.0;                 // 1 when the drive's torque is joint-side
   // Optional cap on 0x6072 in per mille of the drive's 0x6076 (0 = none). 0x6072 is the
-  // joint's torque limit (robot model effort) in per mille of 0x6076, at most this cap.
+  // joint's peak torque limit (torque_limit_peak_nm) in per mille of 0x6076, at most this cap.
   std::uint16_t max_torque_permille = 0;
 };
 
@@ -115,7 +115,7 @@ struct CanConfig {
 };
 
 // The built-in parameters of joint `joint` (0..18): id = joint + 1, MIT reply
-// id 0x100 + id, Mini Cheetah ranges with the torque range = the joint's effort
+// id 0x100 + id, Mini Cheetah ranges with the torque range = the joint's peak torque
 // limit, CiA 402 scaling of a 19-bit joint-side encoder, joint-side torque (gear ratio 1),
 // rated torque not given (the drive's 0x6076 is used) and no cap on 0x6072.
 DriveConfig default_drive(int joint, Protocol p);
