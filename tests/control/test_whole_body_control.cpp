@@ -6,6 +6,8 @@
 #include <limits>
 #include <random>
 
+#include <tuple>
+
 #include <gtest/gtest.h>
 
 #include "alloc_trap.hpp"
@@ -256,6 +258,39 @@ TEST_F(Control, TheRestPoseWalksWithTheCommandedVelocity) {
 // later and stands again (through stopping). A push that keeps the CoP further in, or the
 // feature off, never steps; an operator's gait request ends it. kPush_n, sideways in world axes,
 // puts the CoP a few cm from the left edge (the sensor's rotation from the tick's kinematics).
+// A leg joint at its torque limit standing is a posture the stance cannot hold (a hydraulic hip
+// or knee near its range's end is weak): with the WBC allowed 35 % of the joints' limits, the
+// knees saturate holding the robot up with no push at all, the CoP well inside the feet: it
+// steps within delay_s. With leg_torque_ratio above 1 (off), or at the full limits, it stands.
+TEST_F(Control, ALegJointAtItsTorqueLimitStandingStepsInPlace) {
+  for (const auto& [scale, ratio, steps] : {std::tuple{0.35, 0.95, true}, std::tuple{0.35, 1.5, false},
+                                            std::tuple{1.0, 0.95, false}}) {
+    params.wbc.torque_limit_scale = scale;
+    params.push_stepping.leg_torque_ratio = ratio;
+    make();
+    hal::Measurements m = next();
+    int ticks_to_step = -1;
+    double knee_ratio = 0.0;
+    for (int i = 0; i < 600 && ticks_to_step < 0; ++i) {
+      m = next();
+      m.tau_nm = cmd.tau_ff_nm;
+      ASSERT_EQ(c->tick(m, kDt_s, cmd), TickStatus::ok);
+      const wbc::WbcOutput& o = c->output();
+      knee_ratio = std::abs(o.tau_nm[robot::kJoint_lf_kfe_joint]) / o.torque_limit_nm[robot::kJoint_lf_kfe_joint];
+      if (c->stepping_for_push()) ticks_to_step = i;
+    }
+    EXPECT_GT(c->output().support_distance_m, 0.1) << scale << " " << ratio << ": the CoP is well inside";
+    if (steps) {
+      EXPECT_NEAR(knee_ratio, scale, 1e-6) << "the knee at its scaled limit";
+      ASSERT_GE(ticks_to_step, 0) << "it never stepped";
+      EXPECT_EQ(c->gait_state(), GaitState::trot);
+    } else {
+      EXPECT_EQ(ticks_to_step, -1) << scale << " " << ratio;
+      EXPECT_EQ(c->gait_state(), GaitState::stand);
+    }
+  }
+}
+
 TEST_F(Control, APushNearTheFeetsEdgeStepsInPlaceUntilItSettles) {
   constexpr double kPush_n = 250.0;
   const dyn::Model model;

@@ -198,18 +198,21 @@ TEST(PushSteppingConfig, ErrorsNameTheFieldAndGoodValuesLoad) {
     return errors_of(yaml, "push_stepping", [](const Field& f) { return params::read_push_stepping(f); });
   };
   EXPECT_EQ(error_of("{delay: 2}"), "push_stepping.delay: must be in [0, 1], got 2 (line 1)");
+  EXPECT_EQ(error_of("{leg_torque_ratio: -0.1}"), "push_stepping.leg_torque_ratio: must be in [0, 2], got -0.1 (line 1)");
   EXPECT_NE(error_of("{enabled: no}").find("push_stepping.enabled: must be true or false"), std::string::npos);
   EXPECT_NE(error_of("{trigger_inside: .nan}").find("push_stepping.trigger_inside: must be a finite number"),
             std::string::npos);
   EXPECT_NE(error_of("{settle_speed: 0.1}").find("push_stepping.settle_speed: unknown key"), std::string::npos);
   Errors errors;
   const springbok::control::PushStepping p = params::read_push_stepping(
-      Field(YAML::Load("{enabled: false, trigger_inside: 0.01, unloaded_within: 20, velocity_gain: 0.3, settle_drift: 0.1}"),
+      Field(YAML::Load("{enabled: false, trigger_inside: 0.01, unloaded_within: 20, leg_torque_ratio: 0.9, velocity_gain: 0.3, "
+                       "settle_drift: 0.1}"),
             "push_stepping", errors));
   EXPECT_TRUE(errors.empty()) << errors.joined();
   EXPECT_FALSE(p.enabled);
   EXPECT_EQ(p.trigger_inside_m, 0.01);
   EXPECT_EQ(p.unloaded_within_n, 20.0);
+  EXPECT_EQ(p.leg_torque_ratio, 0.9);
   EXPECT_EQ(p.velocity_gain_s, 0.3);
   EXPECT_EQ(p.settle_drift_m, 0.1);
   EXPECT_EQ(p.delay_s, springbok::control::PushStepping{}.delay_s);

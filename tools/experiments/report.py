@@ -285,6 +285,12 @@ def trot_study(out, trot_runs, trots, stance, checks):
               "Touch-downs: detected from each leg's estimated ground force (early: before the schedule's end of "
               "the swing, where the foothold's 5 mm below the ground puts them; late: the foot reached down past "
               "its foothold).", "",
+              "Torque limits: the hip abduction joints and the arm's keep the URDF's flat effort; HyQ's hip and knee "
+              "flexion joints are hydraulic cylinders on levers, whose limit is the cylinder's force limit (3600 N) "
+              "times the lever arm at the joint's angle (81 N m at the ends of each range, 162 N m mid-range; "
+              "ACTUATORS.md). The 3600 N is the source's, the same both directions: a cylinder pulling on its rod side "
+              "has 61 % of the piston's area and may pull less at the same pressure; which direction pulls is not "
+              "known. Each run's log.csv has the limit at every tick (tau_limit_<joint>).", "",
               "| scenario | max tau/limit | time with a joint >= 99 % of its torque limit [s] (most: joint, s) | "
               "max joint speed / limit (joint) | joint position limit | touch-downs early / late |",
               "|---|---|---|---|---|---|"]

@@ -190,7 +190,8 @@ void WholeBodyControl::observe_unmeasured_force(double dt_s, bool engaging) noex
 
 // PushStepping, standing: for delay_s the support limit's centre of pressure or its capture
 // point (the WBC's, last tick) has been closer than trigger_inside_m to the feet's edge (or
-// past it), or a foot's normal force (the QP's) within unloaded_within_n of its minimum. Only
+// past it), a foot's normal force (the QP's) within unloaded_within_n of its minimum, or a leg
+// joint's torque at leg_torque_ratio of its limit at its angle (the WBC's scaled one). Only
 // while the limit has settled on the stance (its distance computed: not right after a stance
 // change). rt: no alloc
 bool WholeBodyControl::push_needs_a_step(double dt_s) noexcept {
@@ -198,10 +199,16 @@ bool WholeBodyControl::push_needs_a_step(double dt_s) noexcept {
   const wbc::WbcOutput& o = wbc_->output();
   double least_normal_n = std::numeric_limits<double>::infinity();
   for (int f = 0; f < kFeet; ++f) least_normal_n = std::min(least_normal_n, o.foot_force_n[f].z());
+  double leg_torque_ratio = 0.0;  // of what the QP may use
+  for (int j = 0; j < kFirstArmJoint; ++j) {
+    leg_torque_ratio = std::max(leg_torque_ratio,
+                                std::abs(o.tau_nm[j]) / (params_.wbc.torque_limit_scale * o.torque_limit_nm[j]));
+  }
   const bool near_edge =
       std::isfinite(o.support_distance_m) &&
       (o.support_distance_m < p.trigger_inside_m || o.capture_distance_m < p.trigger_inside_m ||
-       least_normal_n < params_.wbc.normal_force_min_n + p.unloaded_within_n);
+       least_normal_n < params_.wbc.normal_force_min_n + p.unloaded_within_n ||
+       leg_torque_ratio >= p.leg_torque_ratio);
   push_near_edge_s_ = p.enabled && near_edge ? push_near_edge_s_ + dt_s : 0.0;
   if (!(push_near_edge_s_ >= p.delay_s)) return false;
   push_near_edge_s_ = 0.0;

@@ -185,12 +185,13 @@ gait::TrotParams read_trot_params(const Field& f, WithVelocitySchedule schedule)
 }
 
 control::PushStepping read_push_stepping(const Field& f) {
-  f.allow_only({"enabled", "trigger_inside", "unloaded_within", "delay", "velocity_gain", "settle", "settle_drift",
+  f.allow_only({"enabled", "trigger_inside", "unloaded_within", "leg_torque_ratio", "delay", "velocity_gain", "settle", "settle_drift",
                 "settle_push_change"});
   control::PushStepping p;
   f["enabled"].boolean(p.enabled);
   f["trigger_inside"].number(p.trigger_inside_m, -0.5, 0.5);
   f["unloaded_within"].number(p.unloaded_within_n, 0.0, 1e4);
+  f["leg_torque_ratio"].number(p.leg_torque_ratio, 0.0, 2.0);
   f["delay"].number(p.delay_s, 0.0, 1.0);
   f["settle"].number(p.settle_s, 0.0, 60.0);
   f["velocity_gain"].number(p.velocity_gain_s, 0.0, 1.0);

@@ -113,7 +113,10 @@ inline constexpr TuningRange kPostureKpRange{0.0, 1e5}, kPostureKdRange{0.0, 1e4
 // or its capture point (the CoP moved by the trunk's horizontal velocity times sqrt(h / g):
 // where the trunk's motion would end) has been closer than trigger_inside_m to the edge, or a
 // foot's normal force (the QP's, last tick) within unloaded_within_n of its minimum
-// (wbc.normal_force_min_n), for delay_s, the
+// (wbc.normal_force_min_n), or a leg joint's torque at leg_torque_ratio of its limit at its
+// angle (a hip or knee near the end of its range is weak on a hydraulic leg: pushed backwards,
+// the base leans the hind hips toward their range's end, and their limit falls below what
+// holding the base asks; stepping brings the feet back under the hips), for delay_s, the
 // robot trots in place (the configured gait's cycle, params().gait.trot, without its
 // velocity), its footholds centred under that CoP and leading the trunk's velocity by
 // velocity_gain_s (the capture point's sqrt(h / g) for h ~ 0.6 m: the trot's foothold
@@ -132,6 +135,7 @@ struct PushStepping {
   bool enabled = true;
   double trigger_inside_m = 0.02;  // half the default support margin
   double unloaded_within_n = 5.0;  // or a foot's normal force this close to the WBC's minimum
+  double leg_torque_ratio = 0.95;  // or a leg joint's torque this fraction of its limit (> 1: off)
   double delay_s = 0.05;
   double velocity_gain_s = 0.25;   // the trot's foothold lead per trunk velocity (at least)
   double settle_s = 1.0;

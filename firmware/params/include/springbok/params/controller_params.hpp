@@ -42,8 +42,9 @@
 // With `schedule` yes the map may also hold `velocity_schedule` (a scenario's; its reader is the tool's).
 //
 // push_stepping (read_push_stepping; control::PushStepping), every key optional:
-//   {enabled: true, trigger_inside: 0.02, unloaded_within: 5, delay: 0.05, velocity_gain: 0.25,
-//    settle: 1.0, settle_drift: 0.05, settle_push_change: 20}   # m, N, s, s, s, m, N
+//   {enabled: true, trigger_inside: 0.02, unloaded_within: 5, leg_torque_ratio: 0.95, delay: 0.05,
+//    velocity_gain: 0.25, settle: 1.0, settle_drift: 0.05, settle_push_change: 20}
+//   # m, N, fraction of the limit (> 1: off), s, s, s, m, N
 #pragma once
 
 #include "springbok/config/reader.hpp"
