@@ -82,6 +82,15 @@ btTransform to_bt(const Eigen::Isometry3d& iso) { return btTransform(to_bt(Mat3(
 
 bool all_finite(const auto& m) { return m.allFinite(); }
 
+// Whether joint `link` may reach a stop within the step: within 0.02 rad of one, or of its
+// reach at twice its speed.
+bool near_joint_limit(const btMultiBody& body, int link, double lower_rad, double upper_rad, double dt_s) {
+  constexpr double kLimitMargin_rad = 0.02;
+  const double q = body.getJointPos(link);
+  const double margin_rad = kLimitMargin_rad + 2.0 * std::abs(body.getJointVel(link)) * dt_s;
+  return q - lower_rad <= margin_rad || upper_rad - q <= margin_rad;
+}
+
 // Bullet's joint limit, but its two solver rows exist only while the joint is
 // near a limit: far from both it cannot reach one within the step, and the
 // rows (each an articulated-body pass in the solver) were most of the cost.
@@ -92,14 +101,10 @@ class NearJointLimit final : public btMultiBodyJointLimitConstraint {
 
   void createConstraintRows(btMultiBodyConstraintArray& rows, btMultiBodyJacobianData& data,
                             const btContactSolverInfo& info) override {
-    const double q = m_bodyA->getJointPos(m_linkA);
-    const double margin_rad = kLimitMargin_rad + 2.0 * std::abs(m_bodyA->getJointVel(m_linkA)) * info.m_timeStep;
-    if (q - m_lowerBound > margin_rad && m_upperBound - q > margin_rad) return;
+    if (!near(info.m_timeStep)) return;
     btMultiBodyJointLimitConstraint::createConstraintRows(rows, data, info);
   }
-
- private:
-  static constexpr double kLimitMargin_rad = 0.02;
+  bool near(double dt_s) const { return near_joint_limit(*m_bodyA, m_linkA, m_lowerBound, m_upperBound, dt_s); }
 };
 
 // The ground plane z = 0, but with a bounding box that is a slab from 1 m
@@ -137,6 +142,7 @@ std::string check_config(const SimConfig& c) {
   if (!(std::isfinite(c.step_s) && c.step_s > 0.0)) return "step_s must be finite and > 0";
   if (c.substeps < 1) return "substeps must be >= 1";
   if (c.solver_iterations < 1) return "solver_iterations must be >= 1";
+  if (c.limit_solver_iterations < 1) return "limit_solver_iterations must be >= 1";
   if (!std::isfinite(c.gravity_m_s2)) return "gravity_m_s2 must be finite";
   if (!(std::isfinite(c.ground_friction) && c.ground_friction >= 0.0)) return "ground_friction must be finite and >= 0";
   if (!(std::isfinite(c.ground_restitution) && c.ground_restitution >= 0.0 && c.ground_restitution <= 1.0))
@@ -625,6 +631,11 @@ void BulletRobot::step() noexcept {
   s.written[Impl::slot(s.tick, 0)] = s.command;
   s.applied = s.written[Impl::slot(s.tick, s.config.latency.command_ticks)];
   for (int k = 0; k < s.config.substeps; ++k) {
+    // A joint at a stop: its limit rows hold a loaded joint only in more passes than the
+    // contacts alone need (in 3, a robot lying on its legs folded its knees 0.5 rad past theirs).
+    bool at_a_stop = false;
+    for (const auto& limit : s.limits) at_a_stop = at_a_stop || limit->near(s.substep_s);
+    s.world->getSolverInfo().m_numIterations = at_a_stop ? s.config.limit_solver_iterations : s.config.solver_iterations;
     s.apply_drive_torques();
     s.apply_external_wrenches(t0_s + k * s.substep_s);
     s.world->stepSimulation(s.substep_s, /*maxSubSteps=*/0, s.substep_s);

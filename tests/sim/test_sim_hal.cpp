@@ -149,6 +149,39 @@ TEST(SimHal, TorquesSaturateAtTheJointsLimitsAtTheirAngles) {
   }
 }
 
+// A robot dropped limp from a crouch lies on its folded legs: its knees stay at their stops,
+// where the real joints end (the limit rows solved in 3 passes let them creep 0.5 rad past).
+TEST(SimHal, ALimpRobotLyingOnItsLegsKeepsItsJointsAtTheirStops) {
+  sim::SimConfig c;
+  c.initial_q[2] = 1.0;
+  for (int leg = 0; leg < kFeet; ++leg) {
+    const double side = leg < 2 ? 1.0 : -1.0;  // the front knees bend backwards, the hind forwards
+    c.initial_q[7 + leg_first_joint(leg) + 1] = side;
+    c.initial_q[7 + leg_first_joint(leg) + 2] = -2.0 * side;
+  }
+  sim::BulletRobot robot(c);
+  ASSERT_TRUE(robot.configure().ok);
+  ASSERT_TRUE(robot.activate().ok);
+  double worst_rad = 0.0, settled_worst_rad = 0.0;  // past a stop: over the run, over its last 0.2 s
+  bool at_a_stop = false;
+  for (int k = 0; k < 1000; ++k) {
+    robot.step();
+    const VecNq& q = robot.ground_truth().q;
+    for (int j = 0; j < kNj; ++j) {
+      const auto& l = robot::kJoints[j].limits;
+      if (!l.bounded) continue;
+      const double past_rad = std::max(l.lower_rad - q[7 + j], q[7 + j] - l.upper_rad);
+      worst_rad = std::max(worst_rad, past_rad);
+      if (k >= 800) settled_worst_rad = std::max(settled_worst_rad, past_rad);
+      at_a_stop = at_a_stop || q[7 + j] - l.lower_rad < 1e-2 || l.upper_rad - q[7 + j] < 1e-2;
+    }
+  }
+  EXPECT_TRUE(at_a_stop) << "the legs folded onto their stops";
+  EXPECT_TRUE(robot.ground_truth().non_foot_ground_contact) << "lying";
+  EXPECT_LT(worst_rad, 0.05) << "landing";
+  EXPECT_LT(settled_worst_rad, 0.005) << "lying";
+}
+
 TEST(SimHal, ImuAtRestReadsGravityAsSpecificForceInItsFrame) {
   sim::BulletRobot robot(resting_fixed_base());
   ASSERT_TRUE(robot.configure().ok);

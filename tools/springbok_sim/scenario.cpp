@@ -16,11 +16,12 @@ namespace {
 using config::Field;
 
 void read_sim(const Field& f, sim::SimConfig& c) {
-  f.allow_only({"step_s", "substeps", "solver_iterations", "gravity_m_s2", "ground_friction", "ground_restitution",
+  f.allow_only({"step_s", "substeps", "solver_iterations", "limit_solver_iterations", "gravity_m_s2", "ground_friction", "ground_restitution",
                 "fixed_base", "imu", "latency"});
   f["step_s"].number(c.step_s, 1e-5, 0.01);
   f["substeps"].integer(c.substeps, 1, 100);
   f["solver_iterations"].integer(c.solver_iterations, 1, 1000);
+  f["limit_solver_iterations"].integer(c.limit_solver_iterations, 1, 1000);
   f["gravity_m_s2"].number(c.gravity_m_s2, 0.0, 100.0);
   f["ground_friction"].number(c.ground_friction, 0.0, 10.0);
   f["ground_restitution"].number(c.ground_restitution, 0.0, 1.0);
