@@ -195,6 +195,31 @@ TEST(CanConfig, StructuralErrors) {
                    0.0);
 }
 
+// The MIT drives' bus voltage thresholds (CAN.md 1.4): off by default, each in [0, 40] V, the fault
+// below the warning.
+TEST(CanConfig, MitBusVoltageThresholdsAreOffByDefaultAndChecked) {
+  const ConfigResult none = load_can_config_text(can_map("layout: classic7"));
+  ASSERT_TRUE(none.ok) << none.error;
+  EXPECT_EQ(none.config.mit_bus_voltage_warning_v, 0.0);
+  EXPECT_EQ(none.config.mit_bus_voltage_fault_v, 0.0);
+  const ConfigResult both =
+      load_can_config_text(can_map("layout: classic7, mit_bus_voltage_warning_v: 20, mit_bus_voltage_fault_v: 18.5"));
+  ASSERT_TRUE(both.ok) << both.error;
+  EXPECT_EQ(both.config.mit_bus_voltage_warning_v, 20.0);
+  EXPECT_EQ(both.config.mit_bus_voltage_fault_v, 18.5);
+  for (const char* bad : {"-1", "41", ".nan"}) {
+    for (const char* field : {"mit_bus_voltage_warning_v", "mit_bus_voltage_fault_v"}) {
+      const std::string error =
+          load_can_config_text(can_map(std::string("layout: classic7, ") + field + ": " + bad)).error;
+      const std::string why = bad[0] == '.' ? ": must be a finite number" : ": must be in [0, 40] V (0: off)";
+      EXPECT_NE(error.find(std::string("can.") + field + why), std::string::npos) << field << " " << bad << ": " << error;
+    }
+  }
+  EXPECT_NE(load_can_config_text(can_map("layout: classic7, mit_bus_voltage_warning_v: 20, mit_bus_voltage_fault_v: 20"))
+                .error.find("can.mit_bus_voltage_fault_v: must be below can.mit_bus_voltage_warning_v"),
+            std::string::npos);
+}
+
 TEST(CanConfig, LayoutWideMitRangesOverrideTheGainRangesOfEveryMitDrive) {
   const ConfigResult r = load_can_config_text(can_map("layout: fd5, mit_ranges: {kp: [0, 2000], kd: [0, 50]}"));
   ASSERT_TRUE(r.ok) << r.error;

@@ -599,6 +599,41 @@ TEST(DriveEmulator, Cia402OptionsCanMdAllows) {
   EXPECT_EQ(drive.nmt_state(), 0x05);
 }
 
+// Late answers (Cia402Options::answer_delay_ms, state_step_ms): an SDO answer goes out 10 ms after
+// its request, not before; a state transition takes effect 90 ms after the SYNC that applied it.
+TEST(DriveEmulator, Cia402AnswersLateAndStepsSlowlyWhenAsked) {
+  const can::DriveConfig cfg = can::default_drive(2, can::Protocol::cia402);  // node 3
+  Cia402Options options;
+  options.answer_delay_ms = 10;
+  options.state_step_ms = 90;
+  Cia402Drive drive(cfg, make_joint_model(2, 0.0), {}, 0, options);
+  std::vector<Frame> out;
+  drive.boot(0, out);
+  EXPECT_TRUE(sdo(drive, 3, {c4::SdoRequest::Kind::read, c4::object::statusword, 0, 0, 0}, 1000000).empty());
+  out.clear();
+  drive.on_time(10999999, out);
+  EXPECT_TRUE(out.empty()) << "not yet: 10 ms after the request";
+  drive.on_time(11000000, out);
+  ASSERT_EQ(out.size(), 1u);
+  c4::SdoResponse res;
+  ASSERT_EQ(c4::decode_sdo_response(out[0], 3, res), can::FrameStatus::ok);
+  EXPECT_EQ(res.value, 0x0250u);  // switch on disabled
+  Frame nmt, rpdo, sync;
+  c4::encode_nmt(c4::NmtCommand::start, 3, nmt);
+  drive.on_frame(nmt, 20000000, out);
+  c4::encode_rpdo1(3, c4::Rpdo1{c4::controlword::shutdown, 0}, rpdo);
+  c4::encode_sync(sync);
+  const auto tick = [&](std::int64_t now_ns) {
+    drive.on_frame(rpdo, now_ns, out);
+    drive.on_frame(sync, now_ns, out);
+  };
+  tick(30000000);  // the shutdown applied: ready to switch on at 120 ms
+  tick(119000000);
+  EXPECT_EQ(drive.status_word(), 0x0250);
+  tick(120000000);
+  EXPECT_EQ(drive.status_word(), 0x0231);
+}
+
 // CAN.md 4 / 5: the controller's error-passive report and its return to error active, as
 // error frames on the drive's bus at the scripted cyclic ticks.
 TEST(DriveEmulator, ErrorPassiveThenErrorActiveReports) {
@@ -659,11 +694,23 @@ TEST(DriveEmulatorCli, RejectsABadConfigOrFaultScript) {
   EXPECT_NE(out.find("fault 'vendor_error' names drive 1, whose 6-byte replies have no error byte"), std::string::npos)
       << out;
   std::remove(bad.c_str());
-  // The MIT drives' flash settings: a reply length MIT does not have, an id past 11 bits.
+  // The MIT drives' flash settings: a reply length the emulator does not send, an id past 11 bits,
+  // a bus voltage past byte 6's range.
   const std::string config = "--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml --print-layout ";
   out.clear();
-  EXPECT_NE(run(config + "--mit-reply-dlc 7", out), 0);
+  EXPECT_NE(run(config + "--mit-reply-dlc 4", out), 0);
   EXPECT_NE(out.find("--mit-reply-dlc"), std::string::npos) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--mit-bus-voltage-v 41", out), 0);
+  EXPECT_NE(out.find("--mit-bus-voltage-v"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(run(config + "--mit-reply-dlc 7 --mit-bus-voltage-v 24", out), 0) << out;
+  // A per-bus CiA 402 option: one value, or one per bus.
+  out.clear();
+  EXPECT_NE(run(config + "--cia402-answer-delay-ms 1,2", out), 0);
+  EXPECT_NE(out.find("--cia402-answer-delay-ms: 2 values for 7 buses"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(run(config + "--cia402-answer-delay-ms 1,9,17,25,33,41,50 --cia402-state-step-ms 90", out), 0) << out;
   out.clear();
   EXPECT_NE(run(config + "--mit-master-id 2048", out), 0);
   EXPECT_NE(out.find("--mit-master-id"), std::string::npos) << out;

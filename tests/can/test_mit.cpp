@@ -61,7 +61,7 @@ TEST(MitCodec, WorkedExampleReplyEncodedAndDecoded) {
   in.p_rad = 0.5;
   in.v_rad_s = 1.25;
   in.t_nm = -2.0;
-  encode_reply(0x103, in, Ranges{}, false, f);
+  encode_reply(0x103, in, Ranges{}, kReplyLen, f);
   EXPECT_EQ(f.id, 0x103u);
   ASSERT_EQ(f.len, 6);
   const std::array<std::uint8_t, 6> expected{0x03, 0x85, 0x1E, 0x82, 0x67, 0x1C};
@@ -166,9 +166,13 @@ TEST(MitCodec, ASaturatedCommandNeverSpellsASpecialFrame) {
 TEST(MitCodec, DecodersRejectBadFrames) {
   Reply rep;
   Command cmd;
+  // CAN.md 1.4: 6, 7 or 8 bytes; any other length is malformed.
   EXPECT_EQ(decode_reply(frame_of(0x103, {3, 0, 0, 0, 0}), Ranges{}, rep), FrameStatus::wrong_dlc);
-  EXPECT_EQ(decode_reply(frame_of(0x103, {3, 0, 0, 0, 0, 0, 0}), Ranges{}, rep), FrameStatus::wrong_dlc);
   EXPECT_EQ(decode_reply(frame_of(0x103, {}), Ranges{}, rep), FrameStatus::wrong_dlc);
+  Frame long_reply = frame_of(0x103, {3, 0x85, 0x1E, 0x82, 0x67, 0x1C, 0, 0});
+  long_reply.fd = true;
+  long_reply.len = 12;
+  EXPECT_EQ(decode_reply(long_reply, Ranges{}, rep), FrameStatus::wrong_dlc);
   EXPECT_EQ(decode_command(frame_of(0x3, {1, 2, 3, 4, 5, 6}), Ranges{}, cmd), FrameStatus::wrong_dlc);
   Frame err = frame_of(0x40, {0, 0, 0, 0, 0, 0});
   err.error = true;
@@ -178,6 +182,39 @@ TEST(MitCodec, DecodersRejectBadFrames) {
   EXPECT_TRUE(rep.has_vendor_bytes);
   EXPECT_EQ(rep.temperature, 40);
   EXPECT_EQ(rep.error_code, 7);
+}
+
+// CAN.md 1.4: the reference firmware since July 2023 adds byte 6, the bus voltage on 0..40 V in
+// 8 bits; bytes 0..5 mean what they mean in a 6-byte reply.
+TEST(MitCodec, ASevenByteReplyCarriesTheBusVoltage) {
+  Reply rep;
+  ASSERT_EQ(decode_reply(frame_of(0x103, {3, 0x85, 0x1E, 0x82, 0x67, 0x1C, 153}), Ranges{}, rep), FrameStatus::ok);
+  EXPECT_EQ(rep.drive_id, 3);
+  EXPECT_NEAR(rep.p_rad, 0.499924, 1e-6);
+  EXPECT_NEAR(rep.t_nm, -2.0, 1e-6);
+  EXPECT_TRUE(rep.has_bus_voltage);
+  EXPECT_DOUBLE_EQ(rep.bus_voltage_v, 24.0);  // 153 / 255 * 40
+  EXPECT_FALSE(rep.has_vendor_bytes);
+  ASSERT_EQ(decode_reply(frame_of(0x103, {3, 0x85, 0x1E, 0x82, 0x67, 0x1C, 255}), Ranges{}, rep), FrameStatus::ok);
+  EXPECT_DOUBLE_EQ(rep.bus_voltage_v, 40.0);
+  ASSERT_EQ(decode_reply(frame_of(0x103, {3, 0x85, 0x1E, 0x82, 0x67, 0x1C}), Ranges{}, rep), FrameStatus::ok);
+  EXPECT_FALSE(rep.has_bus_voltage);
+
+  // The drive side, truncating as the firmware does: 24 V is code 153, 23.99 V code 152.
+  Reply in;
+  in.drive_id = 3;
+  in.p_rad = 0.5;
+  in.v_rad_s = 1.25;
+  in.t_nm = -2.0;
+  in.bus_voltage_v = 24.0;
+  Frame f;
+  encode_reply(0x103, in, Ranges{}, kReplyLenVoltage, f);
+  ASSERT_EQ(f.len, 7);
+  const std::array<std::uint8_t, 7> expected{0x03, 0x85, 0x1E, 0x82, 0x67, 0x1C, 153};
+  for (int i = 0; i < 7; ++i) EXPECT_EQ(f.data[i], expected[i]) << "byte " << i;
+  in.bus_voltage_v = 23.99;
+  encode_reply(0x103, in, Ranges{}, kReplyLenVoltage, f);
+  EXPECT_EQ(f.data[6], 152);
 }
 
 TEST(MitCodec, EncodeAndDecodeDoNotAllocate) {
@@ -200,7 +237,7 @@ TEST(MitCodec, EncodeAndDecodeDoNotAllocate) {
 // A joint's true motion through the drive's truncating reply and the host's decoder.
 Reply through_the_wire(double q_rad, double v_rad_s, const Ranges& r) {
   Frame f;
-  encode_reply(0x101, Reply{1, q_rad, v_rad_s, 0.0}, r, false, f);
+  encode_reply(0x101, Reply{1, q_rad, v_rad_s, 0.0}, r, kReplyLen, f);
   Reply out;
   EXPECT_EQ(decode_reply(f, r, out), FrameStatus::ok);
   return out;

@@ -172,9 +172,11 @@ std::map<int, EmulatedDrive> emulated_drives(const std::string& summary) {
 }
 
 // `emulator_args`: the drives' own settings where they differ from the config's (e.g. the
-// MIT CAN_MASTER id); `host`: what the host's config then says of them.
+// MIT CAN_MASTER id); `host`: what the host's config then says of them; `check`: what else the
+// last of the ticks after start-up must show.
 void bring_up_all(const std::string& config_name, const std::vector<std::string>& emulator_args = {},
-                  const std::function<void(CanConfig&)>& host = {}) {
+                  const std::function<void(CanConfig&)>& host = {},
+                  const std::function<void(const CanHardware&, const hal::Measurements&)>& check = {}) {
   CanConfig cfg = load(config_name);
   if (host) host(cfg);
   Emulator emu(kConfigDir + config_name, "", emulator_args);
@@ -205,6 +207,7 @@ void bring_up_all(const std::string& config_name, const std::vector<std::string>
     EXPECT_EQ(hw.diagnostics(b).bad_frames, 0u);
     EXPECT_EQ(hw.diagnostics(b).unexpected_frames, 0u);
   }
+  if (check) check(hw, last);
   // rt: read and write do not allocate (the whole tick path, sockets included).
   {
     hal::JointCommands cmd;
@@ -288,6 +291,25 @@ TEST(Hil, BringUpAll19DrivesCia402WhoseDrivesWatchForLostCommunication) {
   bring_up_all("cia402_classic7.yaml", args);
 }
 
+// Drives that answer within CAN.md's limits but late, as start-up meets them: the host's timing as
+// shipped (rx_deadline_us 900, state_step_timeout_ms 100), the drives' CiA 402 emulation slowed by
+// the emulator's --cia402-* options.
+void bring_up_all_cia402_late(const std::vector<std::string>& late) {
+  std::vector<std::string> args = kCia402DrivesUp;
+  args.insert(args.end(), late.begin(), late.end());
+  bring_up_all("cia402_classic7.yaml", args, [](CanConfig& cfg) {
+    cfg.timing.rx_deadline_us = Timing{}.rx_deadline_us;
+    cfg.timing.state_step_timeout_ms = Timing{}.state_step_timeout_ms;
+  });
+}
+
+// Until Operation enabled, each bus's drives send the TPDOs of a SYNC and their SDO answers 1 to
+// 50 ms late (lf 1 ms ... arm 50 ms): after the tick's receive deadline on every bus but lf.
+TEST(Hil, BringUpAll19DrivesCia402AnsweringLate) {
+  REQUIRE_VCAN(7);
+  bring_up_all_cia402_late({"--cia402-answer-delay-ms", "1,9,17,25,33,41,50"});
+}
+
 TEST(Hil, BringUpAll19DrivesMitWithCanFdArm) {
   REQUIRE_VCAN(5);
   bring_up_all("mit_fd5.yaml");
@@ -319,6 +341,87 @@ TEST(Hil, BringUpAll19DrivesMitReplyingOnMasterIdZeroWithEightBytes) {
       }
     }
   });
+}
+
+// CAN.md 1.4: the reference firmware since July 2023 replies with 7 bytes, byte 6 its bus
+// voltage (24 V here: code 153, exactly 24 V back), reported per drive; 20 V warns, 18 V faults.
+TEST(Hil, BringUpAll19DrivesMitReplyingWithTheirBusVoltage) {
+  REQUIRE_VCAN(7);
+  bring_up_all(
+      "mit_classic7.yaml", {"--mit-reply-dlc", "7", "--mit-bus-voltage-v", "24"},
+      [](CanConfig& cfg) {
+        cfg.mit_bus_voltage_warning_v = 20.0;
+        cfg.mit_bus_voltage_fault_v = 18.0;
+      },
+      [](const CanHardware& hw, const hal::Measurements& m) {
+        for (int j = 0; j < kNj; ++j) {
+          EXPECT_DOUBLE_EQ(m.drives[static_cast<std::size_t>(j)].bus_voltage_v, 24.0) << "joint " << j;
+          EXPECT_FALSE(m.drives[static_cast<std::size_t>(j)].bus_voltage_low) << "joint " << j;
+        }
+        EXPECT_NE(hw.diagnostics_report().find("can drive 1 (lf_haa_joint): bus_voltage_v=24.00 bus_voltage_low=0 "
+                                               "wrong_dlc_replies=0"),
+                  std::string::npos)
+            << hw.diagnostics_report();
+      });
+}
+
+// Below the warning threshold the drives still follow (a warning per drive, not a fault).
+TEST(Hil, MitDrivesBelowTheBusVoltageWarningAreFlaggedAndFollow) {
+  REQUIRE_VCAN(7);
+  bring_up_all(
+      "mit_classic7.yaml", {"--mit-reply-dlc", "7", "--mit-bus-voltage-v", "19"},
+      [](CanConfig& cfg) {
+        cfg.mit_bus_voltage_warning_v = 20.0;
+        cfg.mit_bus_voltage_fault_v = 18.0;
+      },
+      [](const CanHardware&, const hal::Measurements& m) {
+        for (int j = 0; j < kNj; ++j) {
+          EXPECT_NEAR(m.drives[static_cast<std::size_t>(j)].bus_voltage_v, 19.0, 40.0 / 255.0) << "joint " << j;
+          EXPECT_TRUE(m.drives[static_cast<std::size_t>(j)].bus_voltage_low) << "joint " << j;
+        }
+      });
+}
+
+// Below the fault threshold a drive is about to brown out: start-up fails naming the drive and
+// its voltage, the drive fault latched (as a vendor error code is).
+TEST(Hil, MitStartUpFailsOnADriveBelowTheBusVoltageFault) {
+  REQUIRE_VCAN(7);
+  CanConfig cfg = load("mit_classic7.yaml");
+  cfg.mit_bus_voltage_warning_v = 20.0;
+  cfg.mit_bus_voltage_fault_v = 18.0;
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "", {"--mit-reply-dlc", "7", "--mit-bus-voltage-v", "17"});
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_FALSE(c.ok);
+  EXPECT_NE(c.message.find("MIT start-up: drive 1 (joint lf_haa_joint, mit) on bus 'lf' (vcan0) reports a bus voltage "
+                           "of 16.94 V, below can.mit_bus_voltage_fault_v 18.00 V"),
+            std::string::npos)
+      << c.message;
+  EXPECT_EQ(hw.joint(0).status.state, hal::DriveState::fault);
+  EXPECT_EQ(hw.joint(0).status.fault_code, kFaultBusUndervoltage);
+}
+
+// A reply of a length CAN.md 1.4 does not allow is dropped and counted, and the failed start-up
+// says so instead of "no reply".
+TEST(Hil, MitStartUpNamesRepliesOfAWrongLength) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("mit_classic7.yaml");
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "", {"--mit-reply-dlc", "5"});
+  ASSERT_TRUE(emu.ready());
+  CanHardware hw(cfg);
+  const hal::LifecycleResult c = hw.configure();
+  ASSERT_FALSE(c.ok);
+  const std::uint32_t tries = cfg.timing.mit_presence_retries + 1;
+  EXPECT_NE(c.message.find("MIT start-up: no valid reply to exit-motor-mode after " + std::to_string(tries) +
+                           " tries of " + std::to_string(cfg.timing.mit_presence_timeout_ms) +
+                           " ms: drive 1 (joint lf_haa_joint, mit) on bus 'lf' (vcan0): " + std::to_string(tries) +
+                           " replies of DLC 5 dropped"),
+            std::string::npos)
+      << c.message;
+  EXPECT_EQ(c.message.find("no reply"), std::string::npos) << c.message;
+  EXPECT_EQ(hw.joint(0).wrong_dlc_replies, tries);
+  EXPECT_GE(hw.diagnostics(0).bad_frames, tries);
 }
 
 TEST(Hil, MissingDriveStopsStartUpNamingIt) {
@@ -595,7 +698,7 @@ TEST(Hil, FailedActivateLeavesNoMitDriveInMotorMode) {
   ASSERT_TRUE(c.ok) << c.message;
   const hal::LifecycleResult a = hw.activate();
   EXPECT_FALSE(a.ok);
-  EXPECT_NE(a.message.find("no reply to enter-motor-mode within 200 ms: drive 10 (joint rh_haa_joint, mit) on bus 'rh' (vcan3)"),
+  EXPECT_NE(a.message.find("no valid reply to enter-motor-mode within 200 ms: drive 10 (joint rh_haa_joint, mit) on bus 'rh' (vcan3)"),
             std::string::npos)
       << a.message;
   EXPECT_NE(a.message.find("every drive on bus 'lf' (vcan0), 'rf' (vcan1), 'lh' (vcan2), 'rh' (vcan3) disabled again "
@@ -986,7 +1089,7 @@ TEST(Hil, AFrameNamingADriveOfAnotherBusFailsStartUp) {
   mit::Reply reply;
   reply.drive_id = 5;
   Frame f;
-  mit::encode_reply(0x10D, reply, cfg.buses[1].drives[1].mit_ranges, false, f);
+  mit::encode_reply(0x10D, reply, cfg.buses[1].drives[1].mit_ranges, mit::kReplyLen, f);
   ASSERT_EQ(arm0.send(f), TxStatus::ok);
   const hal::LifecycleResult a = hw.activate();
   EXPECT_FALSE(a.ok);

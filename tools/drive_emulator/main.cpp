@@ -4,10 +4,12 @@
 // faults injected from a script. Runs until SIGINT/SIGTERM or --duration-s.
 //
 //   drive_emulator --config can.yaml [--faults faults.yaml] [--pose stance|zero]
-//                  [--mit-master-id ID] [--mit-reply-dlc 6|8]   (the MIT drives' flash settings)
+//                  [--mit-master-id ID] [--mit-reply-dlc 5|6|7|8] [--mit-bus-voltage-v V]
+//                                                               (the MIT drives' flash settings, supply)
 //                  [--cia402-heartbeat-ms MS] [--cia402-boot-after-ms MS]   (CiA 402: stored 0x1017, power-on)
 //                  [--cia402-nmt-delay-ms MS] [--cia402-only-used-pdos] [--cia402-repeat-sdo-answers]
-//                  [--cia402-sync-timeout-ms MS]
+//                  [--cia402-sync-timeout-ms MS] [--cia402-answer-delay-ms MS[,MS...]]
+//                  [--cia402-state-step-ms MS[,MS...]]   (one value for every bus, or one per bus)
 //   drive_emulator --config can.yaml --motion bullet [--truth-log trunk.txt]
 //   drive_emulator --config can.yaml --print-layout      (no CAN needed)
 //
@@ -89,9 +91,11 @@ int main(int argc, char** argv) {
   std::string hand_force_axis = "x";
   double imu_gyro_noise = 0.0, imu_accel_noise = 0.0, imu_gyro_bias = 0.0, imu_accel_bias = 0.0;
   std::uint64_t imu_seed = 1;
-  int mit_master_id = -1, mit_reply_dlc = 0;  // -1 / 0: as the config says
+  int mit_master_id = -1;  // -1: as the config says
+  emu::MitReplyOptions mit_reply;
   emu::Cia402Options cia402;
   std::uint32_t cia402_boot_after_ms = 0;
+  std::vector<std::uint32_t> cia402_answer_delay_ms, cia402_state_step_ms;  // per bus, or one for all
   app.add_option("--config", config_path, "YAML file with the `can:` section (the same the firmware reads)")->required();
   app.add_option("--faults", faults_path, "YAML fault script (`faults:` list)");
   app.add_option("--pose", pose, "initial joint positions")->check(CLI::IsMember({"stance", "zero"}));
@@ -102,8 +106,13 @@ int main(int argc, char** argv) {
   // of them (CAN.md 1.4: CAN_MASTER, factory default 0; CubeMars' 8-byte replies).
   app.add_option("--mit-master-id", mit_master_id, "MIT: every drive replies on this CAN id (CAN_MASTER), 0..0x7FF")
       ->check(CLI::Range(0, 0x7FF));
-  app.add_option("--mit-reply-dlc", mit_reply_dlc, "MIT: every drive replies with this many bytes (6, or 8 as CubeMars)")
-      ->check(CLI::IsMember({6, 8}));
+  app.add_option("--mit-reply-dlc", mit_reply.dlc,
+                 "MIT: every drive replies with this many bytes: 6 (bgkatz before July 2023), 7 (since: + bus "
+                 "voltage), 8 (CubeMars); 5: malformed, a length CAN.md 1.4 does not allow")
+      ->check(CLI::IsMember({5, 6, 7, 8}));
+  app.add_option("--mit-bus-voltage-v", mit_reply.bus_voltage_v,
+                 "MIT: the drives' bus voltage, sent in byte 6 of 7-byte replies, V")
+      ->check(CLI::Range(0.0, 40.0));
   // The CiA 402 drives' stored 0x1017 and when they are powered on (CAN.md 4.3 step 1: the host
   // waits for each node's boot-up, and resets a node it hears heartbeats from).
   app.add_option("--cia402-heartbeat-ms", cia402.stored_heartbeat_ms,
@@ -125,6 +134,16 @@ int main(int argc, char** argv) {
                  "CiA 402: a drive Operation enabled (0x6007 = 3) quick-stops when no SYNC came for this long, ms "
                  "(lost communication); 0: never")
       ->check(CLI::Range(0, 60000));
+  app.add_option("--cia402-answer-delay-ms", cia402_answer_delay_ms,
+                 "CiA 402: until Operation enabled, a drive sends the TPDOs of a SYNC and its SDO answers this "
+                 "long after the frame asking for them, ms; one value for every bus or one per bus (comma-separated)")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 1000));
+  app.add_option("--cia402-state-step-ms", cia402_state_step_ms,
+                 "CiA 402: a state machine transition takes effect this long after the SYNC that applied its "
+                 "controlword, ms; one value for every bus or one per bus (comma-separated)")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 1000));
   app.add_option("--motion", motion,
                  "joint: a 1-DoF model per drive; bullet: the joints of the simulated robot (sim_hal), "
                  "stepped once per host tick, the robot spawned crouched on its feet")
@@ -158,6 +177,19 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "drive_emulator: %s\n", cfg.error.c_str());
     return 2;
   }
+  // A per-bus option: one value for every bus, or one per bus.
+  const std::size_t n_buses = cfg.config.buses.size();
+  for (const auto& [name, values] : {std::pair{"--cia402-answer-delay-ms", &cia402_answer_delay_ms},
+                                     std::pair{"--cia402-state-step-ms", &cia402_state_step_ms}}) {
+    if (values->size() > 1 && values->size() != n_buses) {
+      std::fprintf(stderr, "drive_emulator: %s: %zu values for %zu buses (give one, or one per bus)\n", name,
+                   values->size(), n_buses);
+      return 2;
+    }
+  }
+  const auto per_bus = [](const std::vector<std::uint32_t>& values, std::size_t b) -> std::uint32_t {
+    return values.empty() ? 0 : values[values.size() == 1 ? 0 : b];
+  };
   if (layout_only) {
     print_layout(cfg.config);
     return can::check_bus_loads(cfg.config).empty() ? 0 : 1;
@@ -206,7 +238,7 @@ int main(int argc, char** argv) {
                    emu::to_string(f.kind), f.drive_id);
       return 2;
     }
-    if (mit_only && !(mit_reply_dlc > 0 ? mit_reply_dlc == 8 : drive->mit_vendor_reply)) {
+    if (mit_only && !(mit_reply.dlc > 0 ? mit_reply.dlc == 8 : drive->mit_vendor_reply)) {
       std::fprintf(stderr,
                    "drive_emulator: fault '%s' names drive %d, whose 6-byte replies have no error byte "
                    "(vendor_reply: true in the config, or --mit-reply-dlc 8)\n",
@@ -279,10 +311,12 @@ int main(int argc, char** argv) {
       if (d.protocol == can::Protocol::mit) {
         can::DriveConfig flash = d;
         if (mit_master_id >= 0) flash.mit_reply_id = static_cast<std::uint16_t>(mit_master_id);
-        if (mit_reply_dlc > 0) flash.mit_vendor_reply = mit_reply_dlc == 8;
-        buses[b].drives.push_back(std::make_unique<emu::MitDrive>(flash, bc.fd, model, mine, can_timeout_ms));
+        buses[b].drives.push_back(std::make_unique<emu::MitDrive>(flash, bc.fd, model, mine, can_timeout_ms, mit_reply));
       } else {
-        buses[b].drives.push_back(std::make_unique<emu::Cia402Drive>(d, model, mine, t0, cia402));
+        emu::Cia402Options options = cia402;
+        options.answer_delay_ms = per_bus(cia402_answer_delay_ms, b);
+        options.state_step_ms = per_bus(cia402_state_step_ms, b);
+        buses[b].drives.push_back(std::make_unique<emu::Cia402Drive>(d, model, mine, t0, options));
       }
       buses[b].drives.back()->attach(world.get());
     }

@@ -148,9 +148,13 @@ void CanHardware::process_mit_reply(int b, const Frame& f) noexcept {
   }
   JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
   mit::Reply r;
-  // DLC 6 or 8 whatever the drive type (CAN.md 1.4); bytes 6..7 only for a vendor drive.
-  if (mit::decode_reply(f, jr.cfg.mit_ranges, r) != FrameStatus::ok) {
+  // DLC 6, 7 or 8 whatever the drive type (CAN.md 1.4); bytes 6..7 of 8 only for a vendor drive.
+  if (const FrameStatus s = mit::decode_reply(f, jr.cfg.mit_ranges, r); s != FrameStatus::ok) {
     ++bus.diag.bad_frames;
+    if (s == FrameStatus::wrong_dlc) {
+      ++jr.wrong_dlc_replies;
+      jr.wrong_dlc_len = f.len;
+    }
     return;
   }
   if (!accept_position(j, r.p_rad)) return;
@@ -166,6 +170,17 @@ void CanHardware::process_mit_reply(int b, const Frame& f) noexcept {
   if (jr.cfg.mit_vendor_reply && r.has_vendor_bytes && r.error_code != 0) {
     if (jr.startup_fault_code == 0) jr.startup_fault_code = r.error_code;  // start-up fails on it
     latch_fault(j, r.error_code);
+  }
+  if (r.has_bus_voltage) check_bus_voltage(j, r.bus_voltage_v);
+}
+
+void CanHardware::check_bus_voltage(int j, double v) noexcept {
+  JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  jr.status.bus_voltage_v = v;
+  jr.status.bus_voltage_low = config_.mit_bus_voltage_warning_v > 0.0 && v < config_.mit_bus_voltage_warning_v;
+  if (config_.mit_bus_voltage_fault_v > 0.0 && v < config_.mit_bus_voltage_fault_v) {
+    if (jr.startup_fault_code == 0) jr.startup_fault_code = kFaultBusUndervoltage;  // start-up fails on it
+    latch_fault(j, kFaultBusUndervoltage);
   }
 }
 
@@ -617,6 +632,20 @@ std::string CanHardware::diagnostics_report() const {
   char line[512];
   for (int b = 0; b < bus_count_; ++b) {
     out += bus_diagnostics_line(config_.buses[static_cast<std::size_t>(b)], diagnostics(b));
+    // Per MIT drive, what its replies said beyond the joint state: its bus voltage (7-byte
+    // replies), the replies of a length CAN.md 1.4 does not allow.
+    const Bus& bus = buses_[static_cast<std::size_t>(b)];
+    for (int k = 0; k < bus.count; ++k) {
+      const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+      if (jr.cfg.protocol != Protocol::mit || (jr.status.bus_voltage_v <= 0.0 && jr.wrong_dlc_replies == 0)) continue;
+      std::snprintf(line, sizeof line, "can drive %u (%s): bus_voltage_v=%.2f bus_voltage_low=%d wrong_dlc_replies=%llu%s\n",
+                    static_cast<unsigned>(jr.cfg.drive_id),
+                    std::string(robot::kJoints[static_cast<std::size_t>(bus.joints[k])].name).c_str(),
+                    jr.status.bus_voltage_v, jr.status.bus_voltage_low ? 1 : 0,
+                    static_cast<unsigned long long>(jr.wrong_dlc_replies),
+                    jr.wrong_dlc_replies > 0 ? (" last_dlc=" + std::to_string(jr.wrong_dlc_len)).c_str() : "");
+      out += line;
+    }
   }
   const auto sensor = [&](const char* name, bool enabled, const SensorDiagnostics& d) {
     if (!enabled) return;

@@ -36,6 +36,18 @@ void sleep_until_ns(std::int64_t t_ns) {
 }
 }  // namespace
 
+// A drive that gave no valid answer, for a start-up message: its name, and the replies it sent in
+// a length CAN.md 1.4 does not allow (dropped) when there were any: "no reply" would hide them.
+std::string CanHardware::unanswered_drive(int j) const {
+  const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  std::string why = drive_name(j);
+  if (jr.wrong_dlc_replies > 0) {
+    why += ": " + std::to_string(jr.wrong_dlc_replies) + " replies of DLC " + std::to_string(jr.wrong_dlc_len) +
+           " dropped (CAN.md 1.4: 6, 7 or 8 bytes)";
+  }
+  return why;
+}
+
 std::string CanHardware::drive_name(int j) const {
   const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
   const BusConfig& bc = config_.buses[static_cast<std::size_t>(jr.bus)];
@@ -272,8 +284,10 @@ LifecycleResult CanHardware::start_mit(int b) {
   };
   std::vector<int> drives;
   mit_joints([&](int j) {
-    joints_[static_cast<std::size_t>(j)].replies_this_tick = 0;
-    joints_[static_cast<std::size_t>(j)].startup_fault_code = 0;
+    JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+    jr.replies_this_tick = 0;
+    jr.startup_fault_code = 0;
+    jr.wrong_dlc_replies = 0;
     drives.push_back(j);
   });
   // 1. Exit motor mode: presence check; the reply gives the initial position.
@@ -290,10 +304,10 @@ LifecycleResult CanHardware::start_mit(int b) {
   if (LifecycleResult r = startup_fault(drives, "start-up"); !r.ok) return r;
   std::string missing;
   mit_joints([&](int j) {
-    if (joints_[static_cast<std::size_t>(j)].replies_this_tick == 0) missing += (missing.empty() ? "" : "; ") + drive_name(j);
+    if (joints_[static_cast<std::size_t>(j)].replies_this_tick == 0) missing += (missing.empty() ? "" : "; ") + unanswered_drive(j);
   });
   if (!missing.empty()) {
-    return LifecycleResult::failure("MIT start-up: no reply to exit-motor-mode after " +
+    return LifecycleResult::failure("MIT start-up: no valid reply to exit-motor-mode after " +
                                     std::to_string(config_.timing.mit_presence_retries + 1) + " tries of " +
                                     std::to_string(config_.timing.mit_presence_timeout_ms) + " ms: " + missing);
   }
@@ -308,8 +322,13 @@ LifecycleResult CanHardware::start_mit(int b) {
   const bool answered = pump_until(after_ms(config_.timing.mit_presence_timeout_ms), all_replied);
   if (LifecycleResult r = startup_fault(drives, "start-up"); !r.ok) return r;
   if (!answered) {
-    return LifecycleResult::failure("MIT start-up: a drive on bus '" + config_.buses[static_cast<std::size_t>(b)].name +
-                                    "' did not answer the zero command");
+    std::string unanswered;
+    mit_joints([&](int j) {
+      if (joints_[static_cast<std::size_t>(j)].replies_this_tick == 0) {
+        unanswered += (unanswered.empty() ? "" : "; ") + unanswered_drive(j);
+      }
+    });
+    return LifecycleResult::failure("MIT start-up: no valid reply to the zero command: " + unanswered);
   }
   // 3. Positions within the joint limits and, when the config gives it, at the expected pose
   // (can.start_pose).
@@ -360,7 +379,7 @@ LifecycleResult CanHardware::enable_mit(int b) {
   const bool ok = all_sent && pump_until(after_ms(config_.timing.mit_presence_timeout_ms), all_replied);
   std::string missing;
   for (int j : drives) {
-    if (joints_[static_cast<std::size_t>(j)].replies_this_tick == 0) missing += (missing.empty() ? "" : "; ") + drive_name(j);
+    if (joints_[static_cast<std::size_t>(j)].replies_this_tick == 0) missing += (missing.empty() ? "" : "; ") + unanswered_drive(j);
   }
   for (int k = 0; k < bus.count; ++k) joints_[static_cast<std::size_t>(bus.joints[k])].replies_this_tick = 0;
   if (LifecycleResult r = startup_fault(drives, "enable"); !r.ok) return r;
@@ -369,7 +388,7 @@ LifecycleResult CanHardware::enable_mit(int b) {
                                     config_.buses[static_cast<std::size_t>(b)].name + "'");
   }
   if (!ok) {
-    return LifecycleResult::failure("MIT enable: no reply to enter-motor-mode within " +
+    return LifecycleResult::failure("MIT enable: no valid reply to enter-motor-mode within " +
                                     std::to_string(config_.timing.mit_presence_timeout_ms) + " ms: " + missing);
   }
   return LifecycleResult::success();
@@ -529,11 +548,19 @@ LifecycleResult CanHardware::startup_fault(const std::vector<int>& drives, const
     const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
     if (jr.startup_fault_code == 0) continue;
     const bool mit = jr.cfg.protocol == Protocol::mit;
-    return LifecycleResult::failure(
-        std::string(mit ? "MIT " : "CiA 402 ") + during + ": " + drive_name(j) +
-        (mit ? " reports vendor error code " + hex(jr.startup_fault_code, 2) + ": drive fault latched (CAN.md 1.4)"
-             : " sent EMCY " + hex(jr.startup_fault_code, 4) + ": drive fault latched (CAN.md 2.2)") +
-        "; clear its cause, then start up again");
+    std::string what;
+    if (mit && jr.startup_fault_code == kFaultBusUndervoltage) {
+      char v[160];
+      std::snprintf(v, sizeof v, " reports a bus voltage of %.2f V, below can.mit_bus_voltage_fault_v %.2f V",
+                    jr.status.bus_voltage_v, config_.mit_bus_voltage_fault_v);
+      what = std::string(v) + ": drive fault latched (CAN.md 1.4: about to brown out)";
+    } else if (mit) {
+      what = " reports vendor error code " + hex(jr.startup_fault_code, 2) + ": drive fault latched (CAN.md 1.4)";
+    } else {
+      what = " sent EMCY " + hex(jr.startup_fault_code, 4) + ": drive fault latched (CAN.md 2.2)";
+    }
+    return LifecycleResult::failure(std::string(mit ? "MIT " : "CiA 402 ") + during + ": " + drive_name(j) + what +
+                                    "; clear its cause, then start up again");
   }
   return LifecycleResult::success();
 }

@@ -222,6 +222,16 @@ std::string validate(const CanConfig& c) {
   if (!(c.mit_velocity_observer_rad_s >= 0.0 && c.mit_velocity_observer_rad_s <= 200.0e3 / c.timing.tick_us)) {
     return "can.mit_velocity_observer_rad_s: must be in [0, 200 x 1000 / timing.tick_us] rad/s (0: off)";
   }
+  for (const auto& [name, v] : {std::pair{"mit_bus_voltage_warning_v", c.mit_bus_voltage_warning_v},
+                                std::pair{"mit_bus_voltage_fault_v", c.mit_bus_voltage_fault_v}}) {
+    if (!(v >= 0.0 && v <= mit::kBusVoltageMaxV)) {
+      return std::string("can.") + name + ": must be in [0, " + std::to_string(static_cast<int>(mit::kBusVoltageMaxV)) +
+             "] V (0: off)";
+    }
+  }
+  if (c.mit_bus_voltage_warning_v > 0.0 && c.mit_bus_voltage_fault_v >= c.mit_bus_voltage_warning_v) {
+    return "can.mit_bus_voltage_fault_v: must be below can.mit_bus_voltage_warning_v";
+  }
   const Timing& t = c.timing;
   if (t.tick_us == 0) return "can.timing.tick_us: must be > 0";
   if (t.missed_replies_lost == 0) return "can.timing.missed_replies_lost: must be >= 1";

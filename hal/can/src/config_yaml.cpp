@@ -243,7 +243,8 @@ CanConfig parse_can(const Field& f) {
   CanConfig c;
   if (!f.require()) return c;
   if (!f.allow_only({"layout", "protocol", "interface_prefix", "max_bus_load", "mit_velocity_observer_rad_s",
-                     "mit_ranges", "timing", "buses", "extra_buses", "sensors", "start_pose"})) {
+                     "mit_bus_voltage_warning_v", "mit_bus_voltage_fault_v", "mit_ranges", "timing", "buses",
+                     "extra_buses", "sensors", "start_pose"})) {
     return c;
   }
   std::string prefix = "can";
@@ -275,6 +276,8 @@ CanConfig parse_can(const Field& f) {
   }
   f["max_bus_load"].number(c.max_bus_load, -1e9, 1e9);  // validate() judges the ranges
   f["mit_velocity_observer_rad_s"].number(c.mit_velocity_observer_rad_s, -1e9, 1e9);
+  f["mit_bus_voltage_warning_v"].number(c.mit_bus_voltage_warning_v, -1e9, 1e9);
+  f["mit_bus_voltage_fault_v"].number(c.mit_bus_voltage_fault_v, -1e9, 1e9);
   if (f["timing"].present()) parse_timing(f["timing"], c.timing);
   if (f["sensors"].present()) c.sensors = parse_sensors(f["sensors"]);
   if (f["start_pose"].present()) parse_start_pose(f["start_pose"], c.start_pose);

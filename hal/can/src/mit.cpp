@@ -108,21 +108,24 @@ FrameStatus decode_command(const Frame& f, const Ranges& r, Command& out) noexce
   return FrameStatus::ok;
 }
 
-void encode_reply(std::uint32_t reply_can_id, const Reply& reply, const Ranges& r, bool vendor, Frame& out) noexcept {
+void encode_reply(std::uint32_t reply_can_id, const Reply& reply, const Ranges& r, int len, Frame& out) noexcept {
   const auto f = [](double x) { return static_cast<float>(x); };
   const std::uint32_t p = float_to_uint_truncated(f(reply.p_rad), f(r.p_min_rad), f(r.p_max_rad), kPositionBits);
   const std::uint32_t v = float_to_uint_truncated(f(reply.v_rad_s), f(r.v_min_rad_s), f(r.v_max_rad_s), kVelocityBits);
   const std::uint32_t i = float_to_uint_truncated(f(reply.t_nm), f(r.t_min_nm), f(r.t_max_nm), kTorqueBits);
   out = Frame{};
   out.id = reply_can_id;
-  out.len = vendor ? kReplyLenVendor : kReplyLen;
+  out.len = static_cast<std::uint8_t>(len);
   out.data[0] = reply.drive_id;
   out.data[1] = static_cast<std::uint8_t>(p >> 8);
   out.data[2] = static_cast<std::uint8_t>(p & 0xFF);
   out.data[3] = static_cast<std::uint8_t>(v >> 4);
   out.data[4] = static_cast<std::uint8_t>(((v & 0xF) << 4) | (i >> 8));
   out.data[5] = static_cast<std::uint8_t>(i & 0xFF);
-  if (vendor) {
+  if (len == kReplyLenVoltage) {
+    out.data[6] = static_cast<std::uint8_t>(float_to_uint_truncated(
+        f(reply.bus_voltage_v), f(kBusVoltageMinV), f(kBusVoltageMaxV), kBusVoltageBits));
+  } else if (len == kReplyLenVendor) {
     out.data[6] = reply.temperature;
     out.data[7] = reply.error_code;
   }
@@ -130,7 +133,7 @@ void encode_reply(std::uint32_t reply_can_id, const Reply& reply, const Ranges& 
 
 FrameStatus decode_reply(const Frame& f, const Ranges& r, Reply& out) noexcept {
   if (f.error) return FrameStatus::error_frame;
-  if (f.len != kReplyLen && f.len != kReplyLenVendor) return FrameStatus::wrong_dlc;
+  if (f.len != kReplyLen && f.len != kReplyLenVoltage && f.len != kReplyLenVendor) return FrameStatus::wrong_dlc;
   const std::uint32_t p = (std::uint32_t{f.data[1]} << 8) | f.data[2];
   const std::uint32_t v = (std::uint32_t{f.data[3]} << 4) | (f.data[4] >> 4);
   const std::uint32_t i = ((std::uint32_t{f.data[4]} & 0xF) << 8) | f.data[5];
@@ -138,6 +141,9 @@ FrameStatus decode_reply(const Frame& f, const Ranges& r, Reply& out) noexcept {
   out.p_rad = uint_to_float(p, r.p_min_rad, r.p_max_rad, kPositionBits);
   out.v_rad_s = uint_to_float(v, r.v_min_rad_s, r.v_max_rad_s, kVelocityBits);
   out.t_nm = uint_to_float(i, r.t_min_nm, r.t_max_nm, kTorqueBits);
+  out.has_bus_voltage = f.len == kReplyLenVoltage;
+  out.bus_voltage_v =
+      out.has_bus_voltage ? uint_to_float(f.data[6], kBusVoltageMinV, kBusVoltageMaxV, kBusVoltageBits) : 0.0;
   out.has_vendor_bytes = f.len == kReplyLenVendor;
   out.temperature = out.has_vendor_bytes ? f.data[6] : 0;
   out.error_code = out.has_vendor_bytes ? f.data[7] : 0;

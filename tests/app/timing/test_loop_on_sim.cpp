@@ -318,7 +318,7 @@ class MitWire final : public hal::Hardware {
       const auto k = static_cast<std::size_t>(j);
       can::Frame f;
       can::mit::Reply r{static_cast<std::uint8_t>(j + 1), m.q_rad[j], m.qd_rad_s[j], m.tau_nm[j]};
-      can::mit::encode_reply(0x101, r, ranges_[k], false, f);
+      can::mit::encode_reply(0x101, r, ranges_[k], can::mit::kReplyLen, f);
       (void)can::mit::decode_reply(f, ranges_[k], r);
       m.q_rad[j] = r.p_rad;
       m.qd_rad_s[j] = velocity_[k].update(r.p_rad, r.v_rad_s, started_ ? 0.001 : -1.0);

@@ -179,8 +179,9 @@ void Drive::emit_cyclic(Frame f, std::vector<Frame>& out) {
 
 // ---- MIT mode ---------------------------------------------------------------------------------------
 MitDrive::MitDrive(const can::DriveConfig& cfg, bool fd_bus, JointModel model, std::vector<Fault> faults,
-                   std::uint32_t can_timeout_ms)
-    : Drive(cfg, fd_bus, model, std::move(faults)), can_timeout_ms_(can_timeout_ms) {
+                   std::uint32_t can_timeout_ms, const MitReplyOptions& reply)
+    : Drive(cfg, fd_bus, model, std::move(faults)), can_timeout_ms_(can_timeout_ms), reply_(reply) {
+  if (reply_.dlc == 0) reply_.dlc = cfg_.mit_vendor_reply ? can::mit::kReplyLenVendor : can::mit::kReplyLen;
   for (const Fault& flt : faults_) {
     if (flt.kind == FaultKind::vendor_error) error_code_ = static_cast<std::uint8_t>(flt.param);
   }
@@ -194,8 +195,14 @@ Frame MitDrive::reply() const {
   r.t_nm = model_.tau_nm;
   r.error_code = error_code_;
   r.temperature = 40;
+  r.bus_voltage_v = reply_.bus_voltage_v;
   Frame f;
-  can::mit::encode_reply(cfg_.mit_reply_id, r, cfg_.mit_ranges, cfg_.mit_vendor_reply, f);
+  if (reply_.dlc < can::mit::kReplyLen) {  // malformed: the 6 bytes cut short
+    can::mit::encode_reply(cfg_.mit_reply_id, r, cfg_.mit_ranges, can::mit::kReplyLen, f);
+    f.len = static_cast<std::uint8_t>(reply_.dlc);
+    return f;
+  }
+  can::mit::encode_reply(cfg_.mit_reply_id, r, cfg_.mit_ranges, reply_.dlc, f);
   return f;
 }
 
@@ -315,37 +322,74 @@ std::uint16_t Cia402Drive::status_word() const noexcept {
   return 0;
 }
 
-void Cia402Drive::step_state_machine() {
+Cia402Drive::St Cia402Drive::transition(St from) const noexcept {
   const std::uint16_t cw = applied_controlword_;
-  switch (state_) {
-    case St::fault: break;  // handled with the edge below
-    case St::not_ready: state_ = St::switch_on_disabled; break;
+  switch (from) {
+    case St::fault: break;  // handled with the edge in on_sync
+    case St::not_ready: return St::switch_on_disabled;
     case St::switch_on_disabled:
-      if ((cw & 0x87) == 0x06) state_ = St::ready;
+      if ((cw & 0x87) == 0x06) return St::ready;
       break;
     case St::ready:
-      if ((cw & 0x8F) == 0x07 || (cw & 0x8F) == 0x0F) state_ = St::switched_on;
-      else if ((cw & 0x02) == 0 || (cw & 0x86) == 0x02) state_ = St::switch_on_disabled;
+      if ((cw & 0x8F) == 0x07 || (cw & 0x8F) == 0x0F) return St::switched_on;
+      if ((cw & 0x02) == 0 || (cw & 0x86) == 0x02) return St::switch_on_disabled;
       break;
     case St::switched_on:
-      if ((cw & 0x8F) == 0x0F) {
-        if (!enable_blocked_) state_ = St::enabled;
-      } else if ((cw & 0x87) == 0x06) {
-        state_ = St::ready;
-      } else if ((cw & 0x02) == 0 || (cw & 0x86) == 0x02) {
-        state_ = St::switch_on_disabled;
-      }
+      if ((cw & 0x8F) == 0x0F) return enable_blocked_ ? from : St::enabled;
+      if ((cw & 0x87) == 0x06) return St::ready;
+      if ((cw & 0x02) == 0 || (cw & 0x86) == 0x02) return St::switch_on_disabled;
       break;
     case St::enabled:
-      if ((cw & 0x8F) == 0x07) state_ = St::switched_on;
-      else if ((cw & 0x87) == 0x06) state_ = St::ready;
-      else if ((cw & 0x02) == 0) state_ = St::switch_on_disabled;
-      else if ((cw & 0x86) == 0x02) state_ = St::quick_stop;
+      if ((cw & 0x8F) == 0x07) return St::switched_on;
+      if ((cw & 0x87) == 0x06) return St::ready;
+      if ((cw & 0x02) == 0) return St::switch_on_disabled;
+      if ((cw & 0x86) == 0x02) return St::quick_stop;
       break;
     case St::quick_stop:
-      if ((cw & 0x8F) == 0x0F && !enable_blocked_) state_ = St::enabled;
-      else if ((cw & 0x02) == 0) state_ = St::switch_on_disabled;
+      if ((cw & 0x8F) == 0x0F && !enable_blocked_) return St::enabled;
+      if ((cw & 0x02) == 0) return St::switch_on_disabled;
       break;
+  }
+  return from;
+}
+
+void Cia402Drive::step_state_machine() {
+  if (options_.state_step_ms == 0) {
+    state_ = transition(state_);
+    return;
+  }
+  // A transition under way completes at its time; the controlword applied meanwhile picks where
+  // it goes (the last command wins, CAN.md 2.5), not when.
+  if (step_pending_ && now_ns_ >= step_due_ns_) {
+    step_pending_ = false;
+    state_ = step_target_;
+  }
+  const St next = transition(state_);
+  if (next == state_) {
+    step_pending_ = false;
+    return;
+  }
+  if (!step_pending_) step_due_ns_ = now_ns_ + 1000000LL * options_.state_step_ms;
+  step_pending_ = true;
+  step_target_ = next;
+}
+
+void Cia402Drive::hold_answers(std::vector<Frame>& out, std::size_t first) {
+  if (options_.answer_delay_ms == 0 || first >= out.size()) return;
+  const bool late = state_ != St::enabled;
+  if (!late && late_.empty()) return;
+  // Behind the answers held back already: the bus keeps their order.
+  std::int64_t due = late ? now_ns_ + 1000000LL * options_.answer_delay_ms : now_ns_;
+  if (!late_.empty()) due = std::max(due, late_.back().first);
+  for (std::size_t i = first; i < out.size(); ++i) late_.emplace_back(due, out[i]);
+  out.resize(first);
+  release_answers(out);
+}
+
+void Cia402Drive::release_answers(std::vector<Frame>& out) {
+  while (!late_.empty() && late_.front().first <= now_ns_) {
+    out.push_back(late_.front().second);
+    late_.pop_front();
   }
 }
 
@@ -357,6 +401,7 @@ void Cia402Drive::on_sync(std::vector<Frame>& out) {
   applied_controlword_ = controlword_;
   applied_target_torque_ = target_torque_;
   if (state_ == St::fault) {
+    step_pending_ = false;  // a fault ends a transition under way
     if ((applied_controlword_ & 0x80) != 0 && (previous & 0x80) == 0) {
       state_ = St::switch_on_disabled;
       error_code_ = 0;
@@ -636,14 +681,18 @@ void Cia402Drive::on_frame(const Frame& f, std::int64_t now_ns, std::vector<Fram
     if (f.len != 0) return;
     if (!take_frame()) return;
     ++frames_in_;
+    const std::size_t first = out.size();
     on_sync(out);
+    hold_answers(out, first);
     return;
   }
   if (f.id == c4::cob::sdo_request + n) {
     if (!take_frame()) return;
     ++frames_in_;
     if (nmt_ == 0x04) return;  // Stopped: no SDO
+    const std::size_t first = out.size();
     handle_sdo(f, out);
+    hold_answers(out, first);
     return;
   }
   for (int k = 0; k < 4; ++k) {
@@ -676,6 +725,7 @@ void Cia402Drive::take_nmt(c4::NmtCommand cs, std::int64_t now_ns, std::vector<F
     case c4::NmtCommand::reset_node:
       ++nmt_resets_;
       state_ = St::switch_on_disabled;
+      step_pending_ = false;
       mode_ = mode_before_ = 0;
       mode_display_at_ns_ = 0;
       [[fallthrough]];
@@ -699,6 +749,8 @@ bool Cia402Drive::cyclic(const Frame& f) const noexcept {
 }
 
 void Cia402Drive::on_time(std::int64_t now_ns, std::vector<Frame>& out) {
+  now_ns_ = now_ns;
+  if (!unplugged_) release_answers(out);
   if (nmt_pending_ && now_ns >= nmt_due_ns_ && nmt_ != 0x00 && !unplugged_) {
     nmt_pending_ = false;
     take_nmt(pending_nmt_, now_ns, out);

@@ -27,6 +27,11 @@ struct DriveStatus {
   std::uint16_t fault_code = 0;      // drive-specific (e.g. CiA 402 EMCY error code)
   std::uint32_t missed_in_row = 0;   // consecutive ticks without a fresh reply
   std::uint64_t missed_total = 0;
+  // The drive's supply as it reports it (MIT drives replying with 7 bytes, CAN.md 1.4); 0: not
+  // reported. bus_voltage_low: below the backend's warning threshold (a warning: the drive still
+  // follows; below its fault threshold the drive is in fault).
+  double bus_voltage_v = 0.0;
+  bool bus_voltage_low = false;
 };
 
 // The status fields below (lost .. age_ticks) are filled by backends that receive the

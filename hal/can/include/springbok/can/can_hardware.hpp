@@ -162,11 +162,19 @@ struct JointRuntime {
   // The first non-zero fault code the drive itself sent since this bus's start-up began (CiA 402:
   // EMCY; MIT: the vendor reply's error byte): start-up fails on it (can_startup.cpp).
   std::uint16_t startup_fault_code = 0;
+  // MIT: replies naming this drive whose length its type does not allow (CAN.md 1.4: 6, 7 or 8
+  // bytes), dropped; the length of the last one.
+  std::uint64_t wrong_dlc_replies = 0;
+  std::uint8_t wrong_dlc_len = 0;
   bool sdo_answered = false;
   Frame sdo_answer;
   Frame pending;                  // the command frame for the next send
   bool has_pending = false;
 };
+
+// DriveStatus::fault_code of an MIT drive whose reported bus voltage fell below
+// can.mit_bus_voltage_fault_v: CiA 402's "DC link under-voltage" (CAN.md 2.2's code table).
+inline constexpr std::uint16_t kFaultBusUndervoltage = 0x3220;
 
 // Frames read from one bus per read() at most (a flood cannot starve the other buses).
 inline constexpr int kMaxRxFramesPerBusPerTick = 256;
@@ -268,6 +276,7 @@ class CanHardware final : public hal::Hardware {
   hal::LifecycleResult startup_fault(const std::vector<int>& drives, const char* during);
   SdoOutcome sdo(int j, bool write, std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size);
   std::string drive_name(int j) const;
+  std::string unanswered_drive(int j) const;
   template <class Done>
   bool pump_until(std::int64_t deadline_ns, Done&& done);
 
@@ -275,6 +284,9 @@ class CanHardware final : public hal::Hardware {
   bool process_sensor_frame(int b, const Frame& f) noexcept;
   void fill_sensors(hal::Measurements& out) noexcept;
   void process_mit_reply(int b, const Frame& f) noexcept;
+  // A reported bus voltage against can.mit_bus_voltage_{warning,fault}_v: the warning flag, a
+  // latched drive fault (kFaultBusUndervoltage). rt: no alloc
+  void check_bus_voltage(int j, double bus_voltage_v) noexcept;
   // A CAN id an MIT reply may come on, on bus b: a configured reply id of one of its MIT drives,
   // or 0, the drives' factory CAN_MASTER (CAN.md 1.4: the host matches on byte 0 either way).
   bool is_mit_reply_id(int b, std::uint32_t id) const noexcept;

@@ -111,6 +111,13 @@ struct CanConfig {
   // MIT drives: the bandwidth of the velocity observer on their replies (mit::VelocityObserver)
   // [rad/s]; 0: the replies' velocity as sent.
   double mit_velocity_observer_rad_s = 40.0;
+  // MIT drives that report their bus voltage (7-byte replies, CAN.md 1.4): below warning_v a
+  // drive is a warning (DriveStatus::bus_voltage_low), below fault_v a drive fault (it is about
+  // to brown out), latched with code kFaultBusUndervoltage. 0: that check off (the default: the
+  // drives' supply is the deployment's, and a 6- or 8-byte reply carries no voltage). Each in
+  // [0, mit::kBusVoltageMaxV] V; fault_v below warning_v when both are on.
+  double mit_bus_voltage_warning_v = 0.0;
+  double mit_bus_voltage_fault_v = 0.0;
   SensorsConfig sensors;      // trunk IMU and wrist F/T (CAN.md section 6); each optional
 };
 

@@ -22,8 +22,13 @@ inline constexpr int kVelocityBits = 12;
 inline constexpr int kGainBits = 12;
 inline constexpr int kTorqueBits = 12;
 inline constexpr int kCommandLen = 8;
-inline constexpr int kReplyLen = 6;        // bgkatz firmware
-inline constexpr int kReplyLenVendor = 8;  // CubeMars: + temperature, error code
+inline constexpr int kReplyLen = 6;         // bgkatz firmware before July 2023
+inline constexpr int kReplyLenVoltage = 7;  // bgkatz firmware since: + bus voltage
+inline constexpr int kReplyLenVendor = 8;   // CubeMars: + temperature, error code
+// Byte 6 of a 7-byte reply: the drive's bus voltage, 8 bits on [VB_MIN, VB_MAX] (CAN.md 1.4).
+inline constexpr int kBusVoltageBits = 8;
+inline constexpr double kBusVoltageMinV = 0.0;
+inline constexpr double kBusVoltageMaxV = 40.0;
 
 struct Command {
   double p_rad = 0.0;
@@ -38,6 +43,8 @@ struct Reply {
   double p_rad = 0.0;
   double v_rad_s = 0.0;
   double t_nm = 0.0;          // measured torque
+  bool has_bus_voltage = false;  // a 7-byte reply
+  double bus_voltage_v = 0.0;
   bool has_vendor_bytes = false;
   std::uint8_t temperature = 0;
   std::uint8_t error_code = 0;
@@ -63,9 +70,11 @@ void encode_special(std::uint8_t drive_id, Special s, Frame& out) noexcept;
 Special classify(const Frame& f) noexcept;
 FrameStatus decode_command(const Frame& f, const Ranges& r, Command& out) noexcept;
 
-// Drive -> host, as the firmware (truncating). `vendor` adds bytes 6..7.
-void encode_reply(std::uint32_t reply_can_id, const Reply& reply, const Ranges& r, bool vendor, Frame& out) noexcept;
-// Host side. The caller checks reply.drive_id against its bus (byte 0 is authoritative).
+// Drive -> host, as the firmware (truncating), `len` bytes: kReplyLen, kReplyLenVoltage (byte 6:
+// the bus voltage) or kReplyLenVendor (bytes 6..7: temperature, error code).
+void encode_reply(std::uint32_t reply_can_id, const Reply& reply, const Ranges& r, int len, Frame& out) noexcept;
+// Host side: a reply of 6, 7 or 8 bytes (CAN.md 1.4); any other length is wrong_dlc. The caller
+// checks reply.drive_id against its bus (byte 0 is authoritative).
 // rt: no alloc
 FrameStatus decode_reply(const Frame& f, const Ranges& r, Reply& out) noexcept;
 

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <string>
 #include <vector>
@@ -176,12 +177,21 @@ class Drive {
   std::vector<std::pair<std::uint64_t, can::Frame>> delayed_;
 };
 
+// The MIT drive's reply as its firmware builds it (CAN.md 1.4).
+struct MitReplyOptions {
+  // Bytes per reply: 6 (bgkatz before July 2023), 7 (since: + bus voltage), 8 (CubeMars: +
+  // temperature, error code); 5 is a malformed reply (a length no firmware sends, for the host's
+  // tests). 0: as the config says (8 with vendor_reply, else 6).
+  int dlc = 0;
+  double bus_voltage_v = 24.0;  // byte 6 of a 7-byte reply
+};
+
 // MIT mode, bgkatz motorcontrol behaviour: one reply per received frame, the state
 // at reception, truncating float_to_uint; stored command; special frames; CAN_TIMEOUT.
 class MitDrive final : public Drive {
  public:
   MitDrive(const can::DriveConfig& cfg, bool fd_bus, JointModel model, std::vector<Fault> faults,
-           std::uint32_t can_timeout_ms);
+           std::uint32_t can_timeout_ms, const MitReplyOptions& reply = {});
   void on_frame(const can::Frame& f, std::int64_t now_ns, std::vector<can::Frame>& out) override;
   void on_time(std::int64_t now_ns, std::vector<can::Frame>& out) override;
   bool cyclic(const can::Frame& f) const noexcept override;
@@ -194,6 +204,7 @@ class MitDrive final : public Drive {
   void corrupt(can::Frame& f) const override;
   can::Frame reply() const;
   std::uint32_t can_timeout_ms_;
+  MitReplyOptions reply_;
   std::int64_t last_rx_ns_ = 0;
   double p_des_ = 0, v_des_ = 0, kp_ = 0, kd_ = 0, t_ff_ = 0;  // the stored command
   std::uint8_t error_code_ = 0;
@@ -218,6 +229,13 @@ struct Cia402Options {
   // Lost communication (0x6007 = 3: quick stop): Operation enabled, and no SYNC for this long
   // (0: never); armed by the first SYNC in Operational.
   std::uint32_t sync_timeout_ms = 0;
+  // Answers late while the drive is not Operation enabled (its start-up): the TPDOs of a SYNC
+  // and an SDO answer go out this long after the frame that asked for them, in order. Once
+  // Operation enabled, the TPDOs of a SYNC go out as soon as the late ones before them have.
+  std::uint32_t answer_delay_ms = 0;
+  // A state transition of the state machine (CAN.md 2.5) takes effect this long after the SYNC
+  // that applied its controlword (0: at that SYNC); the statusword shows the old state until then.
+  std::uint32_t state_step_ms = 0;
 };
 
 // CiA 402 subset: NMT, heartbeat, SDO (expedited + aborts), PDO mapping by SDO,
@@ -240,6 +258,7 @@ class Cia402Drive final : public Drive {
   std::uint64_t sync_timeouts() const noexcept { return sync_timeouts_; }
 
  private:
+  enum class St : std::uint8_t { not_ready, switch_on_disabled, ready, switched_on, enabled, quick_stop, fault };
   struct Pdo {
     std::uint32_t cob_id = 0;
     std::uint8_t transmission = 255;
@@ -255,14 +274,23 @@ class Cia402Drive final : public Drive {
   std::uint32_t read_object(std::uint16_t index, std::uint8_t sub, std::uint32_t& value, std::uint8_t& size) const;
   std::uint32_t write_object(std::uint16_t index, std::uint8_t sub, std::uint32_t value, std::uint8_t size);
   std::uint32_t object_value(std::uint32_t mapping_entry) const;
+  // The state the applied controlword leads to from `from` (CAN.md 2.5), `from` when none.
+  St transition(St from) const noexcept;
   void step_state_machine();
+  // The frames appended to `out` from `first` on are answers: held back answer_delay_ms while
+  // the drive is not Operation enabled, and behind any answer still held back.
+  void hold_answers(std::vector<can::Frame>& out, std::size_t first);
+  void release_answers(std::vector<can::Frame>& out);
   std::int8_t mode_shown() const noexcept;  // 0x6061 now
   void on_fault_event(const Fault& fault, std::vector<can::Frame>& out) override;
   void corrupt(can::Frame& f) const override;
 
-  enum class St : std::uint8_t { not_ready, switch_on_disabled, ready, switched_on, enabled, quick_stop, fault };
   std::uint8_t nmt_ = 0x00;
   St state_ = St::switch_on_disabled;
+  bool step_pending_ = false;              // a transition waiting for options_.state_step_ms
+  St step_target_ = St::switch_on_disabled;
+  std::int64_t step_due_ns_ = 0;
+  std::deque<std::pair<std::int64_t, can::Frame>> late_;  // answers held back, due time in order
   std::uint16_t controlword_ = 0, applied_controlword_ = 0;
   std::int16_t target_torque_ = 0, applied_target_torque_ = 0;
   std::uint16_t heartbeat_ms_ = 0;
