@@ -1259,12 +1259,15 @@ TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
   const std::string truth = "/tmp/springbok_hil_truth_" + std::to_string(::getpid()) + ".txt";
   // --settle-s: the first Bullet steps are slow under the VM's emulated CPU (code not yet
   // translated); 0.1 s unpowered on the feet before the drives boot warms them up. Bus arm2's
-  // controller reports error passive for a second (CAN.md 4): a warning, logged both ways.
+  // controller reports error passive for a second (CAN.md 4): a warning, logged both ways. The
+  // drives reply as the reference firmware has since July 2023: 7 bytes, byte 6 their supply
+  // (CAN.md 1.4).
   Emulator emu(config,
                "faults:\n"
                "  - {kind: error_passive, drive: 19, at: 1000}\n"
                "  - {kind: error_active, drive: 19, at: 2000}\n",
-               {"--motion", "bullet", "--truth-log", truth, "--settle-s", "0.1"});
+               {"--motion", "bullet", "--truth-log", truth, "--settle-s", "0.1", "--mit-reply-dlc", "7",
+                "--mit-bus-voltage-v", "24"});
   ASSERT_TRUE(emu.ready());
   ::unlink(socket_path.c_str());
   Firmware fw(config, time_scale);
@@ -1294,6 +1297,11 @@ TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
   EXPECT_NE(fw_out.find("mode=stand faults=none"), std::string::npos) << fw_out;
   EXPECT_NE(fw_out.find(" buses_degraded a=64 b=0 x=0 (degraded=bus6 was=none)\n"), std::string::npos) << fw_out;
   EXPECT_NE(fw_out.find(" buses_degraded a=0 b=64 x=0 (degraded=none was=bus6)\n"), std::string::npos) << fw_out;
+  for (int j = 0; j < kNj; ++j) {  // each drive's supply, from its 7-byte replies
+    const std::string line = "can drive " + std::to_string(j + 1) + " (" + std::string(robot::kJoints[static_cast<std::size_t>(j)].name) +
+                             "): bus_voltage_v=24.00 bus_voltage_low=0 wrong_dlc_replies=0";
+    EXPECT_NE(fw_out.find(line), std::string::npos) << line << "\n" << fw_out;
+  }
   const std::string summary = emu.stop();
 
   // The emulator's ground truth over the 5 s of standing.

@@ -273,6 +273,18 @@ std::string describe_log_record(const rt::LogRecord& r) {
     case rt::LogEvent::fault_latched: return "new=" + faults(r.a) + " latched=" + faults(r.b);
     case rt::LogEvent::sensors_lost: return "lost=" + faults(r.a) + " mode=" + mode(r.b);
     case rt::LogEvent::buses_degraded: return "degraded=" + buses(r.a) + " was=" + buses(r.b);
+    case rt::LogEvent::bus_voltage_low: {
+      const auto joints = [](std::int64_t bits) {
+        std::string out;
+        for (int j = 0; j < kNj; ++j) {
+          if ((bits & (std::int64_t{1} << j)) != 0) out += (out.empty() ? "" : ",") + std::string(robot::kJoints[static_cast<std::size_t>(j)].name);
+        }
+        return out.empty() ? std::string("none") : out;
+      };
+      char lowest[32];
+      std::snprintf(lowest, sizeof lowest, " lowest=%.2fV", r.x);
+      return "low=" + joints(r.a) + " was=" + joints(r.b) + lowest;
+    }
     case rt::LogEvent::command_accepted:
     case rt::LogEvent::command_rejected: {
       std::string words = r.a >= 0 && r.a <= static_cast<std::int64_t>(safety::OperatorCommand::reset)

@@ -116,6 +116,7 @@ std::string telemetry_json(const TelemetryRecord& r) {
     number(out, "q_" + name + "_rad", r.q_rad[i]);
     number(out, "qd_" + name + "_rad_s", r.qd_rad_s[i]);
     number(out, "tau_" + name + "_nm", r.tau_nm[i]);
+    if (r.bus_voltage_v[i] > 0.0) number(out, "bus_voltage_" + name + "_v", r.bus_voltage_v[i]);
   }
   out += '}';
   return out;

@@ -18,6 +18,7 @@ const char* to_string(LogEvent event) noexcept {
     case LogEvent::controller_request: return "controller_request";
     case LogEvent::controller_request_refused: return "controller_request_refused";
     case LogEvent::buses_degraded: return "buses_degraded";
+    case LogEvent::bus_voltage_low: return "bus_voltage_low";
   }
   return "unknown";
 }

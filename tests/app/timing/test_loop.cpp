@@ -193,6 +193,33 @@ TEST_F(LoopTest, DegradedBusesAreLoggedBothWaysAndNeverAFault) {
   EXPECT_STREQ(rt::to_string(rt::LogEvent::buses_degraded), "buses_degraded");
 }
 
+// CAN.md 1.4: a drive whose reported supply is below the backend's warning threshold
+// (DriveStatus::bus_voltage_low) is logged when the set of such drives changes, both ways, with
+// the lowest supply; a warning, never a fault.
+TEST_F(LoopTest, DrivesWithALowSupplyAreLoggedBothWaysAndNeverAFault) {
+  to_control();
+  rt::LogRecord r;
+  while (rig->log.pop(r)) {
+  }
+  const auto step = [&](int joint, double volts, bool low, int ticks) {
+    hardware.state().drives[static_cast<std::size_t>(joint)].bus_voltage_v = volts;
+    hardware.state().drives[static_cast<std::size_t>(joint)].bus_voltage_low = low;
+    rig->executive->run_ticks(ticks);
+  };
+  step(0, 24.0, false, 10);
+  step(2, 19.5, true, 10);
+  step(2, 23.0, false, 10);
+  EXPECT_EQ(rig->supervisor.mode(), Mode::control);
+  EXPECT_EQ(rig->supervisor.faults(), 0u);
+  std::vector<std::string> words;
+  while (rig->log.pop(r)) {
+    if (r.event == rt::LogEvent::bus_voltage_low) words.push_back(describe_log_record(r));
+  }
+  EXPECT_EQ(words, (std::vector<std::string>{"low=lf_kfe_joint was=none lowest=19.50V",
+                                             "low=none was=lf_kfe_joint lowest=23.00V"}));
+  EXPECT_STREQ(rt::to_string(rt::LogEvent::bus_voltage_low), "bus_voltage_low");
+}
+
 TEST_F(LoopTest, WholeTicksAllocateNothing) {
   rig->executive->run_ticks(5);
   springbok::test::AllocationTrap trap;

@@ -85,6 +85,7 @@ TEST(Telemetry, ARecordIsOneFlatJsonObjectWithUnitsInItsNames) {
   r.stance = {true, false, true, false};
   r.q_rad[kFirstArmJoint + 3] = 1.9;
   r.tau_nm[1] = -42.25;
+  r.bus_voltage_v[4] = 23.5;  // a drive that reports its supply (CAN.md 1.4); the others do not
   const std::string json = telemetry_json(r);
   const YAML::Node n = YAML::Load(json);  // JSON is YAML
   ASSERT_TRUE(n.IsMap()) << json;
@@ -102,6 +103,8 @@ TEST(Telemetry, ARecordIsOneFlatJsonObjectWithUnitsInItsNames) {
   EXPECT_EQ(n["rf_stance"].as<int>(), 0);
   EXPECT_EQ(n["q_arm_joint_4_rad"].as<double>(), 1.9);
   EXPECT_EQ(n["tau_lf_hfe_joint_nm"].as<double>(), -42.25);
+  EXPECT_EQ(n["bus_voltage_rf_hfe_joint_v"].as<double>(), 23.5);
+  EXPECT_FALSE(n["bus_voltage_lf_hfe_joint_v"].IsDefined()) << "not reported: left out";
   for (const auto& kv : n) {  // flat: every value a number
     EXPECT_TRUE(kv.second.IsScalar()) << kv.first.as<std::string>();
     EXPECT_NO_THROW((void)kv.second.as<double>()) << kv.first.as<std::string>();

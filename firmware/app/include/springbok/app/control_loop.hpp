@@ -5,8 +5,11 @@
 // Fixed-size structs passed by reference; the controller is a template
 // parameter (no virtual call, no std::function); one virtual call per HAL
 // exchange. Mode and fault changes, verdicts, HAL errors and the warnings (sensors lost,
-// buses degraded) go to the log ring.
+// buses degraded, drives' supply low) go to the log ring.
 #pragma once
+
+#include <algorithm>
+#include <limits>
 
 #include "springbok/app/operator.hpp"
 #include "springbok/app/posture_control.hpp"
@@ -73,6 +76,19 @@ class ControlLoop {
       log(info, rt::LogEvent::buses_degraded, supervisor_.degraded_buses(), degraded_buses_);
       degraded_buses_ = supervisor_.degraded_buses();
     }
+    {  // drives reporting a supply below the backend's warning: a warning (below its fault: a drive fault)
+      std::uint32_t low = 0;
+      double lowest_v = std::numeric_limits<double>::infinity();
+      for (int j = 0; j < kNj; ++j) {
+        const hal::DriveStatus& d = meas_.drives[static_cast<std::size_t>(j)];
+        if (d.bus_voltage_low) low |= std::uint32_t{1} << j;
+        if (d.bus_voltage_v > 0.0) lowest_v = std::min(lowest_v, d.bus_voltage_v);
+      }
+      if (low != low_voltage_drives_) {
+        log(info, rt::LogEvent::bus_voltage_low, low, low_voltage_drives_, lowest_v);
+        low_voltage_drives_ = low;
+      }
+    }
     if (supervisor_.mode() != mode_before) {
       log(info, rt::LogEvent::mode_change, static_cast<std::int64_t>(mode_before),
           static_cast<std::int64_t>(supervisor_.mode()));
@@ -135,6 +151,7 @@ class ControlLoop {
       r.q_rad[i] = meas_.q_rad[j];
       r.qd_rad_s[i] = meas_.qd_rad_s[j];
       r.tau_nm[i] = meas_.tau_nm[j];
+      r.bus_voltage_v[i] = meas_.drives[i].bus_voltage_v;
     }
     if constexpr (requires(Controller& c, TelemetryRecord& t) { c.telemetry(t); }) controller_.telemetry(r);
     (void)telemetry_->push(r);
@@ -155,6 +172,7 @@ class ControlLoop {
   hal::IoStatus last_io_ = hal::IoStatus::ok;
   safety::FaultMask sensors_lost_ = 0;
   std::uint32_t degraded_buses_ = 0;
+  std::uint32_t low_voltage_drives_ = 0;  // bit j: joint j's drive reports its supply below the warning
   TelemetryRing* telemetry_ = nullptr;
   std::uint32_t telemetry_every_ = 1;
   TelemetryRecord telemetry_record_;

@@ -76,6 +76,7 @@ struct TelemetryRecord {
   std::array<double, kNj> q_rad{};
   std::array<double, kNj> qd_rad_s{};
   std::array<double, kNj> tau_nm{};  // measured
+  std::array<double, kNj> bus_voltage_v{};  // each drive's supply where it reports it (0: it does not)
 };
 using TelemetryRing = rt::SpscRing<TelemetryRecord, 256>;
 

@@ -28,6 +28,8 @@ enum class LogEvent : std::uint16_t {
   controller_request = 10,          // a: request kind (0 gait, 1 tare), b: gait (0 stand, 1 trot), x: f_s [Hz]
   controller_request_refused = 11,  // as controller_request
   buses_degraded = 12,   // a: the buses degraded now (bit b: the HAL's bus b; 0: none), b: those before
+  bus_voltage_low = 13,  // a: the drives whose supply is below the warning now (bit j: joint j), b: those
+                         // before, x: the lowest reported supply [V]
 };
 
 const char* to_string(LogEvent event) noexcept;
