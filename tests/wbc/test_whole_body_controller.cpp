@@ -16,6 +16,14 @@ using wbc::WbcParams;
 using wbc::WholeBodyController;
 
 using Fixture = test::WbcFixture;
+
+// A force at the hand as the wrench [F; 0] (head<3>: the comma initialiser's dynamic-size block
+// made GCC 12 warn of an AVX load past a Vec3 at -march=x86-64-v3).
+Vec6 force_at_the_hand(const Vec3& force_n) {
+  Vec6 w = Vec6::Zero();
+  w.head<3>() = force_n;
+  return w;
+}
 using test::standing_q;
 
 TEST_F(Fixture, StandingStillIsAnEquilibrium) {
@@ -157,8 +165,7 @@ TEST_F(Fixture, JointFrictionIsCompensatedInTheTorquesAndTheirLimits) {
   ASSERT_EQ(limited.qp_status, qp::Status::optimal);
   EXPECT_LE(std::abs(limited.tau_nm[kElbow]), limit_nm + 1e-6);
   EXPECT_LT(limited.udot[6 + kElbow], -1.0);
-  Vec6 wrench;
-  wrench << in.wrist_force_world_n, Vec3::Zero();
+  const Vec6 wrench = force_at_the_hand(in.wrist_force_world_n);
   VecNv residual = dynamics_residual(limited, wrench);
   residual.tail<kNj>() += with_friction.joint_viscous_friction_nms_per_rad.cwiseProduct(in.state.v.tail<kNj>());
   EXPECT_LT(residual.cwiseAbs().maxCoeff(), 1e-6) << "the motion obeys the dynamics with friction";
@@ -222,8 +229,7 @@ TEST_F(Fixture, JointAccelerationsKeepTheSpeedsWithinTheirLimits) {
     if (std::abs(speed) > v_max) {
       EXPECT_LT(out.udot[6 + kWrist2] * speed, 0.0) << "a joint past its limit is slowed: " << speed;
     }
-    Vec6 wrench;
-    wrench << in.wrist_force_world_n, Vec3::Zero();
+    const Vec6 wrench = force_at_the_hand(in.wrist_force_world_n);
     EXPECT_LT(dynamics_residual(out, wrench).cwiseAbs().maxCoeff(), 1e-6);
   }
 }
@@ -278,8 +284,7 @@ TEST_F(Fixture, AnArmOverloadedByAPushYieldsAndTheBaseKeepsItsTask) {
   EXPECT_LT(out.base_wrench_applied.tail<3>().norm(), 1.0) << out.base_wrench_applied.transpose();
   // The arm's cut reference is what it does.
   EXPECT_LT((out.udot.segment<wbc::kArmDofs>(wbc::kArmCol) - out.arm_qdd_desired).cwiseAbs().maxCoeff(), 1e-3);
-  Vec6 wrench;
-  wrench << push, Vec3::Zero();
+  const Vec6 wrench = force_at_the_hand(push);
   EXPECT_LT(dynamics_residual(out, wrench).cwiseAbs().maxCoeff(), 1e-6);
 
   // Yielding, the elbow is past its speed limit: no bound brakes it (with one, only the
@@ -370,8 +375,7 @@ TEST_F(Fixture, AnArmReferenceBeyondItsTorquesIsCutToWhatTheyGive) {
   const Vec3 ee_acc = data->J_ee.topRows<3>() * out.udot + data->dJv_ee.head<3>();
   EXPECT_GT(ee_acc.x(), 10.0) << "the hand still moves with the push";
   EXPECT_LT(ee_acc.x(), out.ee_acceleration_desired.x());
-  Vec6 wrench;
-  wrench << push, Vec3::Zero();
+  const Vec6 wrench = force_at_the_hand(push);
   EXPECT_LT(dynamics_residual(out, wrench).cwiseAbs().maxCoeff(), 1e-6);
 }
 
