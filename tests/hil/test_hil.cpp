@@ -340,6 +340,18 @@ TEST(Hil, BringUpAll19DrivesCia402AnsweringLate) {
   bring_up_all_cia402_late({"--cia402-answer-delay-ms", "1,9,17,25,33,41,50"});
 }
 
+// Each state transition of every drive takes 90 ms of the 100 ms the host allows a step
+// (state_step_timeout_ms as shipped, CAN.md 4.3 step 4). Disabled: the bring-up passes, but the
+// shut-down does not (every drive still Operation enabled in the emulator): disable_bus sends
+// 0x0007 and 0x0006 one tick apart, then NMT enter pre-operational, without waiting for the
+// statusword to show each step (4.4 step 2), so the drive's 90 ms step never completes (a
+// Pre-operational drive gets no SYNC to apply it). To run it in the VM:
+// test_hil --gtest_also_run_disabled_tests --gtest_filter='*StateStepsTake90Ms'.
+TEST(Hil, DISABLED_BringUpAll19DrivesCia402WhoseStateStepsTake90Ms) {
+  REQUIRE_VCAN(7);
+  bring_up_all_cia402_late({"--cia402-state-step-ms", "90"});
+}
+
 TEST(Hil, BringUpAll19DrivesMitWithCanFdArm) {
   REQUIRE_VCAN(5);
   bring_up_all("mit_fd5.yaml");
