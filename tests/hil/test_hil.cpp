@@ -341,11 +341,11 @@ TEST(Hil, BringUpAll19DrivesCia402AnsweringLate) {
 }
 
 // Each state transition of every drive takes 90 ms of the 100 ms the host allows a step
-// (state_step_timeout_ms as shipped, CAN.md 4.3 step 4). Disabled: the bring-up passes, but the
-// shut-down does not (every drive still Operation enabled in the emulator): disable_bus sends
-// 0x0007 and 0x0006 one tick apart, then NMT enter pre-operational, without waiting for the
-// statusword to show each step (4.4 step 2), so the drive's 90 ms step never completes (a
-// Pre-operational drive gets no SYNC to apply it). To run it in the VM:
+// (state_step_timeout_ms as shipped, CAN.md 4.3 step 4); the shut-down waits for each step too
+// (4.4 step 2: before, it sent NMT enter pre-operational one tick after 0x0006 and every drive
+// stayed Operation enabled). Disabled: the host sees a step last 90 ms plus its cycle and the
+// rig's latency, which in the CPU-starved VM often passes 100 ms ("stuck in 'switch on disabled'
+// for 100 ms"), so the case is not reliable there. To run it in the VM:
 // test_hil --gtest_also_run_disabled_tests --gtest_filter='*StateStepsTake90Ms'.
 TEST(Hil, DISABLED_BringUpAll19DrivesCia402WhoseStateStepsTake90Ms) {
   REQUIRE_VCAN(7);
