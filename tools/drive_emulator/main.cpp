@@ -407,9 +407,21 @@ int main(int argc, char** argv) {
   };
   // More held frames than three ticks of a bus: a command the world waits for was lost.
   constexpr std::size_t kMaxHeldFrames = 3 * (can::kMaxDrivesPerBus + 1);
-  const auto serve_pending = [&](std::int64_t now) {
+  // One pass takes at most two ticks' frames of each bus, then serves the next bus, and every
+  // drive's clock (its late answers, heartbeat, delayed NMT) reads the time it is served at. Each
+  // bus's drives are separate hardware: a bus whose frames arrive faster than this one process
+  // serves them (the host's SYNC every tick on the buses it has enabled, in a CPU-starved VM)
+  // must not starve the other buses' drives, nor hold back answers due meanwhile. Before, a
+  // pass drained each bus until it was empty under one time read at its start: a late answer
+  // went out only after the pass that was under way at its due time, tens of ms late, and a
+  // bus behind busy ones was not served at all. Returns whether a bus has frames left.
+  constexpr int kFramesPerBusPerPass = 2 * (can::kMaxDrivesPerBus + 1);
+  const auto serve_pending = [&] {
+    bool left = false;
     for (BusIo& io : buses) {
-      while (io.socket.receive(f) == can::RxStatus::frame) {
+      int taken = 0;
+      for (; taken < kFramesPerBusPerPass && io.socket.receive(f) == can::RxStatus::frame; ++taken) {
+        const std::int64_t now = can::monotonic_ns();
         if (!io.held.empty() || blocked(io, f)) {
           io.held.push_back(f);
         } else {
@@ -417,28 +429,32 @@ int main(int argc, char** argv) {
           release_held(now);
         }
       }
+      left = left || taken == kFramesPerBusPerPass;
+      const std::int64_t now = can::monotonic_ns();
       for (auto& d : io.drives) d->on_time(now, out);
       flush(io);
     }
     for (const BusIo& io : buses) {
       if (world && io.held.size() > kMaxHeldFrames) {
         world->force_step();
-        release_held(now);
+        release_held(can::monotonic_ns());
         break;
       }
     }
+    return left;
   };
-  while (!g_stop && can::monotonic_ns() < end_ns) {
-    can::wait_readable(fds, 1000);
+  for (bool left = false; !g_stop && can::monotonic_ns() < end_ns;) {
+    if (!left) can::wait_readable(fds, 1000);
     if (!powered_on && can::monotonic_ns() >= power_on_ns) {
       power_on(can::monotonic_ns());
       powered_on = true;
     }
-    serve_pending(can::monotonic_ns());
+    left = serve_pending();
   }
-  // A stop can arrive while a later bus is being served: frames already queued on an
-  // earlier bus (e.g. the firmware's shut-down frames) are still answered before the summary.
-  serve_pending(can::monotonic_ns());
+  // A stop can arrive while a bus still has frames queued (e.g. the firmware's shut-down
+  // frames): they are answered before the summary, for at most a second should a host still send.
+  for (const std::int64_t until = can::monotonic_ns() + 1000000000LL; serve_pending() && can::monotonic_ns() < until;) {
+  }
   for (bool any_held = true; world && any_held;) {
     any_held = false;
     for (const BusIo& io : buses) any_held = any_held || !io.held.empty();

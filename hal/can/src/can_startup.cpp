@@ -719,29 +719,50 @@ LifecycleResult CanHardware::recover_bus(int b) {
 
 // CAN.md 4.4 step 2 for one bus: MIT exit motor mode (`...FD`) to every MIT drive; CiA 402
 // controlword 0x0007 (disable operation), then 0x0006 (shutdown), each in RPDO1 followed by a
-// SYNC one tick apart, then NMT enter pre-operational (`80 0`). Its enabled drives become ready and
-// nothing more is sent for them. A faulted or closed bus cannot be reached: its drives rely on their
-// own timeouts (CAN_TIMEOUT, 0x6007, 4.4 step 3). A bus with a configuration fault still carries
-// frames, and one whose controller restarted after its bus-off carries them again: both are
-// disabled like a healthy one (disabling resumes nothing).
+// SYNC every tick until every CiA 402 drive's statusword shows the step taken (left Operation
+// enabled, then left Switched on too) or state_step_timeout_ms has passed (the bound on a step,
+// 4.3 step 4), then NMT enter pre-operational (`80 0`). A drive whose step takes longer than a
+// tick (a brake to engage, a slow power stage) would otherwise be sent to Pre-operational, where
+// no SYNC applies the step, and stay Operation enabled. Its enabled drives become ready and
+// nothing more is sent for them. A faulted or closed bus cannot be reached: its drives rely on
+// their own timeouts (CAN_TIMEOUT, 0x6007, 4.4 step 3). A bus with a configuration fault still
+// carries frames, and one whose controller restarted after its bus-off carries them again: both
+// are disabled like a healthy one (disabling resumes nothing).
 void CanHardware::disable_bus(int b) noexcept {
   Bus& bus = buses_[static_cast<std::size_t>(b)];
   bus.synced = false;
   if (!bus.socket.is_open() || !bus_reachable(bus.diag)) return;
-  const std::int64_t period_ns = 1000LL * config_.timing.tick_us;
-  for (const std::uint16_t cw : {cia402::controlword::disable_operation, cia402::controlword::shutdown}) {
-    if (!bus.any_cia) break;
+  // Ready before the steps: a TPDO that shows one taken is no drive leaving Operation enabled.
+  for (int k = 0; k < bus.count; ++k) {
+    JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+    if (jr.status.state == hal::DriveState::enabled) jr.status.state = hal::DriveState::ready;
+  }
+  const auto step_taken = [&](std::uint16_t cw) {
     for (int k = 0; k < bus.count; ++k) {
       const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
       if (jr.cfg.protocol != Protocol::cia402) continue;
-      Frame f;
-      cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{cw, 0}, f);
-      send_now(b, f);
+      const cia402::State s = cia402::decode_statusword(jr.statusword);
+      if (s == cia402::State::operation_enabled) return false;
+      if (cw == cia402::controlword::shutdown && s == cia402::State::switched_on) return false;
     }
-    Frame sync;
-    cia402::encode_sync(sync);
-    send_now(b, sync);
-    sleep_until_ns(monotonic_ns() + period_ns);
+    return true;
+  };
+  for (const std::uint16_t cw : {cia402::controlword::disable_operation, cia402::controlword::shutdown}) {
+    if (!bus.any_cia) break;
+    const std::int64_t step_deadline = after_ms(config_.timing.state_step_timeout_ms);
+    do {
+      for (int k = 0; k < bus.count; ++k) {
+        const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+        if (jr.cfg.protocol != Protocol::cia402) continue;
+        Frame f;
+        cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{cw, 0}, f);
+        send_now(b, f);
+      }
+      Frame sync;
+      cia402::encode_sync(sync);
+      send_now(b, sync);
+      pump_until(monotonic_ns() + 1000LL * config_.timing.tick_us, [] { return false; });
+    } while (!step_taken(cw) && monotonic_ns() < step_deadline && bus_reachable(bus.diag));
   }
   for (int k = 0; k < bus.count; ++k) {
     JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
@@ -750,7 +771,6 @@ void CanHardware::disable_bus(int b) noexcept {
       mit::encode_special(jr.cfg.drive_id, mit::Special::exit_motor_mode, f);
       send_now(b, f);
     }
-    if (jr.status.state == hal::DriveState::enabled) jr.status.state = hal::DriveState::ready;
     jr.has_pending = false;
     jr.awaiting = false;
   }
