@@ -1469,13 +1469,13 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
   const double wall_per_sim_s = time_scale * 1.3 + 5.0;
   const app::AppConfig config = wbc_hil_config();
   const std::uint32_t stale_ticks = wbc_hil_stale_ticks();
-  constexpr double kPushStart_s = 3.0, kPushEnd_s = 6.5, kForce_n = 30.0, kTrotAt_s = 7.0, kTrotUntil_s = 11.5;
-  constexpr unsigned long long kStreakAt = 12000;
+  constexpr double kPushStart_s = 5.0, kPushEnd_s = 8.5, kForce_n = 30.0, kTrotAt_s = 9.0, kTrotUntil_s = 13.5;
+  constexpr unsigned long long kStreakAt = 14000;
   const std::string truth = "/tmp/springbok_hil_wbc_truth_" + std::to_string(::getpid()) + ".txt";
   Emulator emu(kWbcConfig,
                "faults:\n"
-               "  - {kind: corrupt_quaternion, sensor: imu, at: 2500, count: 3}\n"
-               "  - {kind: corrupt_quaternion, sensor: imu, at: 12000, count: 1000000}\n",
+               "  - {kind: corrupt_quaternion, sensor: imu, at: 4500, count: 3}\n"
+               "  - {kind: corrupt_quaternion, sensor: imu, at: 14000, count: 1000000}\n",
                {"--motion", "bullet", "--truth-log", truth, "--truth-every", "1", "--settle-s", "0.1",
                 "--hand-force-n", std::to_string(kForce_n), "--hand-force-axis", "x", "--hand-force-start-s",
                 std::to_string(kPushStart_s), "--hand-force-duration-s", std::to_string(kPushEnd_s - kPushStart_s)});
@@ -1486,7 +1486,7 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
   std::string why;
   const double t_control_s = enter_control(fw, truth, wall_per_sim_s, why);
   ASSERT_GE(t_control_s, 0.0) << why << "\n" << fw.stop();
-  ASSERT_LT(t_control_s, 2.4) << "the control mode must be on before the IMU burst and the push";
+  ASSERT_LT(t_control_s, 4.4) << "the control mode must be on before the IMU burst and the push";
 
   ASSERT_TRUE(wait_for(fw, (kTrotAt_s - t_control_s + 1.0) * wall_per_sim_s,
                        [&] { return truth_time(truth) >= kTrotAt_s; }));
@@ -1663,12 +1663,12 @@ TEST(Hil, DeployedWholeBodyControllerStartsDampedAndRejectsCorruptQuaternions) {
   ASSERT_GE(time_scale, 1);
   const double wall_per_sim_s = time_scale * 1.3 + 5.0;
   const std::uint32_t stale_ticks = wbc_hil_stale_ticks();
-  constexpr unsigned long long kBurstAt = 2500, kBurst = 3, kStreakAt = 3000;
+  constexpr unsigned long long kBurstAt = 4500, kBurst = 3, kStreakAt = 5000;
   const std::string truth = "/tmp/springbok_hil_wbc_truth_" + std::to_string(::getpid()) + ".txt";
   Emulator emu(kWbcConfig,
                "faults:\n"
-               "  - {kind: corrupt_quaternion, sensor: imu, at: 2500, count: 3}\n"
-               "  - {kind: corrupt_quaternion, sensor: imu, at: 3000, count: 1000000}\n",
+               "  - {kind: corrupt_quaternion, sensor: imu, at: 4500, count: 3}\n"
+               "  - {kind: corrupt_quaternion, sensor: imu, at: 5000, count: 1000000}\n",
                {"--motion", "bullet", "--truth-log", truth, "--truth-every", "1", "--settle-s", "0.1"});
   ASSERT_TRUE(emu.ready());
   ::unlink(kWbcSocket.c_str());
@@ -1722,21 +1722,21 @@ TEST(Hil, DeployedWholeBodyControllerStartsDampedAndRejectsCorruptQuaternions) {
 
 TEST(Hil, DeployedWholeBodyControllerDampsWhenTheImuFallsSilent) {
   REQUIRE_VCAN(8);
-  expect_sensor_loss_damps("faults: [{kind: silent, sensor: imu, at: 2600}]\n", 2600, "imu_lost");
+  expect_sensor_loss_damps("faults: [{kind: silent, sensor: imu, at: 4600}]\n", 4600, "imu_lost");
 }
 
 TEST(Hil, DeployedWholeBodyControllerDampsWhenTheWristFtReportsInvalid) {
   REQUIRE_VCAN(8);
-  expect_sensor_loss_damps("faults: [{kind: status_invalid, sensor: wrist_ft, at: 2600, count: 1000000}]\n", 2600,
+  expect_sensor_loss_damps("faults: [{kind: status_invalid, sensor: wrist_ft, at: 4600, count: 1000000}]\n", 4600,
                            "wrist_ft_lost");
 }
 
 // CAN.md 6.4: clipping samples are used and counted, "a streak is a fault": the wrist F/T
-// at full scale (F_x 512 N) from step 2600; its clip_streak (2 in this config: 512 N on the
+// at full scale (F_x 512 N) from step 4600; its clip_streak (2 in this config: 512 N on the
 // hand for 10 ms throws the arm into a drive fault) samples in a row latch the fault.
 TEST(Hil, DeployedWholeBodyControllerDampsOnAWristFtClippingStreak) {
   REQUIRE_VCAN(8);
-  expect_sensor_loss_damps("faults: [{kind: saturate, sensor: wrist_ft, at: 2600, count: 1000000}]\n", 2600,
+  expect_sensor_loss_damps("faults: [{kind: saturate, sensor: wrist_ft, at: 4600, count: 1000000}]\n", 4600,
                            "wrist_ft_clipping_streak", 2);
 }
 

@@ -412,8 +412,7 @@ class MitWire final : public hal::Hardware {
 // estimator's position-aided tilt (control.estimator.tilt_gain 0) the base ends 29.2-30.1 mm
 // for pushes starting 3.0-5.0 s (up to 2.7 % off), with it 29.8-30.2 mm. Now: NRMSE base
 // 0.72 %, end displacement 30.0 mm (F/K 30).
-// end_tolerance: of the end displacements against F/K (a fraction).
-void render_push_then_trot(double push_start_s, const sim::ImuNoise& imu = {}, double end_tolerance = 0.02) {
+void render_push_then_trot(double push_start_s, const sim::ImuNoise& imu = {}) {
   sim::SimConfig sim_config = crouched_sim_config(1000);
   sim_config.latency = sim::Latency{1, 0, 1};
   sim_config.imu = imu;
@@ -454,8 +453,8 @@ void render_push_then_trot(double push_start_s, const sim::ImuNoise& imu = {}, d
   const auto ready = [&] {
     return rig->supervisor.mode() == safety::Mode::stand && rig->control.controller().tare().completed == 1u;
   };
-  while (!ready() && now_s() < 2.4) rig->executive->run_tick();
-  ASSERT_TRUE(ready()) << "stand and the tare by 2.4 s (HIL: control before the IMU burst at 2.5 s)";
+  while (!ready() && now_s() < 4.4) rig->executive->run_tick();
+  ASSERT_TRUE(ready()) << "stand and the tare by 4.4 s (HIL: control before the IMU burst at 4.5 s)";
   const double t_control_s = now_s();
   ASSERT_EQ(rig->command(safety::OperatorCommand::mode_control), safety::Verdict::accepted);
 
@@ -507,8 +506,8 @@ void render_push_then_trot(double push_start_s, const sim::ImuNoise& imu = {}, d
   ASSERT_GT(score.samples(), 3000);
   EXPECT_LE(score.nrmse_hand(), 0.05);
   EXPECT_LE(score.nrmse_base(), 0.10);
-  EXPECT_NEAR(score.end_base_m(), score.static_base_m(kForce_n), end_tolerance * score.static_base_m(kForce_n));
-  EXPECT_NEAR(score.end_hand_m(), score.static_hand_m(kForce_n), end_tolerance * score.static_hand_m(kForce_n));
+  EXPECT_NEAR(score.end_base_m(), score.static_base_m(kForce_n), 0.02 * score.static_base_m(kForce_n));
+  EXPECT_NEAR(score.end_hand_m(), score.static_hand_m(kForce_n), 0.02 * score.static_hand_m(kForce_n));
   EXPECT_EQ(rig->supervisor.mode(), safety::Mode::control);
   EXPECT_EQ(rig->supervisor.faults(), 0u) << fault_list(rig->supervisor.faults());
   EXPECT_EQ(rig->control.controller().gait_state(), control::GaitState::trot);
@@ -518,21 +517,20 @@ void render_push_then_trot(double push_start_s, const sim::ImuNoise& imu = {}, d
   EXPECT_LT(tilt_max_rad, 0.3);
 }
 
-TEST(LoopOnSim, TheHilConfigRendersAPushThenTrotsWithTheCanPathsDelays) { render_push_then_trot(3.0); }
+TEST(LoopOnSim, TheHilConfigRendersAPushThenTrotsWithTheCanPathsDelays) { render_push_then_trot(5.0); }
 
 // The same 0.5 s later: the steady state must not depend on when the push comes (the
 // estimated pitch's drift did that: 29.2 mm here without the tilt aid, 2.7 % off; now 29.8 mm).
-TEST(LoopOnSim, TheHilConfigHoldsTheSteadyStateForALaterPush) { render_push_then_trot(3.5); }
+TEST(LoopOnSim, TheHilConfigHoldsTheSteadyStateForALaterPush) { render_push_then_trot(5.5); }
 
 // The same with an IMU as a MEMS one is (the simulator's model: white noise 3 mrad/s and
 // 0.03 m/s^2 per sample, constant biases drawn once with std 1 mrad/s and 0.02 m/s^2), three
-// draws, within 3 % of F/K: the estimator does not estimate the biases (issue 47), and the
-// trunk held a few mrad off in pitch moves the steady state by up to 2 %. Not covered: an
-// accelerometer bias of 0.05 m/s^2 std (seed 3 ends 5 % short).
+// draws, within 2 % of F/K. Not covered: an accelerometer bias of 0.05 m/s^2 std (seed 3 ends
+// 5 % short: the estimator does not estimate biases, issue 47).
 TEST(LoopOnSim, TheHilConfigRendersThePushWithANoisyBiasedImu) {
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     SCOPED_TRACE("imu seed " + std::to_string(seed));
-    render_push_then_trot(3.0, sim::ImuNoise{0.003, 0.03, 0.001, 0.02, seed}, 0.03);
+    render_push_then_trot(5.0, sim::ImuNoise{0.003, 0.03, 0.001, 0.02, seed});
   }
 }
 
