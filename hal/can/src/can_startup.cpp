@@ -255,11 +255,11 @@ LifecycleResult CanHardware::disable_after_failed_enable(int first, int last, Li
     const std::string name = "'" + bc.name + "' (" + bc.interface + ")";
     if (!bus.socket.is_open() || !bus_reachable(bus.diag)) {
       unreachable += (unreachable.empty() ? "" : ", ") + name + ": " + to_string(bus.diag.fault);
-      continue;
+    } else {
+      disabled += (disabled.empty() ? "" : ", ") + name;
     }
-    disable_bus(b);
-    disabled += (disabled.empty() ? "" : ", ") + name;
   }
+  disable_buses(first, last);
   // Let the drives' answers arrive so they do not count against a later start-up.
   pump_until(monotonic_ns() + 20000000LL, [] { return false; });
   if (!disabled.empty()) failure.message += "; every drive on bus " + disabled + " disabled again (CAN.md 4.4 step 2)";
@@ -717,67 +717,89 @@ LifecycleResult CanHardware::recover_bus(int b) {
   return LifecycleResult::success();
 }
 
-// CAN.md 4.4 step 2 for one bus: MIT exit motor mode (`...FD`) to every MIT drive; CiA 402
-// controlword 0x0007 (disable operation), then 0x0006 (shutdown), each in RPDO1 followed by a
-// SYNC every tick until every CiA 402 drive's statusword shows the step taken (left Operation
-// enabled, then left Switched on too) or state_step_timeout_ms has passed (the bound on a step,
-// 4.3 step 4), then NMT enter pre-operational (`80 0`). A drive whose step takes longer than a
-// tick (a brake to engage, a slow power stage) would otherwise be sent to Pre-operational, where
-// no SYNC applies the step, and stay Operation enabled. Its enabled drives become ready and
-// nothing more is sent for them. A faulted or closed bus cannot be reached: its drives rely on
-// their own timeouts (CAN_TIMEOUT, 0x6007, 4.4 step 3). A bus with a configuration fault still
-// carries frames, and one whose controller restarted after its bus-off carries them again: both
-// are disabled like a healthy one (disabling resumes nothing).
-void CanHardware::disable_bus(int b) noexcept {
-  Bus& bus = buses_[static_cast<std::size_t>(b)];
-  bus.synced = false;
-  if (!bus.socket.is_open() || !bus_reachable(bus.diag)) return;
-  // Ready before the steps: a TPDO that shows one taken is no drive leaving Operation enabled.
-  for (int k = 0; k < bus.count; ++k) {
-    JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
-    if (jr.status.state == hal::DriveState::enabled) jr.status.state = hal::DriveState::ready;
+// CAN.md 4.4 step 2 for buses first..last, together: MIT exit motor mode (`...FD`) to every MIT
+// drive; CiA 402 controlword 0x0007 (disable operation), then 0x0006 (shutdown), each in RPDO1
+// followed by a SYNC on every bus every tick until every CiA 402 drive's statusword shows the step
+// taken (left Operation enabled, then left Switched on too) or state_step_timeout_ms has passed
+// (the bound on a step, 4.3 step 4), then NMT enter pre-operational (`80 0`). A drive whose step
+// takes longer than a tick (a brake to engage, a slow power stage) would otherwise be sent to
+// Pre-operational, where no SYNC applies the step, and stay Operation enabled. The buses step
+// together so that none goes without SYNC while another's drives are slow (a drive watching
+// for lost communication, 0x6007, would fault). Enabled drives become ready and nothing more is
+// sent for them. A faulted or closed bus cannot be reached: its drives rely on their own timeouts
+// (CAN_TIMEOUT, 0x6007, 4.4 step 3). A bus with a configuration fault still carries frames, and
+// one whose controller restarted after its bus-off carries them again: both are disabled like a
+// healthy one (disabling resumes nothing).
+void CanHardware::disable_buses(int first, int last) noexcept {
+  const auto reachable = [&](int b) {
+    const Bus& bus = buses_[static_cast<std::size_t>(b)];
+    return bus.socket.is_open() && bus_reachable(bus.diag);
+  };
+  bool any_cia = false;
+  for (int b = first; b <= last; ++b) {
+    Bus& bus = buses_[static_cast<std::size_t>(b)];
+    bus.synced = false;
+    if (!reachable(b)) continue;
+    any_cia = any_cia || bus.any_cia;
+    // Ready before the steps: a TPDO that shows one taken is no drive leaving Operation enabled.
+    for (int k = 0; k < bus.count; ++k) {
+      JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+      if (jr.status.state == hal::DriveState::enabled) jr.status.state = hal::DriveState::ready;
+    }
   }
   const auto step_taken = [&](std::uint16_t cw) {
-    for (int k = 0; k < bus.count; ++k) {
-      const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
-      if (jr.cfg.protocol != Protocol::cia402) continue;
-      const cia402::State s = cia402::decode_statusword(jr.statusword);
-      if (s == cia402::State::operation_enabled) return false;
-      if (cw == cia402::controlword::shutdown && s == cia402::State::switched_on) return false;
+    for (int b = first; b <= last; ++b) {
+      if (!reachable(b)) continue;
+      const Bus& bus = buses_[static_cast<std::size_t>(b)];
+      for (int k = 0; k < bus.count; ++k) {
+        const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+        if (jr.cfg.protocol != Protocol::cia402) continue;
+        const cia402::State s = cia402::decode_statusword(jr.statusword);
+        if (s == cia402::State::operation_enabled) return false;
+        if (cw == cia402::controlword::shutdown && s == cia402::State::switched_on) return false;
+      }
     }
     return true;
   };
   for (const std::uint16_t cw : {cia402::controlword::disable_operation, cia402::controlword::shutdown}) {
-    if (!bus.any_cia) break;
+    if (!any_cia) break;
     const std::int64_t step_deadline = after_ms(config_.timing.state_step_timeout_ms);
     do {
-      for (int k = 0; k < bus.count; ++k) {
-        const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
-        if (jr.cfg.protocol != Protocol::cia402) continue;
+      for (int b = first; b <= last; ++b) {
+        const Bus& bus = buses_[static_cast<std::size_t>(b)];
+        if (!bus.any_cia || !reachable(b)) continue;
+        for (int k = 0; k < bus.count; ++k) {
+          const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+          if (jr.cfg.protocol != Protocol::cia402) continue;
+          Frame f;
+          cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{cw, 0}, f);
+          send_now(b, f);
+        }
+        Frame sync;
+        cia402::encode_sync(sync);
+        send_now(b, sync);
+      }
+      pump_until(monotonic_ns() + 1000LL * config_.timing.tick_us, [] { return false; });
+    } while (!step_taken(cw) && monotonic_ns() < step_deadline);
+  }
+  for (int b = first; b <= last; ++b) {
+    Bus& bus = buses_[static_cast<std::size_t>(b)];
+    if (!reachable(b)) continue;
+    for (int k = 0; k < bus.count; ++k) {
+      JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+      if (jr.cfg.protocol == Protocol::mit) {
         Frame f;
-        cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{cw, 0}, f);
+        mit::encode_special(jr.cfg.drive_id, mit::Special::exit_motor_mode, f);
         send_now(b, f);
       }
-      Frame sync;
-      cia402::encode_sync(sync);
-      send_now(b, sync);
-      pump_until(monotonic_ns() + 1000LL * config_.timing.tick_us, [] { return false; });
-    } while (!step_taken(cw) && monotonic_ns() < step_deadline && bus_reachable(bus.diag));
-  }
-  for (int k = 0; k < bus.count; ++k) {
-    JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
-    if (jr.cfg.protocol == Protocol::mit) {
+      jr.has_pending = false;
+      jr.awaiting = false;
+    }
+    if (bus.any_cia) {
       Frame f;
-      mit::encode_special(jr.cfg.drive_id, mit::Special::exit_motor_mode, f);
+      cia402::encode_nmt(cia402::NmtCommand::enter_pre_operational, 0, f);
       send_now(b, f);
     }
-    jr.has_pending = false;
-    jr.awaiting = false;
-  }
-  if (bus.any_cia) {
-    Frame f;
-    cia402::encode_nmt(cia402::NmtCommand::enter_pre_operational, 0, f);
-    send_now(b, f);
   }
 }
 
@@ -804,7 +826,7 @@ void CanHardware::deactivate() noexcept {
     sleep_until_ns(next);
   }
   // 2. Disable. 3. Stop sending.
-  for (int b = 0; b < bus_count_; ++b) disable_bus(b);
+  disable_buses(0, bus_count_ - 1);
   // Let the last replies arrive so they do not count against a later start-up.
   pump_until(monotonic_ns() + 20000000LL, [] { return false; });
   active_ = false;

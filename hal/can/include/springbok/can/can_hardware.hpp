@@ -267,9 +267,9 @@ class CanHardware final : public hal::Hardware {
   hal::LifecycleResult enable_mit(int b);
   hal::LifecycleResult start_cia402(int b);
   hal::LifecycleResult enable_cia402(int b);
-  // CAN.md 4.4 step 2 on one bus (not real-time: waits for each CiA 402 step, up to
-  // state_step_timeout_ms).
-  void disable_bus(int b) noexcept;
+  // CAN.md 4.4 step 2 on buses first..last together (not real-time: waits for each CiA 402
+  // step, up to state_step_timeout_ms).
+  void disable_buses(int first, int last) noexcept;
   // After enable_bus failed on bus `last`: disables buses first..last, returns `failure` saying so.
   hal::LifecycleResult disable_after_failed_enable(int first, int last, hal::LifecycleResult failure);
   hal::LifecycleResult configure_node(int j);
