@@ -634,6 +634,43 @@ TEST(DriveEmulator, Cia402AnswersLateAndStepsSlowlyWhenAsked) {
   EXPECT_EQ(drive.status_word(), 0x0231);
 }
 
+// A holding brake (Cia402Options::brake_ms): the steps into and out of Operation enabled take
+// 80 ms (the brake releases, then engages), the others none.
+TEST(DriveEmulator, Cia402BrakeDelaysOnlyTheStepsIntoAndOutOfOperationEnabled) {
+  const can::DriveConfig cfg = can::default_drive(2, can::Protocol::cia402);  // node 3
+  Cia402Options options;
+  options.brake_ms = 80;
+  Cia402Drive drive(cfg, make_joint_model(2, 0.0), {}, 0, options);
+  std::vector<Frame> out;
+  drive.boot(0, out);
+  Frame nmt, sync;
+  c4::encode_nmt(c4::NmtCommand::start, 3, nmt);
+  drive.on_frame(nmt, 1000000, out);
+  c4::encode_sync(sync);
+  const auto tick = [&](std::uint16_t cw, std::int64_t now_ns) {
+    Frame rpdo;
+    c4::encode_rpdo1(3, c4::Rpdo1{cw, 0}, rpdo);
+    drive.on_frame(rpdo, now_ns, out);
+    drive.on_frame(sync, now_ns, out);
+  };
+  tick(c4::controlword::shutdown, 2000000);
+  EXPECT_EQ(drive.status_word(), 0x0231) << "ready to switch on at once";
+  tick(c4::controlword::switch_on, 3000000);
+  EXPECT_EQ(drive.status_word(), 0x0233) << "switched on at once";
+  tick(c4::controlword::enable_operation, 4000000);  // the brake releases: enabled at 84 ms
+  tick(c4::controlword::enable_operation, 83000000);
+  EXPECT_EQ(drive.status_word(), 0x0233);
+  tick(c4::controlword::enable_operation, 84000000);
+  EXPECT_EQ(drive.status_word(), 0x0237);
+  tick(c4::controlword::disable_operation, 100000000);  // the brake engages: switched on at 180 ms
+  tick(c4::controlword::disable_operation, 179000000);
+  EXPECT_EQ(drive.status_word(), 0x0237);
+  tick(c4::controlword::disable_operation, 180000000);
+  EXPECT_EQ(drive.status_word(), 0x0233);
+  tick(c4::controlword::shutdown, 181000000);
+  EXPECT_EQ(drive.status_word(), 0x0231);
+}
+
 // CAN.md 4 / 5: the controller's error-passive report and its return to error active, as
 // error frames on the drive's bus at the scripted cyclic ticks.
 TEST(DriveEmulator, ErrorPassiveThenErrorActiveReports) {

@@ -356,6 +356,15 @@ TEST(Hil, DISABLED_BringUpAll19DrivesCia402WhoseStateStepsTake90Ms) {
   bring_up_all_cia402_late({"--cia402-state-step-ms", "90"});
 }
 
+// Every drive has a holding brake that takes 80 ms to release (the step into Operation enabled)
+// and to engage (the step out of it): bring-up waits for it within the 100 ms a step may take
+// (CAN.md 4.3 step 4), and the shut-down waits for it before NMT enter pre-operational, every bus
+// SYNCed meanwhile (4.4 step 2).
+TEST(Hil, BringUpAll19DrivesCia402WhoseBrakesTake80Ms) {
+  REQUIRE_VCAN(7);
+  bring_up_all_cia402_late({"--cia402-brake-ms", "80"});
+}
+
 TEST(Hil, BringUpAll19DrivesMitWithCanFdArm) {
   REQUIRE_VCAN(5);
   bring_up_all("mit_fd5.yaml");

@@ -10,6 +10,7 @@
 //                  [--cia402-nmt-delay-ms MS] [--cia402-only-used-pdos] [--cia402-repeat-sdo-answers]
 //                  [--cia402-sync-timeout-ms MS] [--cia402-answer-delay-ms MS[,MS...]]
 //                  [--cia402-state-step-ms MS[,MS...]]   (one value for every bus, or one per bus)
+//                  [--cia402-brake-ms MS]
 //   drive_emulator --config can.yaml --motion bullet [--truth-log trunk.txt]
 //   drive_emulator --config can.yaml --print-layout      (no CAN needed)
 //
@@ -143,6 +144,10 @@ int main(int argc, char** argv) {
                  "CiA 402: a state machine transition takes effect this long after the SYNC that applied its "
                  "controlword, ms; one value for every bus or one per bus (comma-separated)")
       ->delimiter(',')
+      ->check(CLI::Range(0, 1000));
+  app.add_option("--cia402-brake-ms", cia402.brake_ms,
+                 "CiA 402: every drive has a holding brake that takes this long to release (the step into "
+                 "Operation enabled) and to engage (the step out of it), ms; 0: none")
       ->check(CLI::Range(0, 1000));
   app.add_option("--motion", motion,
                  "joint: a 1-DoF model per drive; bullet: the joints of the simulated robot (sim_hal), "

@@ -354,7 +354,7 @@ Cia402Drive::St Cia402Drive::transition(St from) const noexcept {
 }
 
 void Cia402Drive::step_state_machine() {
-  if (options_.state_step_ms == 0) {
+  if (options_.state_step_ms == 0 && options_.brake_ms == 0) {
     state_ = transition(state_);
     return;
   }
@@ -369,7 +369,14 @@ void Cia402Drive::step_state_machine() {
     step_pending_ = false;
     return;
   }
-  if (!step_pending_) step_due_ns_ = now_ns_ + 1000000LL * options_.state_step_ms;
+  const bool brake = state_ == St::enabled || next == St::enabled;
+  const std::uint32_t step_ms = brake ? std::max(options_.state_step_ms, options_.brake_ms) : options_.state_step_ms;
+  if (step_ms == 0) {
+    step_pending_ = false;
+    state_ = next;
+    return;
+  }
+  if (!step_pending_) step_due_ns_ = now_ns_ + 1000000LL * step_ms;
   step_pending_ = true;
   step_target_ = next;
 }

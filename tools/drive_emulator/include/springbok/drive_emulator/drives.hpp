@@ -236,6 +236,9 @@ struct Cia402Options {
   // A state transition of the state machine (CAN.md 2.5) takes effect this long after the SYNC
   // that applied its controlword (0: at that SYNC); the statusword shows the old state until then.
   std::uint32_t state_step_ms = 0;
+  // A holding brake: the transition into Operation enabled waits this long for it to release,
+  // the one out of it this long for it to engage (at least state_step_ms; 0: no brake).
+  std::uint32_t brake_ms = 0;
 };
 
 // CiA 402 subset: NMT, heartbeat, SDO (expedited + aborts), PDO mapping by SDO,
