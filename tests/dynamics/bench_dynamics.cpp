@@ -3,6 +3,7 @@
 //   BM_Crba, BM_Rnea, BM_Aba
 // Each cycles through 64 random states. Run with repetitions for the spread:
 //   bench_dynamics --benchmark_repetitions=30 --benchmark_report_aggregates_only=true
+// Each runs once per instruction-set level the binary holds and the CPU runs (isa_bench.hpp).
 // Besides the per-repetition aggregates (mean, median, stddev, p99 of the
 // repetition means), each benchmark reports the per-call latency median and
 // 99th percentile of 20000 individually timed calls (counters call_p50_us,
@@ -15,6 +16,7 @@
 #include <memory>
 #include <vector>
 
+#include "isa_bench.hpp"
 #include "random_state.hpp"
 
 namespace {
@@ -39,6 +41,7 @@ Fixture& fixture() {
 
 template <class Kernel>
 void run(benchmark::State& state, Kernel kernel) {
+  const springbok::test::IsaLevelScope level(state);
   Fixture& f = fixture();
   int k = 0;
   for (auto _ : state) {
@@ -78,10 +81,10 @@ double p99(const std::vector<double>& v) {
   return s[std::min(s.size() - 1, s.size() * 99 / 100)];
 }
 
-BENCHMARK(BM_FullTick)->ComputeStatistics("p99", p99)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_Crba)->ComputeStatistics("p99", p99)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_Rnea)->ComputeStatistics("p99", p99)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_Aba)->ComputeStatistics("p99", p99)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_FullTick)->Apply(springbok::test::each_isa_level)->ComputeStatistics("p99", p99)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Crba)->Apply(springbok::test::each_isa_level)->ComputeStatistics("p99", p99)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Rnea)->Apply(springbok::test::each_isa_level)->ComputeStatistics("p99", p99)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Aba)->Apply(springbok::test::each_isa_level)->ComputeStatistics("p99", p99)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -74,6 +74,14 @@ out=$("${emulator[@]}" "$root/usr/bin/springbok-can-up" --dry-run --config "$roo
   fail "installed springbok-can-up --dry-run: $out"
 [[ $(grep -c ' up$' <<<"$out") == 8 ]] || fail "springbok-can-up brings up $(grep -c ' up$' <<<"$out") interfaces, not 8: $out"
 ver=$("${emulator[@]}" "$root/usr/bin/springbok" --version)
-[[ $ver == "springbok $version (revision "*")" ]] || fail "--version said: $ver"
+[[ $(head -n 1 <<<"$ver") == "springbok $version (revision "*")" ]] || fail "--version said: $ver"
+# The kernels it runs: the amd64 package holds every x86-64 level's and picks one the CPU runs.
+kernels=$(sed -n 2p <<<"$ver")
+case $arch in
+  amd64) [[ $kernels == "kernels x86-64"*" (compiled: x86-64 x86-64-v3 x86-64-v4; CPU: x86-64"*")" ]] ;;
+  arm64) [[ $kernels == "kernels armv8-a (compiled: armv8-a; CPU: armv8-a)" ]] ;;
+  *) true ;;
+esac || fail "--version's kernels on $arch: $kernels"
+ver=$(head -n 1 <<<"$ver")
 [[ $have_sim == 0 ]] || "$root/usr/bin/springbok-sim" --help >/dev/null || fail "springbok-sim --help"
 echo "check_packages: $fw ($(wc -l <<<"$list") entries)$([[ $have_sim == 1 ]] && echo ", $sim ($(wc -l <<<"$simlist") entries)"): ok; $ver"

@@ -3,10 +3,12 @@
 // closed loop. Run with repetitions to read median and p99, e.g.
 //   bench_wbc --benchmark_repetitions=20 --benchmark_report_aggregates_only=true
 // (per-iteration p99: the springbok-sim summary's tick_us over a closed-loop run).
+// Once per instruction-set level the binary holds and the CPU runs (isa_bench.hpp).
 #include <benchmark/benchmark.h>
 
 #include <memory>
 
+#include "isa_bench.hpp"
 #include "springbok/dynamics/dynamics.hpp"
 #include "springbok/wbc/stand_controller.hpp"
 #include "springbok/wbc/whole_body_controller.hpp"
@@ -15,6 +17,7 @@ namespace {
 using namespace springbok;
 
 void BM_WbcTick(benchmark::State& state) {
+  const springbok::test::IsaLevelScope level(state);
   VecNq q = VecNq::Zero();
   q[2] = 0.6;
   q[6] = 1.0;
@@ -41,7 +44,7 @@ void BM_WbcTick(benchmark::State& state) {
   }
   if (controller->qp_failures() != 0) state.SkipWithError("QP failed");
 }
-BENCHMARK(BM_WbcTick)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_WbcTick)->Apply(springbok::test::each_isa_level)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -17,6 +17,7 @@
 #include "springbok/app/slowed_clock.hpp"
 #include "springbok/app/version.hpp"
 #include "springbok/rt/clock.hpp"
+#include "springbok/isa/isa.hpp"
 #include "springbok/rt/executive.hpp"
 #include "springbok/rt/log.hpp"
 #include "springbok/rt/realtime.hpp"
@@ -26,8 +27,9 @@ namespace springbok::app {
 CommandLine parse_command_line(int argc, char** argv, const char* program) {
   CommandLine cli;
   CLI::App app{std::string(program) + ": the springbok whole-body controller firmware"};
-  app.set_version_flag("--version", std::string(program) + " " + version() + " (revision " + revision() + ")",
-                       "print the version and the source revision, then exit");
+  app.set_version_flag("--version",
+                       std::string(program) + " " + version() + " (revision " + revision() + ")\n" + isa::describe(),
+                       "print the version, the source revision and the kernels' instruction-set level, then exit");
   app.add_option("--config", cli.config_path, "robot configuration (YAML)")->required()->check(CLI::ExistingFile);
   app.add_flag("--check-config", cli.check_config, "validate the configuration and exit");
   app.add_flag("--require-rt", cli.run.require_rt,
@@ -152,7 +154,7 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   std::fprintf(stderr, "springbok: control mode runs %s\n",
                config.control_mode == ControlModeKind::wbc ? "the whole-body controller (IMU + leg-kinematics estimate)"
                                                            : "the joint PD hold of gains.control");
-  std::fprintf(stderr, "springbok %s (revision %s)\n", version(), revision());
+  std::fprintf(stderr, "springbok %s (revision %s); %s\n", version(), revision(), isa::describe().c_str());
   std::fprintf(stderr, "springbok: running at %d Hz on %.*s; operator socket %s\n", config.rate_hz,
                static_cast<int>(hardware.name().size()), hardware.name().data(), config.operator_socket.c_str());
   if (clock.scale() > 1) {
@@ -202,6 +204,10 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
 int firmware_main(int argc, char** argv, const char* program, const MakeHardware& make_hardware) {
   const CommandLine cli = parse_command_line(argc, argv, program);
   if (cli.exit_now) return cli.exit_code;
+  if (!isa::environment_error().empty()) {
+    std::fprintf(stderr, "%s: %s\n", program, isa::environment_error().c_str());
+    return 1;
+  }
   const config::Document doc = config::parse_file(cli.config_path);
   if (!doc.ok) {
     std::fprintf(stderr, "%s: config error: %s\n", program, doc.error.c_str());

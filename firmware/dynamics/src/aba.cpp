@@ -4,6 +4,7 @@
 // blockdiag(R_WB, R_WB).
 #include <Eigen/Cholesky>
 
+#include "dispatch.hpp"
 #include "kernels.hpp"
 
 namespace springbok::dyn {
@@ -28,8 +29,8 @@ Vec6 motion_subspace(const Data& data, int joint) noexcept {
 
 }  // namespace
 
-const VecNv& aba(const Model& model, Data& data, const VecNq& q, const VecNv& v,
-                 const VecNv& tau) noexcept {
+const VecNv& kernel::aba(const Model& model, Data& data, const VecNq& q, const VecNv& v,
+                         const VecNv& tau) noexcept {
   placements(model, data, q);
   body_inertias(model, data);
   velocities(data, v);

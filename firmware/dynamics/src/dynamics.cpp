@@ -1,11 +1,12 @@
 // Mass matrix (CRBA), inverse dynamics (RNEA), nonlinear effects, gravity,
 // and the one-pass controller tick.
+#include "dispatch.hpp"
 #include "kernels.hpp"
 
 namespace springbok::dyn {
 using namespace detail;
 
-const MatNv& crba(const Model& model, Data& data, const VecNq& q) noexcept {
+const MatNv& kernel::crba(const Model& model, Data& data, const VecNq& q) noexcept {
   placements(model, data, q);
   body_inertias(model, data);
   composite_inertias(data, true);
@@ -13,8 +14,8 @@ const MatNv& crba(const Model& model, Data& data, const VecNq& q) noexcept {
   return data.M;
 }
 
-const VecNv& rnea(const Model& model, Data& data, const VecNq& q, const VecNv& v,
-                  const VecNv& vdot) noexcept {
+const VecNv& kernel::rnea(const Model& model, Data& data, const VecNq& q, const VecNv& v,
+                          const VecNv& vdot) noexcept {
   placements(model, data, q);
   body_inertias(model, data);
   velocities(data, v);
@@ -52,7 +53,7 @@ const VecNv& gravity(const Model& model, Data& data, const VecNq& q) noexcept {
   return data.g;
 }
 
-void compute_tick(const Model& model, Data& data, const VecNq& q, const VecNv& v) noexcept {
+void kernel::compute_tick(const Model& model, Data& data, const VecNq& q, const VecNv& v) noexcept {
   placements(model, data, q);
   frame_placements(model, data, q);
   body_inertias(model, data);

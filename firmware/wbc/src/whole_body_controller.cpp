@@ -595,7 +595,7 @@ void WholeBodyController::switch_hint(const Stance& stance) noexcept {
   }
 }
 
-const WbcOutput& WholeBodyController::tick(const WbcInput& in, const dyn::Data& d) noexcept {
+const WbcOutput& WholeBodyController::tick_kernel(const WbcInput& in, const dyn::Data& d) noexcept {
   for (int f = 0; f < kFeet; ++f) {
     if (in.state.stance[f]) {
       rolling_contact(d, in.state, f, params_.foot_contact_radius_m, contact_[f]);

@@ -297,6 +297,9 @@ class WholeBodyController {
   // `data` must hold dyn::compute_tick at (in.state.q, in.state.v). rt: no alloc,
   // no block. Never throws; on a QP failure `out.failed` is set.
   const WbcOutput& tick(const WbcInput& in, const dyn::Data& data) noexcept;
+  // tick()'s body, compiled once per instruction-set level (springbok/isa/isa.hpp): tick()
+  // runs the one of isa::active(). Call tick().
+  const WbcOutput& tick_kernel(const WbcInput& in, const dyn::Data& data) noexcept;
 
   std::uint64_t qp_failures() const noexcept { return qp_failures_; }
   const WbcOutput& output() const noexcept { return out_; }
