@@ -3,6 +3,7 @@
 #pragma once
 
 #include "springbok/dynamics/dynamics.hpp"
+#include "springbok/isa/isa.hpp"
 
 namespace springbok::dyn {
 
@@ -21,13 +22,6 @@ struct Kernels {
   decltype(&kernel::compute_tick) compute_tick;
 };
 
-#ifdef SPRINGBOK_ISA_VARIANTS
-namespace isa_x86_64_v3 {
-extern const Kernels kKernels;
-}
-namespace isa_x86_64_v4 {
-extern const Kernels kKernels;
-}
-#endif
+SPRINGBOK_ISA_LEVEL_TABLES(Kernels)
 
 }  // namespace springbok::dyn

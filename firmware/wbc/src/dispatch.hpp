@@ -2,6 +2,7 @@
 // (springbok/isa/isa.hpp); dispatch.cpp calls active()'s.
 #pragma once
 
+#include "springbok/isa/isa.hpp"
 #include "springbok/wbc/whole_body_controller.hpp"
 
 namespace springbok::wbc {
@@ -11,13 +12,6 @@ struct Kernels {
   decltype(&WholeBodyController::tick_kernel) tick;
 };
 
-#ifdef SPRINGBOK_ISA_VARIANTS
-namespace isa_x86_64_v3 {
-extern const Kernels kKernels;
-}
-namespace isa_x86_64_v4 {
-extern const Kernels kKernels;
-}
-#endif
+SPRINGBOK_ISA_LEVEL_TABLES(Kernels)
 
 }  // namespace springbok::wbc

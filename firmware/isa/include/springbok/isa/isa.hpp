@@ -58,4 +58,34 @@ const std::string& environment_error() noexcept;
 // x86-64-v4; CPU: x86-64-v3)".
 std::string describe();
 
+// A library's kernels per level (its src/dispatch.hpp): a table of function pointers, the
+// baseline's in the library, each other level's defined by that level's object (its
+// src/isa/entry.cpp, in namespace isa_<level>). The one of active(). rt: no alloc, no block
+template <class Table>
+const Table& active_table(const Table& baseline, const Table& x86_64_v3, const Table& x86_64_v4) noexcept {
+  switch (active()) {
+    case Level::x86_64_v3: return x86_64_v3;
+    case Level::x86_64_v4: return x86_64_v4;
+    case Level::baseline: break;
+  }
+  return baseline;
+}
+
 }  // namespace springbok::isa
+
+// Declares, in the library's namespace, the tables of type Table that the levels' objects
+// define; SPRINGBOK_ISA_ACTIVE_TABLE(baseline) is then active()'s table there.
+#ifdef SPRINGBOK_ISA_VARIANTS
+#define SPRINGBOK_ISA_ACTIVE_TABLE(baseline) \
+  ::springbok::isa::active_table(baseline, isa_x86_64_v3::kKernels, isa_x86_64_v4::kKernels)
+#define SPRINGBOK_ISA_LEVEL_TABLES(Table) \
+  namespace isa_x86_64_v3 {               \
+  extern const Table kKernels;            \
+  }                                       \
+  namespace isa_x86_64_v4 {               \
+  extern const Table kKernels;            \
+  }
+#else
+#define SPRINGBOK_ISA_ACTIVE_TABLE(baseline) (baseline)
+#define SPRINGBOK_ISA_LEVEL_TABLES(Table)
+#endif
