@@ -18,6 +18,7 @@
 #include "controller.hpp"
 #include "scenario.hpp"
 #include "wbc_adapter.hpp"
+#include "springbok/isa/isa.hpp"
 #include "springbok/rt/realtime.hpp"
 #include "springbok/sim_hal/bullet_robot.hpp"
 #include "springbok/wbc/stand_controller.hpp"
@@ -235,6 +236,10 @@ int main(int argc, char** argv) {
                "lock and prefault memory as the deployed binary does (RT.md: mlockall, heap and stack), so that "
                "tick_us carries no page faults of first use; without the privilege a warning, and the run goes on");
   CLI11_PARSE(app, argc, argv);
+  if (!isa::environment_error().empty()) {
+    std::fprintf(stderr, "springbok-sim: %s\n", isa::environment_error().c_str());
+    return 2;
+  }
   // The RT recipe's process steps without /dev/cpu_dma_latency, and of its report only the
   // memory lock's outcome: no SCHED_FIFO thread, no PREEMPT_RT banner (a desktop tool).
   rt::RtReport rt_report;
