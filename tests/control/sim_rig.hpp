@@ -1,4 +1,4 @@
-// The firmware's controller (control::WholeBodyControl) under the safety supervisor on
+// The firmware's controller (control::RobotController) under the safety supervisor on
 // the Bullet robot, ticked as every binary ticks it (observe, the mode's controller,
 // finish, write, step), with the simulator's ground truth as the base state.
 #pragma once
@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "springbok/control/whole_body_control.hpp"
+#include "springbok/control/robot_controller.hpp"
 #include "springbok/dynamics/dynamics.hpp"
 #include "springbok/safety/supervisor.hpp"
 #include "springbok/sim_hal/bullet_robot.hpp"
@@ -31,7 +31,7 @@ struct Rig {
   }
 
   std::unique_ptr<sim::BulletRobot> robot;
-  std::unique_ptr<control::WholeBodyControl> control;
+  std::unique_ptr<control::RobotController> control;
   safety::Supervisor supervisor{safety::SupervisorConfig{}};
   std::unique_ptr<wbc::StandController> stand;
   hal::Measurements m;
@@ -51,7 +51,7 @@ struct Rig {
     robot = std::make_unique<sim::BulletRobot>(config);
     EXPECT_TRUE(robot->configure().ok);
     EXPECT_TRUE(robot->activate().ok);
-    control = std::make_unique<control::WholeBodyControl>(cp);
+    control = std::make_unique<control::RobotController>(cp);
     stand = std::make_unique<wbc::StandController>(wbc::StandGains{}, config.initial_q.tail<kNj>());
   }
 

@@ -1,5 +1,5 @@
 // A failed tick in mid-swing, on the Bullet robot: the firmware's controller
-// (control::WholeBodyControl) trots under the safety supervisor as in every binary,
+// (control::RobotController) trots under the safety supervisor as in every binary,
 // and its tick fails for real (a corrupt base state: the QP has no solution) while
 // the left front foot is in the middle of its swing. The supervisor alone decides
 // the command then: the last good one, i.e. the trot's (torque mode, the swinging

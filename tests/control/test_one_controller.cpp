@@ -1,5 +1,5 @@
 // One controller from simulation to the robot: springbok-sim's path (the tool's
-// WbcAdapter around control::WholeBodyControl under the safety supervisor, in
+// WbcAdapter around control::RobotController under the safety supervisor, in
 // lockstep with the Bullet robot) is recorded tick by tick; the same measurements
 // are then replayed through the deployed firmware's control mode (app::ControlMode,
 // what `springbok` and `springbok-on-sim` run) and every control tick's torques
@@ -17,7 +17,7 @@
 #include "scenario.hpp"
 #include "sim_scenario_text.hpp"
 #include "springbok/app/control_mode.hpp"
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
 #include "springbok/estimation/base_estimator.hpp"
 #include "springbok/gait/trot.hpp"
 #include "springbok/params/controller_params.hpp"
@@ -47,8 +47,8 @@ std::string scenario_yaml(bool trot) {
 // The tool's path, tick by tick as springbok-sim's loop runs it.
 std::vector<Recorded> run_tool(simtool::Scenario& s, Eigen::Vector2d& start_xy) {
   simtool::apply_feet_clearance(s);
-  springbok::config::Errors errors;
-  simtool::WbcAdapter adapter(s, springbok::config::Field(s.controller_params, "controller.params", errors));
+  springbok::yaml::Errors errors;
+  simtool::WbcAdapter adapter(s, springbok::yaml::Field(s.controller_params, "controller.params", errors));
   EXPECT_TRUE(errors.empty()) << errors.joined();
   sim::BulletRobot hw(s.sim);
   EXPECT_TRUE(hw.configure().ok);
@@ -85,8 +85,8 @@ void expect_firmware_replays_the_tool(bool trot) {
   // The firmware's control mode, configured with the scenario's parameters.
   app::AppConfig config;
   config.control_mode = app::ControlModeKind::wbc;
-  config::Errors errors;
-  const config::Field p(s.controller_params, "controller.params", errors);
+  yaml::Errors errors;
+  const yaml::Field p(s.controller_params, "controller.params", errors);
   config.estimator = params::read_estimator_params(p["estimator"]);
   if (p["gait"].present()) {  // control.gait: the control mode engages trotting
     config.gait.kind = control::GaitKind::trot;

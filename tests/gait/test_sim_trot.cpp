@@ -274,7 +274,7 @@ TEST(SimTrot, StandsPushesOnTheHandTheArmCannotHold) {
 
 // A push the wrist does not measure, held: 150 N along y on the trunk from 2 s of trot_me4_gp2
 // (8 s). The footholds' pattern is centred under the static ZMP of the weight, the hand's
-// wrench and the unmeasured push (WholeBodyControl's estimate, less 10 N); when only the hand's
+// wrench and the unmeasured push (RobotController's estimate, less 10 N); when only the hand's
 // wrench counted, the trunk rolled 0.28 rad rms and the robot fell at 3.4 s.
 TEST(SimTrot, StandsAHeldPushOnTheTrunk) {
   std::string yaml = slurp(kScenarios + "trot_me4_gp2.yaml");

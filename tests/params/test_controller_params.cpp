@@ -9,8 +9,8 @@
 #include "springbok/params/controller_params.hpp"
 
 namespace {
-using springbok::config::Errors;
-using springbok::config::Field;
+using springbok::yaml::Errors;
+using springbok::yaml::Field;
 namespace params = springbok::params;
 
 const char* kGood = R"(

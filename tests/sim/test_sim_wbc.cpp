@@ -128,7 +128,7 @@ TEST(SimWbc, APushTheArmCannotHoldLeavesTheRobotStanding) {
 // holds the base back so that the static centre of pressure stays 4 cm inside the feet's
 // polygon: all three stand. With contact.support_margin 0 (the limit off) the first falls.
 // A push the wrist does not measure (on the trunk) counts too: the robot's momentum balance
-// estimates it (WholeBodyControl: the external force less the feet's and the hand's, log
+// estimates it (RobotController: the external force less the feet's and the hand's, log
 // columns unmeasured_f*_n), at the centre of mass. 120 N along y on the trunk tipped the
 // standing robot over at 3.3 s, 200 N along x at 2.7 s; both stand now, the estimate within
 // 5 % of the push, and without the limit the first falls. Stepping to catch a push is off here

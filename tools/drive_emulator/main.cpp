@@ -20,8 +20,6 @@
 // (--hand-force-n N --hand-force-axis x|y|z|-x|-y|-z --hand-force-start-s T).
 #include <signal.h>
 
-#include <Eigen/Geometry>  // model.hpp uses Eigen::Quaterniond without including it
-
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <cstdio>

@@ -526,7 +526,7 @@ def main():
               "(NRMSE = RMS(measured - template) / peak-to-peak(template) from the WBC start; steady state = "
               "|mean of the last second - F/K| / |F/K|). The chirp amplitude, 20 N, is our choice: the paper does not "
               "give one.", "",
-              "**One controller.** Every stance and trot run below is `springbok::control::WholeBodyControl` "
+              "**One controller.** Every stance and trot run below is `springbok::control::RobotController` "
               "(`firmware/control/`), the object the deployed binary `springbok` runs in its control mode over CAN "
               "and `springbok-on-sim` on the simulated robot; `springbok-sim` adds only the ground-truth override "
               "(where a scenario asks for it), the scoring and the CSV. `tests/control/test_one_controller.cpp` "

@@ -30,13 +30,13 @@ using simtool::Controller;
 
 class StandAdapter final : public Controller {
  public:
-  explicit StandAdapter(const config::Field& p) : stand_(gains(p), wbc::nominal_stance()) {}
+  explicit StandAdapter(const yaml::Field& p) : stand_(gains(p), wbc::nominal_stance()) {}
   void tick(const hal::Measurements&, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept override {
     stand_.tick(truth.q, out);  // base orientation: ground truth (the estimator is a wbc option)
   }
 
  private:
-  static wbc::StandGains gains(const config::Field& p) {
+  static wbc::StandGains gains(const yaml::Field& p) {
     p.allow_only({"kp_leg_nm_per_rad", "kd_leg_nms_per_rad", "kp_arm_nm_per_rad", "kd_arm_nms_per_rad"});
     wbc::StandGains g;
     p["kp_leg_nm_per_rad"].number(g.kp_leg_nm_per_rad, 0.0, 1e5);
@@ -51,7 +51,7 @@ class StandAdapter final : public Controller {
 // The safe mode: tau = -D qd.
 class DampingAdapter final : public Controller {
  public:
-  explicit DampingAdapter(const config::Field& p) {
+  explicit DampingAdapter(const yaml::Field& p) {
     p.allow_only({"kd_leg_nms_per_rad", "kd_arm_nms_per_rad"});
     double leg = 20.0, arm = 2.0;
     p["kd_leg_nms_per_rad"].number(leg, 0.0, 1e4);
@@ -73,8 +73,8 @@ class DampingAdapter final : public Controller {
 
 // Throws ScenarioError naming every bad controller.params field.
 std::unique_ptr<Controller> make_controller(const simtool::Scenario& s, const std::string& path) {
-  config::Errors errors;
-  const config::Field params(s.controller_params, "controller.params", errors, s.controller_params_line);
+  yaml::Errors errors;
+  const yaml::Field params(s.controller_params, "controller.params", errors, s.controller_params_line);
   std::unique_ptr<Controller> c;
   if (s.controller_type == "stand") c = std::make_unique<StandAdapter>(params);
   else if (s.controller_type == "damping") c = std::make_unique<DampingAdapter>(params);

@@ -13,7 +13,7 @@
 namespace springbok::simtool {
 namespace {
 
-using config::Field;
+using yaml::Field;
 
 void read_sim(const Field& f, sim::SimConfig& c) {
   f.allow_only({"step_s", "substeps", "solver_iterations", "limit_solver_iterations", "gravity_m_s2", "ground_friction", "ground_restitution",
@@ -199,7 +199,7 @@ std::optional<NamedWrench> read_wrench(const Field& f) {
 
 }  // namespace
 
-void refuse_if_any(const config::Errors& errors, const std::string& path) {
+void refuse_if_any(const yaml::Errors& errors, const std::string& path) {
   if (errors.empty()) return;
   std::string text;
   for (const std::string& e : errors.lines()) text += (text.empty() ? "" : "\n") + path + ": " + e;
@@ -207,9 +207,9 @@ void refuse_if_any(const config::Errors& errors, const std::string& path) {
 }
 
 Scenario load_scenario(const std::string& path) {
-  const config::Document doc = config::parse_file(path);
+  const yaml::Document doc = yaml::parse_file(path);
   if (!doc.ok) throw ScenarioError(doc.error);
-  config::Errors errors;
+  yaml::Errors errors;
   const Field top(doc.root, "", errors);
   Scenario s;
   if (!top.is_map()) {

@@ -9,7 +9,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
 #include "springbok/sim_hal/bullet_robot.hpp"
 
 namespace springbok::simtool {
@@ -44,6 +44,6 @@ Scenario load_scenario(const std::string& path);
 void apply_feet_clearance(Scenario& s);
 
 // Throws ScenarioError with every line of `errors`, each prefixed with `path` (none: returns).
-void refuse_if_any(const config::Errors& errors, const std::string& path);
+void refuse_if_any(const yaml::Errors& errors, const std::string& path);
 
 }  // namespace springbok::simtool

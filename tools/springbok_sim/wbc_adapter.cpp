@@ -71,7 +71,7 @@ double percentile(std::vector<double> v, double fraction) {
 
 }  // namespace
 
-WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
+WbcAdapter::WbcAdapter(const Scenario& s, const yaml::Field& params)
     : dt_s_(s.sim.step_s), settle_s_(s.controller_settle_s),
       idle_columns_(static_cast<int>(std::ranges::count(csv_columns(), ','))),
       data_(std::make_unique<dyn::Data>()) {
@@ -87,10 +87,10 @@ WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
     cp.gait.trot = params::read_trot_params(params["gait"], params::WithVelocitySchedule::yes);
     trot_ = true;
     // velocity_schedule: [{at_s, velocity: [v_x, v_y, yaw_rate]}, ...], times increasing.
-    const config::Field list = params["gait"]["velocity_schedule"];
+    const yaml::Field list = params["gait"]["velocity_schedule"];
     if (list.present() && list.expect_list()) {
       for (std::size_t i = 0; i < list.size(); ++i) {
-        const config::Field e = list[i];
+        const yaml::Field e = list[i];
         if (!e.allow_only({"at_s", "velocity"})) continue;
         VelocityChange change{0.0, Vec3::Zero()};
         if (e["at_s"].require()) e["at_s"].number(change.at_s, 0.0, 1e6);  // as hand_trajectory's: no default
@@ -106,16 +106,16 @@ WbcAdapter::WbcAdapter(const Scenario& s, const config::Field& params)
   }
   params_ = params::read_wbc_params(params, params::WithControllerParts::yes);
   cp.wbc = params_;
-  control_ = std::make_unique<control::WholeBodyControl>(cp);
+  control_ = std::make_unique<control::RobotController>(cp);
   // hand_trajectory: [{at_s, position: [x, y, z], rotation: [rx, ry, rz]}, ...]: the hand's rest
   // point's offset (m) and, optionally, its rest orientation's rotation vector (rad; with the
   // rotational template), both in the rest pose's horizontal frame, at scenario times; the
   // controller counts from its engagement at settle_s.
-  if (const config::Field list = params["hand_trajectory"]; list.present() && list.expect_list()) {
+  if (const yaml::Field list = params["hand_trajectory"]; list.present() && list.expect_list()) {
     std::vector<control::HandWaypoint> waypoints;
     bool ok = true;
     for (std::size_t i = 0; i < list.size(); ++i) {
-      const config::Field e = list[i];
+      const yaml::Field e = list[i];
       if (!e.allow_only({"at_s", "position", "rotation"})) {
         ok = false;
         continue;

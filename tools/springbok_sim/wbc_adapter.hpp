@@ -1,5 +1,5 @@
 // controller.type: wbc — the firmware's controller (springbok::control::
-// WholeBodyControl, the same object the deployed binaries run) in the simulator,
+// RobotController, the same object the deployed binaries run) in the simulator,
 // under the firmware's safety supervisor (springbok::safety::Supervisor).
 //
 // The run goes through the supervisor's modes as on the robot: start -> stand_up,
@@ -32,7 +32,7 @@
 
 #include "controller.hpp"
 #include "scenario.hpp"
-#include "springbok/control/whole_body_control.hpp"
+#include "springbok/control/robot_controller.hpp"
 #include "springbok/dynamics/dynamics.hpp"
 #include "springbok/safety/supervisor.hpp"
 #include "springbok/wbc/impedance_template.hpp"
@@ -45,7 +45,7 @@ class WbcAdapter final : public Controller {
  public:
   // `params` is the scenario's controller.params; its problems go to params.errors() (the
   // caller refuses the scenario when there are any).
-  WbcAdapter(const Scenario& scenario, const config::Field& params);
+  WbcAdapter(const Scenario& scenario, const yaml::Field& params);
   ~WbcAdapter() override;
 
   void tick(const hal::Measurements& m, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept override;
@@ -53,8 +53,8 @@ class WbcAdapter final : public Controller {
   void after_step(const sim::GroundTruth& truth, std::string& row) override;
   std::string summary_fields() const override;
 
-  const control::WholeBodyControl& controller() const noexcept { return *control_; }
-  control::WholeBodyControl& controller() noexcept { return *control_; }
+  const control::RobotController& controller() const noexcept { return *control_; }
+  control::RobotController& controller() noexcept { return *control_; }
   // The supervisor's mode the last tick ran in (stand_up: settling, control: the controller).
   safety::Mode tick_mode() const noexcept { return tick_mode_; }
   control::TickStatus tick_status() const noexcept { return status_; }
@@ -91,7 +91,7 @@ class WbcAdapter final : public Controller {
   std::size_t next_velocity_change_ = 0;
   // The trunk's velocity in its horizontal frame [x, y, yaw rate], control ticks (gait.mean_velocity).
   std::vector<Vec3> trunk_velocity_h_;
-  std::unique_ptr<control::WholeBodyControl> control_;
+  std::unique_ptr<control::RobotController> control_;
   std::unique_ptr<safety::Supervisor> supervisor_;
   std::unique_ptr<wbc::StandController> stand_;
   std::unique_ptr<wbc::TemplateReference> template_;

@@ -5,13 +5,13 @@
 #include <initializer_list>
 #include <string_view>
 
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
 #include "springbok/params/controller_params.hpp"
 
 namespace springbok::app {
 namespace {
 
-using config::Field;
+using yaml::Field;
 
 // Every key of the app's sections is required (the shipped file states them all).
 Field need(const Field& map, std::string_view key) {
@@ -95,7 +95,7 @@ AppConfig read_config(const Field& root) {
         if (limits.bounded[static_cast<std::size_t>(j)] && (q < limits.lower_rad[j] || q > limits.upper_rad[j])) {
           posture[static_cast<std::size_t>(j)].fail(
               "outside the joint limits of " + std::string(robot::kJoints[static_cast<std::size_t>(j)].name) + " [" +
-              config::show(limits.lower_rad[j]) + ", " + config::show(limits.upper_rad[j]) + "]: " + config::show(q));
+              yaml::show(limits.lower_rad[j]) + ", " + yaml::show(limits.upper_rad[j]) + "]: " + yaml::show(q));
         }
       }
     }
@@ -134,13 +134,13 @@ AppConfig read_config(const Field& root) {
 }
 
 namespace {
-ConfigResult from_document(const config::Document& doc) {
+ConfigResult from_document(const yaml::Document& doc) {
   ConfigResult result;
   if (!doc.ok) {
     result.errors.push_back(doc.error);
     return result;
   }
-  config::Errors errors;
+  yaml::Errors errors;
   result.config = read_config(Field(doc.root, "", errors));
   result.errors = errors.lines();
   result.ok = errors.empty();
@@ -148,10 +148,10 @@ ConfigResult from_document(const config::Document& doc) {
 }
 }  // namespace
 
-ConfigResult load_config_text(const std::string& yaml_text) { return from_document(config::parse_text(yaml_text)); }
+ConfigResult load_config_text(const std::string& yaml_text) { return from_document(yaml::parse_text(yaml_text)); }
 
 ConfigResult load_config_file(const std::string& path) {
-  ConfigResult result = from_document(config::parse_file(path));
+  ConfigResult result = from_document(yaml::parse_file(path));
   for (auto& e : result.errors) {
     if (e.rfind(path, 0) != 0) e = path + ": " + e;
   }

@@ -20,7 +20,7 @@ control::ControlParams control_params(const AppConfig& config) {
 ControlMode::ControlMode(const AppConfig& config)
     : kind_(config.control_mode),
       hold_(config),
-      control_(std::make_unique<control::WholeBodyControl>(control_params(config))) {}
+      control_(std::make_unique<control::RobotController>(control_params(config))) {}
 
 ControlMode::~ControlMode() = default;
 
@@ -63,7 +63,7 @@ void ControlMode::publish(rt::LatestValue<ControllerSnapshot>& out) noexcept {
   ControllerSnapshot s;
   s.wbc = kind_ == ControlModeKind::wbc;
   if (s.wbc) {
-    const control::WholeBodyControl& c = *control_;
+    const control::RobotController& c = *control_;
     s.engaged = c.engaged();
     s.gait = c.gait_state();
     s.stepping_for_push = c.stepping_for_push();
@@ -84,7 +84,7 @@ void ControlMode::publish(rt::LatestValue<ControllerSnapshot>& out) noexcept {
 void ControlMode::telemetry(TelemetryRecord& r) const noexcept {
   r.wbc = kind_ == ControlModeKind::wbc;
   if (!r.wbc) return;
-  const control::WholeBodyControl& c = *control_;
+  const control::RobotController& c = *control_;
   const auto put = [](Triple& to, const Vec3& from) { to = {from.x(), from.y(), from.z()}; };
   const auto put_quaternion = [](std::array<double, 4>& to, const Mat3& from) {
     const Quat q(from);

@@ -6,7 +6,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
 #include "springbok/params/controller_params.hpp"
 #include "springbok/gait/trot.hpp"
 
@@ -58,8 +58,8 @@ ParsedLine parse_walk(const std::vector<std::string_view>& words) {
   params["velocity_x"] = std::string(words[1]);
   params["velocity_y"] = std::string(words[2]);
   params["yaw_rate"] = std::string(words[3]);
-  config::Errors errors;
-  const gait::TrotParams p = params::read_trot_params(config::Field(params, "walk", errors));
+  yaml::Errors errors;
+  const gait::TrotParams p = params::read_trot_params(yaml::Field(params, "walk", errors));
   if (!errors.empty()) return error(errors.lines().front());
   ControllerRequest r;
   r.kind = ControllerRequest::Kind::walk;
@@ -116,8 +116,8 @@ ParsedLine parse_hand(const std::vector<std::string_view>& words) {
     for (std::size_t i = 4; i <= 6; ++i) params["rotation"].push_back(std::string(words[i]));
   }
   params["duration"] = std::string(words.back());
-  config::Errors errors;
-  const config::Field f(params, "hand", errors);
+  yaml::Errors errors;
+  const yaml::Field f(params, "hand", errors);
   Vec3 offset = Vec3::Zero(), rotation = Vec3::Zero();
   ControllerRequest r;
   r.kind = ControllerRequest::Kind::hand;
@@ -146,8 +146,8 @@ ParsedLine parse_tune(const std::vector<std::string_view>& words) {
   std::string why;
   const YAML::Node params = key_values(words, 1, "tune", true, why);
   if (!why.empty()) return error(why);
-  config::Errors errors;
-  const config::Field f(params, "tune", errors);
+  yaml::Errors errors;
+  const yaml::Field f(params, "tune", errors);
   ControllerRequest r;
   r.kind = ControllerRequest::Kind::tune;
   control::TuningRequest& t = r.tune;
@@ -158,7 +158,7 @@ ParsedLine parse_tune(const std::vector<std::string_view>& words) {
   allowed[kKeys.size() + 2] = "ramp";
   if (f.allow_only(allowed)) {
     for (std::size_t p = 0; p < kKeys.size(); ++p) {
-      const config::Field v = f[kKeys[p]];
+      const yaml::Field v = f[kKeys[p]];
       if (!v.present()) continue;
       Vec3 value = Vec3::Zero();
       t.set[p] = v.vector<3>(value, control::kTemplateRanges[p].lo, control::kTemplateRanges[p].hi, true);
@@ -191,9 +191,9 @@ ParsedLine parse_gait(const std::vector<std::string_view>& words) {
   std::string why;
   const YAML::Node params = key_values(words, 2, "gait trot", false, why);
   if (!why.empty()) return error(why);
-  config::Errors errors;
+  yaml::Errors errors;
   r.gait.kind = control::GaitKind::trot;
-  r.gait.trot = params::read_trot_params(config::Field(params, "gait trot", errors));
+  r.gait.trot = params::read_trot_params(yaml::Field(params, "gait trot", errors));
   if (!errors.empty()) return error(errors.lines().front());
   return controller_request(r, "gait trot");
 }

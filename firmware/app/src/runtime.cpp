@@ -10,7 +10,7 @@
 #include <memory>
 
 #include "springbok/app/control_loop.hpp"
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
 #include "springbok/app/operator_server.hpp"
 #include "springbok/app/control_mode.hpp"
 #include "springbok/app/posture_control.hpp"
@@ -208,13 +208,13 @@ int firmware_main(int argc, char** argv, const char* program, const MakeHardware
     std::fprintf(stderr, "%s: %s\n", program, isa::environment_error().c_str());
     return 1;
   }
-  const config::Document doc = config::parse_file(cli.config_path);
+  const yaml::Document doc = yaml::parse_file(cli.config_path);
   if (!doc.ok) {
     std::fprintf(stderr, "%s: config error: %s\n", program, doc.error.c_str());
     return 1;
   }
-  config::Errors errors;
-  const config::Field root(doc.root, "", errors);
+  yaml::Errors errors;
+  const yaml::Field root(doc.root, "", errors);
   AppConfig app = read_config(root);
   std::unique_ptr<hal::Hardware> hardware = make_hardware(app, root);  // reads its section whatever came before
   for (const std::string& e : errors.lines()) {

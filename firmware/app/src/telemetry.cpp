@@ -12,11 +12,11 @@
 #include <cstring>
 #include <string_view>
 
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
 
 namespace springbok::app {
 
-TelemetryConfig read_telemetry_config(const config::Field& f) {
+TelemetryConfig read_telemetry_config(const yaml::Field& f) {
   TelemetryConfig c;
   if (!f.present() || !f.allow_only({"enabled", "rate_hz", "address", "port"})) return c;
   f["enabled"].boolean(c.enabled);

@@ -9,7 +9,7 @@
 namespace springbok::params {
 namespace {
 
-using config::Field;
+using yaml::Field;
 
 constexpr double kTiny = 1e-6;
 

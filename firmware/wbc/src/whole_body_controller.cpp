@@ -125,13 +125,9 @@ void WholeBodyController::move_reference(const PlanarMotion& m) noexcept {
 // pushes back:
 //   dF = n clamp(M_b w^2 (margin - s) - 2 M_b w (xd_b . n), 0, M_b g),  s the distance inside the edge,
 // and the base stops where the push's moment leaves the feet room. Only while standing: the
-// stance unchanged for kSupportSettleTicks and no stance foot's force ramping (a trot's
+// stance unchanged for kSupportSettleTicks and no stance foot's force ramping: a trot's
 // support is a diagonal most of the time, and limiting it in its short four-feet phases
-// threw its base about: NRMSE 2.4 % -> 24 % on trot_me0p4_gp1). The template's
-// compliance moved the trunk (and the centre of mass) toward the edge the push tips the
-// robot over: on the bent arm a lateral 100 N took the far feet to their minimum force with
-// the base 5.6 cm over, and the robot rolled over; 120 N along y on the trunk, unmeasured, did
-// the same until the limit counted it.
+// throws its base about. Why it is needed and what it holds: firmware/control/README.md.
 void WholeBodyController::support_limit(const WbcInput& in, const dyn::Data& d, const Vec3& base_vel_world,
                                         Vec3& force) noexcept {
   out_.support_limited = false;

@@ -9,8 +9,6 @@
 #include <set>
 #include <string>
 
-#include <Eigen/Geometry>  // model.hpp uses Eigen::Quaterniond without including it
-
 #include "springbok/model/model.hpp"
 
 namespace springbok::can {

@@ -5,17 +5,15 @@
 #include <limits>
 #include <optional>
 
-#include <Eigen/Geometry>  // model.hpp uses Eigen::Quaterniond without including it
-
 #include "springbok/can/bus_load.hpp"
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
 #include "springbok/model/model.hpp"
 
 namespace springbok::can {
 
 namespace {
 
-using config::Field;
+using yaml::Field;
 
 constexpr long long kMaxU32 = std::numeric_limits<std::uint32_t>::max();
 
@@ -286,7 +284,7 @@ CanConfig parse_can(const Field& f) {
 
 }  // namespace
 
-CanConfig read_can_config(const config::Field& can) {
+CanConfig read_can_config(const yaml::Field& can) {
   const std::size_t errors_before = can.errors().size();
   CanConfig c = parse_can(can);
   if (can.errors().size() != errors_before) return c;  // validate() would only repeat them
@@ -299,14 +297,14 @@ CanConfig read_can_config(const config::Field& can) {
 }
 
 namespace {
-ConfigResult from_document(const config::Document& doc) {
+ConfigResult from_document(const yaml::Document& doc) {
   ConfigResult r;
   if (!doc.ok) {
     r.error = doc.error;
     return r;
   }
-  config::Errors errors;
-  const config::Field root(doc.root, "", errors);
+  yaml::Errors errors;
+  const yaml::Field root(doc.root, "", errors);
   if (root.present() && !root.is_map()) {
     root.fail("must be a map with a `can:` key, got " + root.describe());
   } else {
@@ -318,10 +316,10 @@ ConfigResult from_document(const config::Document& doc) {
 }
 }  // namespace
 
-ConfigResult load_can_config_text(std::string_view yaml_text) { return from_document(config::parse_text(yaml_text)); }
+ConfigResult load_can_config_text(std::string_view yaml_text) { return from_document(yaml::parse_text(yaml_text)); }
 
 ConfigResult load_can_config_file(const std::string& path) {
-  ConfigResult r = from_document(config::parse_file(path));
+  ConfigResult r = from_document(yaml::parse_file(path));
   if (!r.ok && r.error.rfind(path, 0) != 0) r.error = path + ": " + r.error;
   return r;
 }

@@ -9,7 +9,6 @@
 
 #include <algorithm>
 
-#include "../../../firmware/app/sim/stepped_bullet_robot.hpp"
 #include "alloc_trap.hpp"
 #include "springbok/app/control_mode.hpp"
 #include "springbok/app/operator_server.hpp"
@@ -17,10 +16,14 @@
 #include "springbok/can/config_yaml.hpp"
 #include "springbok/can/mit.hpp"
 #include "springbok/can/sensors.hpp"
+#include "springbok/sim_hal/stepped_bullet_robot.hpp"
 #include "template_oracle.hpp"
 
 namespace springbok::app::test {
 namespace {
+
+using sim::SteppedBulletRobot;
+using sim::crouched_sim_config;
 
 using Rig = LoopRig<SteppedBulletRobot>;
 

@@ -21,15 +21,15 @@
 #include "loop_fixture.hpp"
 #include "springbok/app/config.hpp"
 #include "springbok/app/telemetry.hpp"
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
 
 namespace springbok::app {
 namespace {
 
 TelemetryConfig read(const std::string& yaml, std::vector<std::string>* errors = nullptr) {
-  config::Errors e;
+  yaml::Errors e;
   const YAML::Node node = YAML::Load(yaml);
-  const TelemetryConfig c = read_telemetry_config(config::Field(node["telemetry"], "telemetry", e));
+  const TelemetryConfig c = read_telemetry_config(yaml::Field(node["telemetry"], "telemetry", e));
   if (errors != nullptr) *errors = e.lines();
   return c;
 }

@@ -5,14 +5,14 @@
 #include <optional>
 #include <stdexcept>
 
-#include "../../../firmware/app/sim/stepped_bullet_robot.hpp"
+#include "springbok/sim_hal/stepped_bullet_robot.hpp"
 
 namespace springbok::emu {
 
 namespace {
 
 sim::SimConfig sim_config(const BulletOptions& o) {
-  sim::SimConfig c = app::crouched_sim_config(1000);
+  sim::SimConfig c = sim::crouched_sim_config(1000);
   c.imu.gyro_noise_rad_s = o.imu_gyro_noise_rad_s;
   c.imu.accel_noise_m_s2 = o.imu_accel_noise_m_s2;
   c.imu.gyro_bias_rad_s = o.imu_gyro_bias_rad_s;
@@ -33,7 +33,7 @@ BulletMotion::BulletMotion(std::FILE* trace, int trace_every, double settle_s)
     : BulletMotion(trace, trace_every, settle_only(settle_s)) {}
 
 BulletMotion::BulletMotion(std::FILE* trace, int trace_every, const BulletOptions& options)
-    : robot_(std::make_unique<app::SteppedBulletRobot>(sim_config(options))),
+    : robot_(std::make_unique<sim::SteppedBulletRobot>(sim_config(options))),
       trace_(nullptr),
       trace_every_(std::max(1, trace_every)) {
   const double settle_s = options.settle_s;

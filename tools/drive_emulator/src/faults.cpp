@@ -1,26 +1,26 @@
 #include <limits>
 #include <string>
 
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
 #include "springbok/drive_emulator/drives.hpp"
 
 namespace springbok::emu {
 
 namespace {
 
-FaultResult read_faults(const config::Document& doc) {
+FaultResult read_faults(const yaml::Document& doc) {
   FaultResult r;
   if (!doc.ok) {
     r.error = doc.error;
     return r;
   }
-  config::Errors errors;
-  const config::Field root(doc.root, "", errors);
+  yaml::Errors errors;
+  const yaml::Field root(doc.root, "", errors);
   root.allow_only({"faults"});
-  const config::Field list = root["faults"];
+  const yaml::Field list = root["faults"];
   if (list.require() && list.expect_list()) {
     for (std::size_t i = 0; i < list.size(); ++i) {
-      const config::Field n = list[i];
+      const yaml::Field n = list[i];
       if (!n.is_map()) {
         n.fail("must be a map {kind, drive | sensor, at, count, param}, got " + n.describe());
         continue;
@@ -108,10 +108,10 @@ FaultResult read_faults(const config::Document& doc) {
 
 }  // namespace
 
-FaultResult load_faults_text(const std::string& text) { return read_faults(config::parse_text(text)); }
+FaultResult load_faults_text(const std::string& text) { return read_faults(yaml::parse_text(text)); }
 
 FaultResult load_faults_file(const std::string& path) {
-  FaultResult r = read_faults(config::parse_file(path));
+  FaultResult r = read_faults(yaml::parse_file(path));
   if (!r.ok && r.error.rfind(path, 0) != 0) r.error = path + ": " + r.error;
   return r;
 }

@@ -6,8 +6,6 @@
 #include <optional>
 #include <string_view>
 
-#include <Eigen/Geometry>  // model.hpp names Eigen::Quaterniond
-
 #include "springbok/model/model.hpp"
 
 namespace springbok::sim {

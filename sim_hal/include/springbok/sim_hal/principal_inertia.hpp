@@ -3,8 +3,6 @@
 // whose axes are the principal axes, with a diagonal inertia.
 #pragma once
 
-#include <Eigen/Geometry>  // model.hpp names Eigen::Quaterniond
-
 #include "springbok/model/model.hpp"
 
 namespace springbok::sim {

@@ -9,17 +9,15 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Geometry>  // model.hpp names Eigen::Quaterniond but includes only Eigen/Core
-
 #include "springbok/app/telemetry.hpp"
-#include "springbok/control/whole_body_control.hpp"
+#include "springbok/control/robot_controller.hpp"
 #include "springbok/estimation/base_estimator.hpp"
 #include "springbok/model/model.hpp"
 #include "springbok/rt/realtime.hpp"
 #include "springbok/safety/supervisor.hpp"
 #include "springbok/wbc/whole_body_controller.hpp"
 
-namespace springbok::config {
+namespace springbok::yaml {
 class Field;
 }
 
@@ -67,8 +65,8 @@ struct ConfigResult {
 // Never throws.
 ConfigResult load_config_text(const std::string& yaml_text);
 ConfigResult load_config_file(const std::string& path);
-// The app's sections of a document read with springbok::config (the `can:` section is the
+// The app's sections of a document read with springbok::yaml (the `can:` section is the
 // CAN backend's: can::read_can_config on the same document; springbok.yaml is read once).
-AppConfig read_config(const config::Field& root);
+AppConfig read_config(const yaml::Field& root);
 
 }  // namespace springbok::app

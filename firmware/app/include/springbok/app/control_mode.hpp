@@ -1,6 +1,6 @@
 // The control mode's controller, as configured (control.controller):
 //
-//   wbc:      springbok::control::WholeBodyControl, the paper's whole-body
+//   wbc:      springbok::control::RobotController, the paper's whole-body
 //             controller on the base state estimated from the IMU and leg
 //             kinematics, F_e from the wrist F/T (tared in stand), stand or trot
 //             as the operator asks. The estimator runs from stand-up on (observe);
@@ -15,7 +15,7 @@
 
 #include "springbok/app/config.hpp"
 #include "springbok/app/posture_control.hpp"
-#include "springbok/control/whole_body_control.hpp"
+#include "springbok/control/robot_controller.hpp"
 
 namespace springbok::app {
 
@@ -38,14 +38,14 @@ class ControlMode {
   // status into a telemetry record (the whole-body controller only). rt: no alloc, no block
   void telemetry(TelemetryRecord& r) const noexcept;
 
-  control::WholeBodyControl& controller() noexcept { return *control_; }
-  const control::WholeBodyControl& controller() const noexcept { return *control_; }
+  control::RobotController& controller() noexcept { return *control_; }
+  const control::RobotController& controller() const noexcept { return *control_; }
   control::TickStatus last_status() const noexcept { return last_status_; }
 
  private:
   ControlModeKind kind_;
   JointPdHold hold_;
-  std::unique_ptr<control::WholeBodyControl> control_;
+  std::unique_ptr<control::RobotController> control_;
   control::TickStatus last_status_ = control::TickStatus::ok;
 };
 

@@ -33,7 +33,7 @@
 #include <string>
 #include <string_view>
 
-#include "springbok/control/whole_body_control.hpp"
+#include "springbok/control/robot_controller.hpp"
 #include "springbok/rt/latest_value.hpp"
 #include "springbok/rt/log.hpp"
 #include "springbok/rt/spsc_ring.hpp"

@@ -32,7 +32,7 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
 // the backend without touching any device; it may fill the config's backend fields
 // (wrist_tare_samples). Every problem of the file is printed, naming the field and line;
 // --check-config therefore also checks the backend's part.
-using MakeHardware = std::function<std::unique_ptr<hal::Hardware>(AppConfig& config, const config::Field& root)>;
+using MakeHardware = std::function<std::unique_ptr<hal::Hardware>(AppConfig& config, const yaml::Field& root)>;
 int firmware_main(int argc, char** argv, const char* program, const MakeHardware& make_hardware);
 
 struct CommandLine {

@@ -20,7 +20,7 @@
 #include "springbok/model/model.hpp"
 #include "springbok/rt/spsc_ring.hpp"
 
-namespace springbok::config {
+namespace springbok::yaml {
 class Field;
 }
 
@@ -33,7 +33,7 @@ struct TelemetryConfig {
   int port = 9870;
 };
 // The `telemetry:` section; problems go to the field's errors, naming the key.
-TelemetryConfig read_telemetry_config(const config::Field& section);
+TelemetryConfig read_telemetry_config(const yaml::Field& section);
 // Ticks between two records at the loop's rate (>= 1).
 std::uint32_t telemetry_every_ticks(const TelemetryConfig& config, int loop_rate_hz) noexcept;
 

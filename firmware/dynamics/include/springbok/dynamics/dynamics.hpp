@@ -34,7 +34,7 @@
 #include <array>
 
 #include <Eigen/Core>
-#include <Eigen/Geometry>  // model.hpp names Eigen::Quaterniond
+#include <Eigen/Geometry>
 
 #include "springbok/model/model.hpp"
 

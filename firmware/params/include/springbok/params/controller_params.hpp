@@ -1,7 +1,7 @@
-// The controller's parameters from YAML, read with springbok::config (start-up only): the
+// The controller's parameters from YAML, read with springbok::yaml (start-up only): the
 // tick libraries (wbc, gait, estimation) know nothing of YAML. Used by the robot config
 // (control.wbc, control.estimator, control.gait), scenarios (controller.params) and the
-// operator's gait requests. Every problem goes to the field's config::Errors; absent keys
+// operator's gait requests. Every problem goes to the field's yaml::Errors; absent keys
 // keep the structs' defaults.
 //
 // wbc (read_wbc_params):
@@ -47,8 +47,8 @@
 //   # m, N, fraction of the limit (> 1: off), s, s, s, m, N
 #pragma once
 
-#include "springbok/config/reader.hpp"
-#include "springbok/control/whole_body_control.hpp"  // kTemplateRanges: the template's ranges, one table
+#include "springbok/yaml/reader.hpp"
+#include "springbok/control/robot_controller.hpp"  // kTemplateRanges: the template's ranges, one table
 #include "springbok/estimation/base_estimator.hpp"
 #include "springbok/gait/trot.hpp"
 #include "springbok/wbc/whole_body_controller.hpp"
@@ -59,13 +59,13 @@ namespace springbok::params {
 // controller.params, whose other keys are the WBC's); they are read by read_estimator_params /
 // read_trot_params / read_push_stepping.
 enum class WithControllerParts : bool { no, yes };
-wbc::WbcParams read_wbc_params(const config::Field& f, WithControllerParts parts = WithControllerParts::no);
-est::EstimatorParams read_estimator_params(const config::Field& f);
+wbc::WbcParams read_wbc_params(const yaml::Field& f, WithControllerParts parts = WithControllerParts::no);
+est::EstimatorParams read_estimator_params(const yaml::Field& f);
 enum class WithVelocitySchedule : bool { no, yes };
-gait::TrotParams read_trot_params(const config::Field& f, WithVelocitySchedule schedule = WithVelocitySchedule::no);
+gait::TrotParams read_trot_params(const yaml::Field& f, WithVelocitySchedule schedule = WithVelocitySchedule::no);
 // A walking velocity `[v_x, v_y, yaw_rate]` (a list of 3, each within its kTrotFields range)
 // into p's velocity_x / velocity_y / yaw_rate; false (and an error) when `f` is not such a list.
-bool read_walking_velocity(const config::Field& f, gait::TrotParams& p);
-control::PushStepping read_push_stepping(const config::Field& f);
+bool read_walking_velocity(const yaml::Field& f, gait::TrotParams& p);
+control::PushStepping read_push_stepping(const yaml::Field& f);
 
 }  // namespace springbok::params

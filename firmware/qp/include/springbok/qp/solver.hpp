@@ -413,8 +413,7 @@ class Solver {
   // V[:, :k]' v_k, built once per equality block from V's columns (full, zero above
   // their row k). compute_x() applies Q every outer iteration: in this form that is two
   // passes of independent dot products and a small triangular product, where the
-  // reflectors one at a time were a chain of r dependent dot-then-update steps
-  // (wbc_sat_torque_08 cold, r = 9, 54 iterations: 39.9 -> 37.4 us). Q' on the rows
+  // reflectors one at a time were a chain of r dependent dot-then-update steps. Q' on the rows
   // (reduce_queued) stays reflector by reflector: its queued rows already overlap, and
   // in WY form the opt-in QP soak's one ill-conditioned draw (seed 37 trial 48) moved.
   void build_wy() noexcept {
@@ -602,8 +601,7 @@ class Solver {
   // its diagonal to the end of the diagonal's chunk, so whole chunks are used: the
   // entries after j in that chunk, final already, lose v * 0). The reciprocals of the
   // diagonal come first: independent divisions, off the substitution's chain, which
-  // then multiplies (a division on the chain cost a divider's latency per column:
-  // wbc_sat_torque_08 cold 42.4 -> 39.9 us; results within 1e-11).
+  // then multiplies (a division on the chain costs a divider's latency per column).
   void solve_r(const double* d, double* out) noexcept {
     std::copy_n(d, q_, out);
     for (int j = 0; j < q_; ++j) r_inv_diag_[j] = 1.0 / rcol(j)[j];
@@ -833,8 +831,8 @@ class Solver {
   // the set is solved again (one column of B and one row and column of S change; the small
   // Cholesky of S is redone). A repaired set's answer passes the same checks (and so is the
   // QP's unique minimiser); result.iterations counts the repairs. In the trots a force ramp's
-  // end changes four to six rows at once: 4 repairs instead of 2 took the 0.1 % slowest ticks
-  // of walk_turn from 27 to 17 us; dropping one wrong sign per repair needed 6-7 of them.
+  // end changes four to six rows at once, hence several repairs, and every wrong sign leaving
+  // at once rather than one per repair.
   enum class Shortcut : std::uint8_t { solved, fallback };
   Shortcut solve_on_hinted_set(const ActiveSet<MI>& hint, ResultType& result, Status& status) noexcept {
     const ProblemType& p = *p_;

@@ -1,5 +1,6 @@
-// The stand controller used until the whole-body controller lands: joint PD
-// around a posture plus gravity compensation done right for a robot standing
+// A stand controller with gravity compensation (springbok-sim settles the robot with it before
+// the whole-body controller engages; the sim tests hold a stance with it): joint PD around a
+// posture plus gravity compensation done right for a robot standing
 // on its four feet,
 //
 //   tau = kp (q_des - q) - kd qd + g_j - J_st,j^T f,
@@ -11,8 +12,6 @@
 #pragma once
 
 #include <memory>
-
-#include <Eigen/Geometry>  // model.hpp names Eigen::Quaterniond
 
 #include "springbok/dynamics/dynamics.hpp"
 #include "springbok/hal/types.hpp"

@@ -19,7 +19,7 @@
 #include "springbok/hal/types.hpp"
 #include "springbok/model/model.hpp"
 
-namespace springbok::app {
+namespace springbok::sim {
 class SteppedBulletRobot;
 }
 
@@ -98,7 +98,7 @@ class BulletMotion final : public Motion {
   void step();
   CommandClass command_class() const noexcept;
 
-  std::unique_ptr<app::SteppedBulletRobot> robot_;
+  std::unique_ptr<sim::SteppedBulletRobot> robot_;
   std::array<DriveLaw, kNj> law_{};
   std::array<bool, kNj> enabled_{};
   std::array<bool, kNj> pending_{};

@@ -1,4 +1,4 @@
-#include "springbok/control/whole_body_control.hpp"
+#include "springbok/control/robot_controller.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -40,7 +40,7 @@ Vec3 center_of_mass_from_inertia(const MatNv& mass_matrix, const RobotState& sta
   return state.q.head<3>() + state.rotation_wb * com_b;
 }
 
-WholeBodyControl::WholeBodyControl(const ControlParams& params)
+RobotController::RobotController(const ControlParams& params)
     : params_(params),
       data_(std::make_unique<dyn::Data>()),
       estimator_(params.estimator),
@@ -50,9 +50,9 @@ WholeBodyControl::WholeBodyControl(const ControlParams& params)
   tare_.running = params_.tare_samples > 0;
 }
 
-WholeBodyControl::~WholeBodyControl() = default;
+RobotController::~RobotController() = default;
 
-est::EstimateStatus WholeBodyControl::estimate(const hal::Measurements& m, double dt_s, const Stance& stance) noexcept {
+est::EstimateStatus RobotController::estimate(const hal::Measurements& m, double dt_s, const Stance& stance) noexcept {
   const bool continuous = have_sequence_ && m.sequence == last_sequence_ + 1;
   have_sequence_ = true;
   last_sequence_ = m.sequence;
@@ -64,7 +64,7 @@ est::EstimateStatus WholeBodyControl::estimate(const hal::Measurements& m, doubl
 
 // The tick's wrist wrench: the reading minus the tare, zero when not valid; the
 // tare collects while `collect`. rt: no alloc
-void WholeBodyControl::take_wrist(const hal::Measurements& m, bool collect) noexcept {
+void RobotController::take_wrist(const hal::Measurements& m, bool collect) noexcept {
   const bool valid = m.wrist.valid && m.wrist.force_n.allFinite() && m.wrist.torque_nm.allFinite();
   if (valid && collect && tare_.running) {
     tare_force_sum_n_ += m.wrist.force_n;
@@ -80,7 +80,7 @@ void WholeBodyControl::take_wrist(const hal::Measurements& m, bool collect) noex
   wrist_torque_nm_ = valid ? Vec3(m.wrist.torque_nm - tare_.torque_nm) : Vec3::Zero();
 }
 
-bool WholeBodyControl::request_velocity(const Vec3& velocity) noexcept {
+bool RobotController::request_velocity(const Vec3& velocity) noexcept {
   gait::TrotParams p = requested_gait_.trot;
   p.velocity_x_m_s = velocity.x();
   p.velocity_y_m_s = velocity.y();
@@ -99,7 +99,7 @@ double toward(double now, double target, double step) noexcept {
 
 // The rest pose's planar motion this tick: the walking velocity ramped towards the
 // command (zero unless trotting), integrated in the heading of the rest pose. rt: no alloc
-void WholeBodyControl::move_rest_pose(double dt_s) noexcept {
+void RobotController::move_rest_pose(double dt_s) noexcept {
   const Vec3 target = gait_state_ == GaitState::trot ? velocity_command_ : Vec3::Zero();
   velocity_now_.x() = toward(velocity_now_.x(), target.x(), kWalkAcceleration_m_s2 * dt_s);
   velocity_now_.y() = toward(velocity_now_.y(), target.y(), kWalkAcceleration_m_s2 * dt_s);
@@ -124,21 +124,21 @@ void WholeBodyControl::move_rest_pose(double dt_s) noexcept {
   wbc_->move_reference(motion_);
 }
 
-void WholeBodyControl::request_tare() noexcept {
+void RobotController::request_tare() noexcept {
   tare_.running = params_.tare_samples > 0;
   tare_.samples = 0;
   tare_force_sum_n_.setZero();
   tare_torque_sum_nm_.setZero();
 }
 
-bool WholeBodyControl::request_gait(const GaitCommand& command) noexcept {
+bool RobotController::request_gait(const GaitCommand& command) noexcept {
   if (command.kind == GaitKind::trot && gait::trot_params_error(command.trot) != nullptr) return false;
   requested_gait_ = command;
   gait_request_pending_ = true;
   return true;
 }
 
-void WholeBodyControl::observe(const hal::Measurements& m, double dt_s, bool standing_still) noexcept {
+void RobotController::observe(const hal::Measurements& m, double dt_s, bool standing_still) noexcept {
   (void)estimate(m, dt_s, kAllFeet);
   state_.stance = kAllFeet;
   take_wrist(m, standing_still);
@@ -147,7 +147,7 @@ void WholeBodyControl::observe(const hal::Measurements& m, double dt_s, bool sta
 // The shift of the trot's footholds (frame H; data_ holds this tick's kinematics)
 // that puts their pattern's centre on the ground (the stance feet's height) under
 // the static ZMP of the weight and the wrist's wrench. rt: no alloc
-Vec3 WholeBodyControl::footholds_shift_h(const Mat3& yaw) const noexcept {
+Vec3 RobotController::footholds_shift_h(const Mat3& yaw) const noexcept {
   const dyn::Data& d = *data_;
   double feet_z_m = 0.0;
   int stance_feet = 0;
@@ -175,7 +175,7 @@ Vec3 WholeBodyControl::footholds_shift_h(const Mat3& yaw) const noexcept {
 
 // The pushes the wrist sensor does not measure: the robot's external force but gravity, less
 // the feet's and the hand's, low-passed over kUnmeasuredForceFilter_s. rt: no alloc
-void WholeBodyControl::observe_unmeasured_force(double dt_s, bool engaging) noexcept {
+void RobotController::observe_unmeasured_force(double dt_s, bool engaging) noexcept {
   Vec3& estimate = input_.unmeasured_force_world_n;
   if (engaging || !foot_forces_.ready()) {
     estimate.setZero();
@@ -194,7 +194,7 @@ void WholeBodyControl::observe_unmeasured_force(double dt_s, bool engaging) noex
 // joint's torque at leg_torque_ratio of its limit at its angle (the WBC's scaled one). Only
 // while the limit has settled on the stance (its distance computed: not right after a stance
 // change). rt: no alloc
-bool WholeBodyControl::push_needs_a_step(double dt_s) noexcept {
+bool RobotController::push_needs_a_step(double dt_s) noexcept {
   const PushStepping& p = params_.push_stepping;
   const wbc::WbcOutput& o = wbc_->output();
   double least_normal_n = std::numeric_limits<double>::infinity();
@@ -219,7 +219,7 @@ bool WholeBodyControl::push_needs_a_step(double dt_s) noexcept {
 // PushStepping, trotting for a push: for settle_s the trunk has stayed within settle_drift_m
 // (horizontally) and the push (the unmeasured one and the wrist's) within settle_push_change_n
 // of where they were when that interval began (the trot's own sway is no drift). rt: no alloc
-bool WholeBodyControl::push_settled(double dt_s) noexcept {
+bool RobotController::push_settled(double dt_s) noexcept {
   const PushStepping& p = params_.push_stepping;
   const Vec3 push = input_.unmeasured_force_world_n + input_.wrist_force_world_n;
   const Vec3& base = state_.q.head<3>();
@@ -235,7 +235,7 @@ bool WholeBodyControl::push_settled(double dt_s) noexcept {
 }
 
 // A trot with `p` from this tick on (its cycle starts from the feet where they stand). rt: no alloc
-void WholeBodyControl::begin_trot(const gait::TrotParams& p) noexcept {
+void RobotController::begin_trot(const gait::TrotParams& p) noexcept {
   trot_ = gait::TrotGait(p);
   velocity_command_ = Vec3(p.velocity_x_m_s, p.velocity_y_m_s, p.yaw_rate_rad_s);
   gait_state_ = GaitState::trot;
@@ -243,7 +243,7 @@ void WholeBodyControl::begin_trot(const gait::TrotParams& p) noexcept {
 }
 
 // Stance set and swing targets for this tick (data_ holds its kinematics). rt: no alloc
-void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
+void RobotController::plan_gait(double dt_s, bool engaging) noexcept {
   if (engaging) {
     gait_state_ = GaitState::stand;
     gait_request_pending_ = requested_gait_.kind == GaitKind::trot;
@@ -317,7 +317,7 @@ void WholeBodyControl::plan_gait(double dt_s, bool engaging) noexcept {
   state_.stance = stance;
 }
 
-std::string WholeBodyControl::set_hand_trajectory(std::span<const HandWaypoint> waypoints) {
+std::string RobotController::set_hand_trajectory(std::span<const HandWaypoint> waypoints) {
   HandTrajectory path;
   if (std::string why = path.set_waypoints(waypoints); !why.empty()) return why;
   if (path.turns() && !params_.wbc.rotational_template_enabled) {
@@ -327,7 +327,7 @@ std::string WholeBodyControl::set_hand_trajectory(std::span<const HandWaypoint> 
   return "";
 }
 
-const char* WholeBodyControl::request_hand_move(const Vec3& target_m, const Vec3& target_rotation_rad,
+const char* RobotController::request_hand_move(const Vec3& target_m, const Vec3& target_rotation_rad,
                                                 double duration_s) noexcept {
   if (!engaged_) return "hand moves need the controller engaged (mode control)";
   if (target_rotation_rad != Vec3::Zero() && !params_.wbc.rotational_template_enabled) {
@@ -336,7 +336,7 @@ const char* WholeBodyControl::request_hand_move(const Vec3& target_m, const Vec3
   return hand_.move_to(control_time_s_, target_m, target_rotation_rad, duration_s);
 }
 
-const char* WholeBodyControl::request_tuning(const TuningRequest& r) noexcept {
+const char* RobotController::request_tuning(const TuningRequest& r) noexcept {
   const auto within = [](double v, const TuningRange& range) { return v >= range.lo && v <= range.hi; };  // NaN: false
   for (int p = 0; p < TuningRequest::kParts; ++p) {
     if (!r.set[static_cast<std::size_t>(p)]) continue;
@@ -358,7 +358,7 @@ const char* WholeBodyControl::request_tuning(const TuningRequest& r) noexcept {
 
 // Takes a pending tuning request (the ramp's start: this tick's values) and moves the
 // template and the posture gains along the ramp. rt: no alloc
-void WholeBodyControl::step_tuning(double dt_s) noexcept {
+void RobotController::step_tuning(double dt_s) noexcept {
   // The templates' parts in TuningRequest::Part's order: the translational, then the rotational.
   static constexpr std::array<Vec3 wbc::TemplateParams::*, TuningRequest::kTranslationalParts> kPart{
       &wbc::TemplateParams::mass_base_kg,          &wbc::TemplateParams::damping_base_ns_per_m,
@@ -406,7 +406,7 @@ void WholeBodyControl::step_tuning(double dt_s) noexcept {
   if (s >= 1.0) tune_.active = false;
 }
 
-TickStatus WholeBodyControl::tick(const hal::Measurements& m, double dt_s, hal::JointCommands& cmd,
+TickStatus RobotController::tick(const hal::Measurements& m, double dt_s, hal::JointCommands& cmd,
                                   const BaseTruth* truth) noexcept {
   const est::EstimateStatus estimated = estimate(m, dt_s, state_.stance);  // last tick's stance
   if (truth != nullptr) {

@@ -10,7 +10,7 @@
 #include "springbok/app/runtime.hpp"
 #include "springbok/can/can_hardware.hpp"
 #include "springbok/can/config_yaml.hpp"
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
 
 namespace {
 
@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
   using namespace springbok;
   return app::firmware_main(
       argc, argv, "springbok",
-      [](app::AppConfig& config, const config::Field& root) -> std::unique_ptr<hal::Hardware> {
+      [](app::AppConfig& config, const yaml::Field& root) -> std::unique_ptr<hal::Hardware> {
         // The `can:` section's problems are reported with the app's; the gains are checked
         // against the drives only when both parts are good.
         can::CanConfig can_config = can::read_can_config(root["can"]);

@@ -123,14 +123,7 @@ inline constexpr TuningRange kPostureKpRange{0.0, 1e5}, kPostureKdRange{0.0, 1e4
 // correction, at least this); once the trunk has stayed within settle_drift_m and the push
 // within settle_push_change_n of where they were for settle_s, it stands again on the feet it
 // has placed. Needs the support limit (wbc.contact.support_margin > 0): its CoP is the
-// trigger. An operator's gait request takes over. Measured (springbok-sim, base_step_mb92's
-// robot and template, the push a step at 1 s): standing alone falls under 170 N along y and
-// 250 N along -x on the trunk, 200 N along +-x at the hand; stepping, it stands under 260-300 N
-// along +-x, +-y on the trunk (320 N: all but -y; 340 N: +-x; 360 N: -x) and 200 N along +-x, +-y at
-// the hand. Without the velocity lead 250 N along y fell and 200 N overshot to 0.74 m;
-// triggering at the edge (0 m) was too late for 250 N along x; without the unloaded foot
-// 250 N along -x fell, and without the capture point 300 N along -x (the trunk already
-// moving fast when the static CoP neared the edge).
+// trigger. An operator's gait request takes over. What it holds, measured: firmware/control/README.md.
 struct PushStepping {
   bool enabled = true;
   double trigger_inside_m = 0.02;  // half the default support margin
@@ -178,13 +171,13 @@ struct Tare {
   std::uint32_t completed = 0;    // tares taken since start-up
 };
 
-class WholeBodyControl {
+class RobotController {
  public:
   // Start-up: allocates the QP and the dynamics workspace once.
-  explicit WholeBodyControl(const ControlParams& params);
-  ~WholeBodyControl();
-  WholeBodyControl(const WholeBodyControl&) = delete;
-  WholeBodyControl& operator=(const WholeBodyControl&) = delete;
+  explicit RobotController(const ControlParams& params);
+  ~RobotController();
+  RobotController(const RobotController&) = delete;
+  RobotController& operator=(const RobotController&) = delete;
 
   // The horizontal position the estimator starts from (default 0, 0). Start-up.
   void set_start_position_xy(const Eigen::Vector2d& xy_m) noexcept { start_xy_m_ = xy_m; }

@@ -13,9 +13,9 @@
 //   absent     an optional field keeps the caller's value (the default lives in the struct);
 //              require() makes it an error ("missing")
 //
-//   config::Errors errors;
-//   const config::Field root(document, "", errors);
-//   const config::Field loop = root["loop"];
+//   yaml::Errors errors;
+//   const yaml::Field root(document, "", errors);
+//   const yaml::Field loop = root["loop"];
 //   loop.allow_only({"rate_hz", "warmup_ticks"});
 //   loop["rate_hz"].integer(c.rate_hz, 100, 4000);     // absent: c.rate_hz unchanged
 //   if (root["can"].require()) read_can(root["can"], errors);
@@ -34,7 +34,7 @@
 #include <Eigen/Core>
 #include <yaml-cpp/yaml.h>
 
-namespace springbok::config {
+namespace springbok::yaml {
 
 class Errors {
  public:
@@ -147,4 +147,4 @@ class Field {
 // "1.5" for 1.5: numbers in messages as the config would write them.
 std::string show(double v);
 
-}  // namespace springbok::config
+}  // namespace springbok::yaml

@@ -1,18 +1,17 @@
 // The simulated robot (sim_hal's Bullet world) as the HAL of the deployed
 // loop: each write applies the command and steps the world by one tick, so
 // the loop's clock drives the simulated time. configure() sets the robot
-// down with its lowest foot on the ground. Header-only: only executables and
-// tests that link springbok::sim_hal include it.
+// down with its lowest foot on the ground.
 #pragma once
 
 #include "springbok/hal/hardware.hpp"
 #include "springbok/sim_hal/bullet_robot.hpp"
 
-namespace springbok::app {
+namespace springbok::sim {
 
 class SteppedBulletRobot final : public hal::Hardware {
  public:
-  explicit SteppedBulletRobot(const sim::SimConfig& config) : robot_(config) {}
+  explicit SteppedBulletRobot(const SimConfig& config) : robot_(config) {}
   std::string_view name() const noexcept override { return "bullet (simulated robot)"; }
   hal::LifecycleResult configure() override {
     hal::LifecycleResult result = robot_.configure();
@@ -31,15 +30,15 @@ class SteppedBulletRobot final : public hal::Hardware {
   }
   void deactivate() noexcept override { robot_.deactivate(); }
 
-  sim::BulletRobot& robot() noexcept { return robot_; }
+  BulletRobot& robot() noexcept { return robot_; }
 
  private:
-  sim::BulletRobot robot_;
+  BulletRobot robot_;
 };
 
 // A crouch inside every joint limit, trunk level (configure() lowers it onto the feet).
-inline sim::SimConfig crouched_sim_config(int rate_hz) {
-  sim::SimConfig sim;
+inline SimConfig crouched_sim_config(int rate_hz) {
+  SimConfig sim;
   sim.step_s = 1.0 / rate_hz;
   sim.initial_q[2] = 1.0;
   for (int leg = 0; leg < kFeet; ++leg) {
@@ -50,4 +49,4 @@ inline sim::SimConfig crouched_sim_config(int rate_hz) {
   return sim;
 }
 
-}  // namespace springbok::app
+}  // namespace springbok::sim

@@ -1,4 +1,4 @@
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -8,7 +8,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace springbok::config {
+namespace springbok::yaml {
 
 void Errors::add(const std::string& path, int line, const std::string& what) {
   std::string s = (path.empty() ? std::string("(top level)") : path) + ": " + what;
@@ -258,4 +258,4 @@ bool Field::choice(int& out, std::initializer_list<std::string_view> choices) co
   return false;
 }
 
-}  // namespace springbok::config
+}  // namespace springbok::yaml

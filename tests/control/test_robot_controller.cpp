@@ -1,4 +1,4 @@
-// springbok::control::WholeBodyControl on its own: the centre of mass from the mass
+// springbok::control::RobotController on its own: the centre of mass from the mass
 // matrix against the dynamics' oracle, the wrist F/T tare, gait switching (a stop
 // lands every swinging foot and lifts none), refused gait requests, failed ticks
 // that leave the command to the supervisor, and allocation-free ticks.
@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "alloc_trap.hpp"
-#include "springbok/control/whole_body_control.hpp"
+#include "springbok/control/robot_controller.hpp"
 #include "springbok/wbc/stand_controller.hpp"
 
 namespace {
@@ -19,7 +19,7 @@ using namespace springbok;
 using control::GaitKind;
 using control::GaitState;
 using control::TickStatus;
-using control::WholeBodyControl;
+using control::RobotController;
 
 constexpr double kDt_s = 0.001;
 
@@ -67,11 +67,11 @@ TEST(CenterOfMass, FromTheMassMatrixEqualsTheDynamicsOracle) {
 
 struct Control : ::testing::Test {
   control::ControlParams params;
-  std::unique_ptr<WholeBodyControl> c;
+  std::unique_ptr<RobotController> c;
   hal::JointCommands cmd;
   std::uint64_t sequence = 0;
 
-  void make() { c = std::make_unique<WholeBodyControl>(params); }
+  void make() { c = std::make_unique<RobotController>(params); }
   hal::Measurements next() { return standing_measurements(++sequence); }
 };
 

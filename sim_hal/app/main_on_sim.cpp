@@ -4,13 +4,13 @@
 #include <memory>
 #include <string>
 
-#include "../sim/stepped_bullet_robot.hpp"
 #include "springbok/app/runtime.hpp"
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
+#include "springbok/sim_hal/stepped_bullet_robot.hpp"
 
 int main(int argc, char** argv) {
   using namespace springbok;
-  return app::firmware_main(argc, argv, "springbok-on-sim", [](app::AppConfig& config, const config::Field&) -> std::unique_ptr<hal::Hardware> {
-    return std::make_unique<app::SteppedBulletRobot>(app::crouched_sim_config(config.rate_hz));
+  return app::firmware_main(argc, argv, "springbok-on-sim", [](app::AppConfig& config, const yaml::Field&) -> std::unique_ptr<hal::Hardware> {
+    return std::make_unique<sim::SteppedBulletRobot>(sim::crouched_sim_config(config.rate_hz));
   });
 }

@@ -1,13 +1,13 @@
-// springbok::config's reader: one set of rules for every YAML input, every problem collected
+// springbok::yaml's reader: one set of rules for every YAML input, every problem collected
 // with its field path and line.
 #include <gtest/gtest.h>
 
 #include <cstdint>
 #include <string>
 
-#include "springbok/config/reader.hpp"
+#include "springbok/yaml/reader.hpp"
 
-namespace springbok::config {
+namespace springbok::yaml {
 namespace {
 
 // The errors of reading `key` of the one-line document `text` with `read`.
@@ -117,4 +117,4 @@ TEST(ConfigReader, DocumentsFromTextAndFilesNameTheSyntaxErrorsLine) {
 }
 
 }  // namespace
-}  // namespace springbok::config
+}  // namespace springbok::yaml

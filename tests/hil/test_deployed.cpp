@@ -1,0 +1,644 @@
+// HIL: the deployed binary (springbok) over CAN against the simulated robot behind the drive
+// emulator: standing, the whole-body controller with the trunk IMU and the wrist F/T, and what it
+// does when they fail; the bus round-trip time.
+#include "hil_rig.hpp"
+
+namespace springbok::can {
+namespace {
+
+using namespace hil;
+
+// The deployed binary as a child process; stdout and stderr into one file.
+class Firmware {
+ public:
+  Firmware(const std::string& config, int time_scale) {
+    out_ = "/tmp/springbok_fw_out_" + std::to_string(::getpid());
+    std::vector<std::string> args{std::string(SPRINGBOK_BIN_DIR) + "/springbok", "--config", config, "--time-scale",
+                                  std::to_string(time_scale)};
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      std::freopen(out_.c_str(), "w", stdout);
+      ::dup2(::fileno(stdout), 2);
+      std::vector<char*> argv;
+      for (std::string& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      ::execv(argv[0], argv.data());
+      ::_exit(127);
+    }
+  }
+  ~Firmware() { stop(); }
+  bool running() {
+    int status = 0;
+    return pid_ > 0 && ::waitpid(pid_, &status, WNOHANG) == 0;
+  }
+  // SIGTERM (orderly stop: damping, drives disabled); returns everything it printed.
+  std::string stop() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGTERM);
+      ::waitpid(pid_, &status_, 0);
+      pid_ = -1;
+      std::ifstream in(out_);
+      std::stringstream ss;
+      ss << in.rdbuf();
+      output_ = ss.str();
+      ::unlink(out_.c_str());
+    }
+    return output_;
+  }
+  int exit_status() const { return status_; }
+
+ private:
+  pid_t pid_ = -1;
+  int status_ = -1;
+  std::string out_, output_;
+};
+
+// One line to the operator socket, its one-line answer ("" when the socket is not there).
+std::string operator_line(const std::string& socket_path, const std::string& line) {
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", socket_path.c_str());
+  std::string reply;
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0) {
+    const std::string msg = line + "\n";
+    if (::write(fd, msg.data(), msg.size()) == static_cast<ssize_t>(msg.size())) {
+      char c = 0;
+      while (::read(fd, &c, 1) == 1 && c != '\n') reply += c;
+    }
+  }
+  ::close(fd);
+  return reply;
+}
+
+// One line of the emulator's ground-truth trace (--truth-log; bullet_motion.hpp names the columns).
+struct TruthSample {
+  double t_s = 0.0, trunk_z_m = 0.0, tilt_rad = 0.0;
+  int non_foot_contact = 0;
+  double trunk_x_m = 0.0, trunk_y_m = 0.0;
+  Vec3 hand_m = Vec3::Zero(), hand_force_n = Vec3::Zero();
+  int foot_contacts = 0;  // bit per foot: lf 1, rf 2, lh 4, rh 8
+  char command = 'o';     // what the drives were told: o off, z zero torque, d damping, p position PD, t torque
+  unsigned long long step = 0;
+};
+
+// The emulator's ground-truth trace, as far as it is written (a partial last line is skipped).
+std::vector<TruthSample> read_truth(const std::string& path) {
+  std::vector<TruthSample> out;
+  std::ifstream in(path);
+  for (std::string line; std::getline(in, line);) {
+    TruthSample t;
+    double hx, hy, hz, fx, fy, fz;
+    if (std::sscanf(line.c_str(), "%lf %lf %lf %d %lf %lf %lf %lf %lf %lf %lf %lf %d %c %llu", &t.t_s, &t.trunk_z_m,
+                    &t.tilt_rad, &t.non_foot_contact, &t.trunk_x_m, &t.trunk_y_m, &hx, &hy, &hz, &fx, &fy, &fz,
+                    &t.foot_contacts, &t.command, &t.step) != 15) {
+      continue;
+    }
+    t.hand_m = Vec3(hx, hy, hz);
+    t.hand_force_n = Vec3(fx, fy, fz);
+    out.push_back(t);
+  }
+  return out;
+}
+
+// The time of the trace's last complete line (reads only the file's tail).
+double truth_time(const std::string& path) {
+  std::ifstream in(path, std::ios::ate);
+  const std::streamoff size = in.tellg();
+  if (size <= 0) return 0.0;
+  in.seekg(std::max<std::streamoff>(0, size - 400));
+  std::string tail((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t end = tail.rfind('\n');
+  if (end == std::string::npos) return 0.0;
+  const std::size_t start = tail.rfind('\n', end == 0 ? 0 : end - 1);
+  if (start == std::string::npos) return 0.0;
+  return std::atof(tail.c_str() + start + 1);
+}
+
+// The deployed binary's --time-scale: SPRINGBOK_HIL_TIME_SCALE or `fallback`.
+// A lost sensor damps the robot within stale_ticks + 2 emulator steps of the fault (a tick to
+// see it stale, one for the command to reach the drives), one more when the last good sample
+// before it reached the host a tick late (the VM's latency, CAN.md 5): it counted as fresh a
+// tick later, and the staleness began a tick later.
+constexpr unsigned long long kDampingSlackTicks = 3;
+
+int hil_time_scale(int fallback) {
+  const char* env = std::getenv("SPRINGBOK_HIL_TIME_SCALE");
+  return env != nullptr ? std::atoi(env) : fallback;
+}
+
+// Waits (wall clock) until done() or the firmware exits or `limit_s` passes.
+template <class Done>
+bool wait_for(Firmware& fw, double limit_s, Done&& done) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(limit_s);
+  while (std::chrono::steady_clock::now() < end) {
+    if (done()) return true;
+    if (!fw.running()) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  return false;
+}
+
+// The trunk height over flat ground for these joint angles with the trunk level:
+// the lowest foot sphere touches the ground (springbok::dyn forward kinematics).
+double standing_height_m(const VecNj& q_joints) {
+  const dyn::Model model;
+  auto data = std::make_unique<dyn::Data>();
+  VecNq q = VecNq::Zero();
+  q[6] = 1.0;
+  q.tail<kNj>() = q_joints;
+  dyn::forward_kinematics(model, *data, q);
+  double lowest = 0.0;
+  for (int f = 0; f < kFeet; ++f) {
+    lowest = std::min(lowest, data->frames[static_cast<std::size_t>(kFootFrames[static_cast<std::size_t>(f)])].translation.z());
+  }
+  return kFootRadius_m - lowest;
+}
+
+// Issue 10: the deployed binary stands the simulated robot through vcan for 5 s.
+// LOCKSTEP: the emulator steps sim_hal's Bullet world once per firmware tick (when all 19
+// commands of the tick are in) and the firmware runs --time-scale N times slower than
+// wall time, so that under the VM's emulated CPU (a Bullet step ~6 ms) every reply still
+// arrives before its receive deadline. All times below are simulated unless said wall.
+TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
+  REQUIRE_VCAN(7);
+  const int time_scale = hil_time_scale(20);
+  ASSERT_GE(time_scale, 1);
+  const std::string config = kConfigDir + "stand_mit7.yaml";
+  const std::string socket_path = "/tmp/springbok_hil_stand.sock";  // operator.socket of the config
+  const std::string truth = "/tmp/springbok_hil_truth_" + std::to_string(::getpid()) + ".txt";
+  // --settle-s: the first Bullet steps are slow under the VM's emulated CPU (code not yet
+  // translated); 0.1 s unpowered on the feet before the drives boot warms them up. Bus arm2's
+  // controller reports error passive for a second (CAN.md 4): a warning, logged both ways. The
+  // drives reply as the reference firmware has since July 2023: 7 bytes, byte 6 their supply
+  // (CAN.md 1.4).
+  Emulator emu(config,
+               "faults:\n"
+               "  - {kind: error_passive, drive: 19, at: 1000}\n"
+               "  - {kind: error_active, drive: 19, at: 2000}\n",
+               {"--motion", "bullet", "--truth-log", truth, "--settle-s", "0.1", "--mit-reply-dlc", "7",
+                "--mit-bus-voltage-v", "24"});
+  ASSERT_TRUE(emu.ready());
+  ::unlink(socket_path.c_str());
+  Firmware fw(config, time_scale);
+  const double wall_per_sim_s = time_scale * 1.2 + 5.0;  // generous: the wall time a simulated second may take
+  // The robot spawns crouched on its feet (sim_hal); idle only damps (it cannot hold the
+  // robot up), so the operator starts the stand-up as soon as the firmware listens.
+  std::string started;
+  ASSERT_TRUE(wait_for(fw, 120.0, [&] {
+    started = operator_line(socket_path, "start");
+    return !started.empty();
+  })) << fw.stop();
+  EXPECT_EQ(started.rfind("ok", 0), 0u) << started;
+  ASSERT_TRUE(wait_for(fw, 60.0, [&] { return !read_truth(truth).empty(); })) << fw.stop();
+  const double crouch_z_m = read_truth(truth).front().trunk_z_m;
+  std::string status;
+  ASSERT_TRUE(wait_for(fw, 4.0 * wall_per_sim_s, [&] {
+    status = operator_line(socket_path, "status");
+    return status.find("mode=stand ") != std::string::npos || status.find("mode=damping") != std::string::npos;
+  })) << status << "\n" << fw.stop();
+  ASSERT_NE(status.find("mode=stand "), std::string::npos) << status << "\n" << fw.stop() << emu.stop();
+  const double t_stand_s = truth_time(truth);
+  ASSERT_TRUE(wait_for(fw, 6.0 * wall_per_sim_s, [&] { return truth_time(truth) >= t_stand_s + 5.0; }));
+  status = operator_line(socket_path, "status");
+  EXPECT_NE(status.find("mode=stand faults=none"), std::string::npos) << status;
+  const std::string fw_out = fw.stop();
+  EXPECT_TRUE(WIFEXITED(fw.exit_status()) && WEXITSTATUS(fw.exit_status()) == 0) << fw_out;
+  EXPECT_NE(fw_out.find("mode=stand faults=none"), std::string::npos) << fw_out;
+  EXPECT_NE(fw_out.find(" buses_degraded a=64 b=0 x=0 (degraded=bus6 was=none)\n"), std::string::npos) << fw_out;
+  EXPECT_NE(fw_out.find(" buses_degraded a=0 b=64 x=0 (degraded=none was=bus6)\n"), std::string::npos) << fw_out;
+  for (int j = 0; j < kNj; ++j) {  // each drive's supply, from its 7-byte replies
+    const std::string line = "can drive " + std::to_string(j + 1) + " (" + std::string(robot::kJoints[static_cast<std::size_t>(j)].name) +
+                             "): bus_voltage_v=24.00 bus_voltage_low=0 wrong_dlc_replies=0";
+    EXPECT_NE(fw_out.find(line), std::string::npos) << line << "\n" << fw_out;
+  }
+  const std::string summary = emu.stop();
+
+  // The emulator's ground truth over the 5 s of standing.
+  const std::vector<TruthSample> samples = read_truth(truth);
+  ::unlink(truth.c_str());
+  double z_min = 1e9, z_max = -1e9, tilt_max = 0.0, z_min_late = 1e9, z_max_late = -1e9;
+  int n = 0, non_foot = 0;
+  for (const TruthSample& t : samples) {
+    if (t.t_s < t_stand_s || t.t_s > t_stand_s + 5.0) continue;
+    ++n;
+    z_min = std::min(z_min, t.trunk_z_m);
+    z_max = std::max(z_max, t.trunk_z_m);
+    tilt_max = std::max(tilt_max, t.tilt_rad);
+    non_foot += t.non_foot_contact;
+    if (t.t_s >= t_stand_s + 2.0) {  // stand is entered within stand_tolerance_rad, still settling
+      z_min_late = std::min(z_min_late, t.trunk_z_m);
+      z_max_late = std::max(z_max_late, t.trunk_z_m);
+    }
+  }
+  // The oracle: the trunk height at which the stand posture puts the feet on the ground.
+  VecNj stand = VecNj::Zero();
+  for (int j = 0; j < 12; ++j) stand[j] = stance(j);
+  const double z_stand_m = standing_height_m(stand);
+  std::printf("standing %.2f .. %.2f s: trunk z %.4f .. %.4f m (last 3 s %.4f .. %.4f; stand posture on flat ground: "
+              "%.4f m; crouched at start-up %.4f m), max tilt %.4f rad\n",
+              t_stand_s, t_stand_s + 5.0, z_min, z_max, z_min_late, z_max_late, z_stand_m, crouch_z_m, tilt_max);
+  EXPECT_GE(n, 400) << "trace samples in the 5 s";
+  EXPECT_LT(crouch_z_m, z_stand_m - 0.1) << "it stood up from a crouch";
+  // The joint PD without gravity compensation sags a little (stand_tolerance_rad 0.15).
+  EXPECT_NEAR(z_min, z_stand_m, 0.06);
+  EXPECT_NEAR(z_max, z_stand_m, 0.06);
+  EXPECT_LT(z_max_late - z_min_late, 0.005) << "it holds still (last 3 s)";
+  EXPECT_LT(tilt_max, 0.05);
+  EXPECT_EQ(non_foot, 0) << "only the feet touch the ground";
+  // Lockstep held: every step had the commands of all 19 drives.
+  EXPECT_NE(summary.find("forced_steps 0\n"), std::string::npos) << summary;
+}
+
+// ---- Issue 18: the deployed whole-body controller over CAN, with the trunk IMU and the wrist
+// F/T on the sensor bus (vcan7), against the emulator's Bullet world in lockstep. Simulated
+// times below (the emulator's clock; 0 = the end of its settling; sensor sample k = step k).
+
+const std::string kWbcConfig = kConfigDir + "wbc_mit8.yaml";
+const std::string kWbcSocket = "/tmp/springbok_hil_wbc.sock";  // operator.socket of that config
+
+app::AppConfig wbc_hil_config() {
+  const app::ConfigResult r = app::load_config_file(kWbcConfig);
+  EXPECT_TRUE(r.ok) << (r.errors.empty() ? "" : r.errors.front());
+  return r.config;
+}
+
+std::uint32_t wbc_hil_stale_ticks() {
+  const CanConfig cfg = load("wbc_mit8.yaml");
+  EXPECT_EQ(cfg.sensors.imu.stale_ticks, cfg.sensors.wrist_ft.stale_ticks);
+  return cfg.sensors.imu.stale_ticks;
+}
+
+// The operator's path to the control mode: start (stand-up from the crouch), stand, the wrist
+// F/T tared, mode control. Returns the simulated time control was entered (< 0: it was not).
+double enter_control(Firmware& fw, const std::string& truth, double wall_per_sim_s, std::string& why) {
+  std::string reply;
+  if (!wait_for(fw, 120.0, [&] { return !(reply = operator_line(kWbcSocket, "start")).empty(); })) {
+    why = "no operator socket";
+    return -1.0;
+  }
+  if (reply.rfind("ok start", 0) != 0) {
+    why = reply;
+    return -1.0;
+  }
+  if (!wait_for(fw, 4.0 * wall_per_sim_s, [&] {
+        reply = operator_line(kWbcSocket, "status");
+        return reply.find("mode=stand ") != std::string::npos || reply.find("mode=damping") != std::string::npos;
+      }) ||
+      reply.find("mode=stand ") == std::string::npos) {
+    why = "no stand: " + reply;
+    return -1.0;
+  }
+  if (!wait_for(fw, 2.0 * wall_per_sim_s, [&] {
+        reply = operator_line(kWbcSocket, "controller");
+        return reply.find("tare=done") != std::string::npos;
+      })) {
+    why = "no tare: " + reply;
+    return -1.0;
+  }
+  reply = operator_line(kWbcSocket, "mode control");
+  if (reply.rfind("ok mode control", 0) != 0) {
+    why = reply;
+    return -1.0;
+  }
+  return truth_time(truth);
+}
+
+// The host's damping (CAN.md 4.4: kd = D in the drives, no target).
+bool damps(char command) { return command == 'd'; }
+
+// The first step from `from_step` on whose drive command is damping, 0 if none.
+unsigned long long first_damping_step(const std::vector<TruthSample>& samples, unsigned long long from_step) {
+  for (const TruthSample& t : samples) {
+    if (t.step >= from_step && damps(t.command)) return t.step;
+  }
+  return 0;
+}
+
+// Cases 1 and 2: stand, tare, control; a 30 N step at the hand rendered as the template; trot
+// 4.5 s on the operator's command; then a streak of corrupt quaternions. Its in-process twin
+// (tests/app/timing: TheHilConfigRendersAPushThenTrotsWithTheCanPathsDelays) runs the same
+// config and the same operator steps through the MIT codec, the emulator's joint friction and
+// the CAN path's delays, deterministically; it found what made this case fail: the replies'
+// 12-bit truncated velocity (push NRMSE 14 %; now the backend's velocity observer,
+// can.mit_velocity_observer_rad_s), a trunk attitude task too soft for two ticks of latency on
+// one diagonal (the fall; now WbcParams' defaults), the IMU's q_w as CAN.md 6.1 decodes it and
+// as the gyro alone tracks it (the trunk_imu is upside down: mrad of false pitch, the base 4 %
+// past F/K; now can::OrientationTrack with gravity), and the emulated joints' friction on the
+// wrist (the hand 7.3 % off; now compensated, control.wbc.joint_friction). Measured here at the
+// time scale 20 (2 vCPUs, 243 s wall): NRMSE base 0.71-1.26 %, hand 1.72-1.81 %, end
+// displacement base 29.3-29.8 mm (F/K 30), hand 89.1-89.6 mm (90); the trot holds (every foot
+// lifts, tilt 0.043 rad).
+// SPRINGBOK_HIL_KEEP=<dir> keeps the trace, the controller's reports and the firmware's output.
+TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
+  REQUIRE_VCAN(8);
+  const int time_scale = hil_time_scale(20);
+  ASSERT_GE(time_scale, 1);
+  const double wall_per_sim_s = time_scale * 1.3 + 5.0;
+  const app::AppConfig config = wbc_hil_config();
+  const std::uint32_t stale_ticks = wbc_hil_stale_ticks();
+  constexpr double kPushStart_s = 5.0, kPushEnd_s = 8.5, kForce_n = 30.0, kTrotAt_s = 9.0, kTrotUntil_s = 13.5;
+  constexpr unsigned long long kStreakAt = 14000;
+  const std::string truth = "/tmp/springbok_hil_wbc_truth_" + std::to_string(::getpid()) + ".txt";
+  Emulator emu(kWbcConfig,
+               "faults:\n"
+               "  - {kind: corrupt_quaternion, sensor: imu, at: 4500, count: 3}\n"
+               "  - {kind: corrupt_quaternion, sensor: imu, at: 14000, count: 1000000}\n",
+               {"--motion", "bullet", "--truth-log", truth, "--truth-every", "1", "--settle-s", "0.1",
+                "--hand-force-n", std::to_string(kForce_n), "--hand-force-axis", "x", "--hand-force-start-s",
+                std::to_string(kPushStart_s), "--hand-force-duration-s", std::to_string(kPushEnd_s - kPushStart_s)});
+  ASSERT_TRUE(emu.ready());
+  ::unlink(kWbcSocket.c_str());
+  const auto wall_start = std::chrono::steady_clock::now();
+  Firmware fw(kWbcConfig, time_scale);
+  std::string why;
+  const double t_control_s = enter_control(fw, truth, wall_per_sim_s, why);
+  ASSERT_GE(t_control_s, 0.0) << why << "\n" << fw.stop();
+  ASSERT_LT(t_control_s, 4.4) << "the control mode must be on before the IMU burst and the push";
+
+  ASSERT_TRUE(wait_for(fw, (kTrotAt_s - t_control_s + 1.0) * wall_per_sim_s,
+                       [&] { return truth_time(truth) >= kTrotAt_s; }));
+  std::string status = operator_line(kWbcSocket, "status");
+  EXPECT_NE(status.find("mode=control faults=none"), std::string::npos) << status;
+  const std::string trot = operator_line(kWbcSocket, "gait trot step_frequency=1.4 duty_factor=0.65");
+  EXPECT_EQ(trot.rfind("ok gait trot (mode=control faults=none)", 0), 0u) << trot;
+  const double t_trot_s = truth_time(truth);
+  const char* keep = std::getenv("SPRINGBOK_HIL_KEEP");  // a directory: the trace and the controller's reports go there
+  std::ofstream reports(keep != nullptr ? std::string(keep) + "/controller_reports.txt" : std::string("/dev/null"));
+  ASSERT_TRUE(wait_for(fw, (kTrotUntil_s - t_trot_s + 1.0) * wall_per_sim_s, [&] {
+    const double t = truth_time(truth);
+    if (keep != nullptr) reports << t << " " << operator_line(kWbcSocket, "controller") << "\n";
+    return t >= kTrotUntil_s;
+  }));
+  status = operator_line(kWbcSocket, "status");
+  EXPECT_NE(status.find("mode=control faults=none"), std::string::npos) << status;
+  const std::string report = operator_line(kWbcSocket, "controller");
+  EXPECT_NE(report.find("gait=trot step_frequency=1.4 duty_factor=0.65"), std::string::npos) << report;
+  ASSERT_TRUE(wait_for(fw, 1.5 * wall_per_sim_s, [&] { return truth_time(truth) >= kStreakAt / 1000.0 + 0.1; }));
+  status = operator_line(kWbcSocket, "status");
+  EXPECT_NE(status.find("mode=damping faults="), std::string::npos) << status;
+  EXPECT_NE(status.find("imu_lost"), std::string::npos) << status;
+  const std::string fw_out = fw.stop();
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  const std::string summary = emu.stop();
+  const std::vector<TruthSample> samples = read_truth(truth);
+  if (keep != nullptr) {
+    std::ofstream(std::string(keep) + "/truth.txt") << std::ifstream(truth).rdbuf();
+    std::ofstream(std::string(keep) + "/firmware.txt") << fw_out;
+  }
+  ::unlink(truth.c_str());
+  ASSERT_FALSE(samples.empty());
+
+  // 4: the first actuating steps damp (CAN.md 4.2 step 5); zero torque never.
+  char first_actuating = 'o';
+  int zero_torque_steps = 0;
+  for (const TruthSample& t : samples) {
+    if (first_actuating == 'o') first_actuating = t.command;
+    zero_torque_steps += t.command == 'z' ? 1 : 0;
+  }
+  EXPECT_EQ(first_actuating, 'd');
+  EXPECT_EQ(zero_torque_steps, 0);
+
+  // 1: the push, rendered. Displacements from the pose just before it; the template driven by
+  // the force on the hand (what the tared F/T measures), integrated here from rest.
+  springbok::test::PushScore score(springbok::test::template_axis_x(config.wbc.template_params), kPushStart_s,
+                                   kPushEnd_s, 0.5);
+  double base0 = 0.0, hand0 = 0.0;
+  int n0 = 0;
+  for (const TruthSample& t : samples) {
+    if (t.t_s >= kPushStart_s - 0.1 && t.t_s < kPushStart_s) {
+      base0 += t.trunk_x_m;
+      hand0 += t.hand_m.x();
+      ++n0;
+    }
+  }
+  ASSERT_GT(n0, 50);
+  base0 /= n0;
+  hand0 /= n0;
+  for (const TruthSample& t : samples) score.add(t.t_s, t.hand_force_n.x(), t.trunk_x_m - base0, t.hand_m.x() - hand0);
+  ASSERT_GT(score.samples(), 3000);
+  ASSERT_GT(score.end_samples(), 400);
+  const double nrmse_b = score.nrmse_base(), nrmse_e = score.nrmse_hand();
+  const double end_b = score.end_base_m(), end_e = score.end_hand_m();
+  const double fk_b = score.static_base_m(kForce_n), fk_e = score.static_hand_m(kForce_n);
+
+  // 2: the trot, from the emulator's ground truth.
+  std::array<bool, kFeet> lifted{};
+  int non_foot = 0;
+  double z_min = 1e9, tilt_max = 0.0;
+  for (const TruthSample& t : samples) {
+    if (t.t_s < t_trot_s || t.t_s > kTrotUntil_s) continue;
+    for (int f = 0; f < kFeet; ++f) lifted[f] = lifted[f] || (t.foot_contacts & (1 << f)) == 0;
+    non_foot += t.non_foot_contact;
+    z_min = std::min(z_min, t.trunk_z_m);
+    tilt_max = std::max(tilt_max, t.tilt_rad);
+  }
+  // 3: the streak of corrupt quaternions: damping within stale_ticks + kDampingSlackTicks steps of its first sample.
+  const unsigned long long damped_at = first_damping_step(samples, kStreakAt);
+
+  std::printf("HIL wbc (time scale %d, wall %.0f s): control from %.3f s; 30 N push %.1f..%.1f s: NRMSE base %.2f %% "
+              "hand %.2f %%, end displacement base %.4f m (F/K %.4f) hand %.4f m (%.4f); trot %.2f..%.2f s: lifted "
+              "%d%d%d%d, min trunk z %.3f m, max tilt %.3f rad; corrupt-quaternion streak from step %llu: damping at "
+              "step %llu (stale_ticks %u)\n",
+              time_scale, wall_s, t_control_s, kPushStart_s, kPushEnd_s, 100 * nrmse_b, 100 * nrmse_e, end_b, fk_b,
+              end_e, fk_e, t_trot_s, kTrotUntil_s, lifted[0], lifted[1], lifted[2], lifted[3], z_min, tilt_max,
+              kStreakAt, damped_at, stale_ticks);
+  RecordProperty("nrmse_base_pct", std::to_string(100 * nrmse_b));
+  RecordProperty("nrmse_ee_pct", std::to_string(100 * nrmse_e));
+  // The issue's bounds: NRMSE hand <= 5 %, base <= 10 %, steady state within 2 % of F/K.
+  // (Before the estimator's position-aided tilt the base ended 29.3-30.1 mm, F/K 30: the
+  // trunk's pitch, in the IMU's q_w that CAN does not carry, drifted 0.3-0.5 mrad unseen.)
+  EXPECT_LE(nrmse_b, 0.10);
+  EXPECT_LE(nrmse_e, 0.05);
+  EXPECT_NEAR(end_b, fk_b, 0.02 * fk_b);
+  EXPECT_NEAR(end_e, fk_e, 0.02 * fk_e);
+  for (int f = 0; f < kFeet; ++f) EXPECT_TRUE(lifted[f]) << "foot " << f;
+  EXPECT_EQ(non_foot, 0) << "only the feet touch the ground";
+  EXPECT_GT(z_min, 0.45);
+  EXPECT_LT(tilt_max, 0.3);
+  ASSERT_GT(damped_at, 0u) << fw_out;
+  EXPECT_LE(damped_at, kStreakAt + stale_ticks + kDampingSlackTicks);
+  EXPECT_GE(damped_at, kStreakAt + stale_ticks - 1) << "damped before the IMU was lost";
+  // Logged with the sensor's name; the burst at 2.5 s counted, never a fault before the streak:
+  // the first fault is the IMU's. (The damped robot then collapses; the emulator caps the
+  // light wrist joints' damping at what a 1 ms step can render, so a wrist may outrun its
+  // velocity limit and its drive be faulted for implausible positions afterwards.)
+  const auto first_fault = fw_out.find("fault_latched");
+  ASSERT_NE(first_fault, std::string::npos) << fw_out;
+  EXPECT_EQ(fw_out.find("(new=imu_lost latched=imu_lost)"), fw_out.find('(', first_fault)) << fw_out;
+  EXPECT_NE(fw_out.find("(control -> damping)"), std::string::npos) << fw_out;
+  const auto at = fw_out.find("can sensor imu: ");
+  ASSERT_NE(at, std::string::npos) << fw_out;
+  unsigned long long bad_quaternion = 0;
+  ASSERT_EQ(std::sscanf(fw_out.c_str() + fw_out.find("bad_quaternion=", at), "bad_quaternion=%llu", &bad_quaternion), 1);
+  EXPECT_GE(bad_quaternion, 3u + stale_ticks);
+  EXPECT_NE(summary.find("forced_steps 0\n"), std::string::npos) << summary;
+}
+
+// Case 3: a sensor the controller needs, lost in the control mode: damping within
+// stale_ticks + kDampingSlackTicks steps, latched, logged with its name.
+// `detect_ticks`: how many samples the fault takes to be one (0: the sensors' stale_ticks).
+void expect_sensor_loss_damps(const std::string& fault_yaml, unsigned long long fault_at, const std::string& fault_name,
+                              std::uint32_t detect_ticks = 0) {
+  const int time_scale = hil_time_scale(20);
+  ASSERT_GE(time_scale, 1);
+  const double wall_per_sim_s = time_scale * 1.3 + 5.0;
+  const std::uint32_t stale_ticks = detect_ticks > 0 ? detect_ticks : wbc_hil_stale_ticks();
+  const std::string truth = "/tmp/springbok_hil_wbc_truth_" + std::to_string(::getpid()) + ".txt";
+  Emulator emu(kWbcConfig, fault_yaml, {"--motion", "bullet", "--truth-log", truth, "--truth-every", "1", "--settle-s", "0.1"});
+  ASSERT_TRUE(emu.ready());
+  ::unlink(kWbcSocket.c_str());
+  Firmware fw(kWbcConfig, time_scale);
+  std::string why;
+  const double t_control_s = enter_control(fw, truth, wall_per_sim_s, why);
+  ASSERT_GE(t_control_s, 0.0) << why << "\n" << fw.stop();
+  ASSERT_LT(t_control_s, fault_at / 1000.0 - 0.2) << "the control mode must be on before the fault";
+  ASSERT_TRUE(wait_for(fw, (fault_at / 1000.0 - t_control_s + 0.5) * wall_per_sim_s,
+                       [&] { return truth_time(truth) >= fault_at / 1000.0 + 0.2; }));
+  const std::string status = operator_line(kWbcSocket, "status");
+  const std::string reset = operator_line(kWbcSocket, "mode control");
+  const std::string fw_out = fw.stop();
+  emu.stop();
+  const std::vector<TruthSample> samples = read_truth(truth);
+  ::unlink(truth.c_str());
+  // The idle ticks damp too: the first damping step after the control mode's torques.
+  unsigned long long control_steps = 0, after_control = 0;
+  for (const TruthSample& t : samples) {
+    control_steps += t.command == 't' ? 1 : 0;
+    if (t.command == 't') after_control = 0;
+    if (damps(t.command) && after_control == 0 && control_steps > 0) after_control = t.step;
+  }
+  std::printf("HIL wbc: %s from step %llu: damping at step %llu (detected after %u samples); %llu torque-controlled steps before\n",
+              fault_name.c_str(), fault_at, after_control, stale_ticks, control_steps);
+  EXPECT_GT(control_steps, 200u) << "the whole-body controller ran before the fault";
+  EXPECT_EQ(samples.front().command, 'd') << "the first actuating step damps (CAN.md 4.2 step 5)";
+  EXPECT_LE(after_control, fault_at + stale_ticks + kDampingSlackTicks);
+  EXPECT_GE(after_control, fault_at + stale_ticks - 1) << "damped before the sensor was lost";
+  EXPECT_NE(status.find("mode=damping faults="), std::string::npos) << status;
+  EXPECT_NE(status.find(fault_name), std::string::npos) << status;
+  EXPECT_EQ(reset.rfind("error: mode control", 0), 0u) << "latched: " << reset;
+  EXPECT_NE(fw_out.find("(new=" + fault_name + " latched=" + fault_name + ")"), std::string::npos) << fw_out;
+  EXPECT_NE(fw_out.find("(control -> damping)"), std::string::npos) << fw_out;
+}
+
+// Case 3's corrupt quaternions and case 4: the first actuating steps damp (CAN.md 4.2 step 5),
+// zero torque never; in the control mode a burst of corrupt IMU quaternions is counted and
+// rejected without a fault; a streak of them loses the IMU: damping within stale_ticks + kDampingSlackTicks
+// steps, latched, logged with the sensor's name.
+TEST(Hil, DeployedWholeBodyControllerStartsDampedAndRejectsCorruptQuaternions) {
+  REQUIRE_VCAN(8);
+  const int time_scale = hil_time_scale(20);
+  ASSERT_GE(time_scale, 1);
+  const double wall_per_sim_s = time_scale * 1.3 + 5.0;
+  const std::uint32_t stale_ticks = wbc_hil_stale_ticks();
+  constexpr unsigned long long kBurstAt = 4500, kBurst = 3, kStreakAt = 5000;
+  const std::string truth = "/tmp/springbok_hil_wbc_truth_" + std::to_string(::getpid()) + ".txt";
+  Emulator emu(kWbcConfig,
+               "faults:\n"
+               "  - {kind: corrupt_quaternion, sensor: imu, at: 4500, count: 3}\n"
+               "  - {kind: corrupt_quaternion, sensor: imu, at: 5000, count: 1000000}\n",
+               {"--motion", "bullet", "--truth-log", truth, "--truth-every", "1", "--settle-s", "0.1"});
+  ASSERT_TRUE(emu.ready());
+  ::unlink(kWbcSocket.c_str());
+  Firmware fw(kWbcConfig, time_scale);
+  std::string why;
+  const double t_control_s = enter_control(fw, truth, wall_per_sim_s, why);
+  ASSERT_GE(t_control_s, 0.0) << why << "\n" << fw.stop();
+  ASSERT_LT(t_control_s, kBurstAt / 1000.0 - 0.2) << "the control mode must be on before the burst";
+  ASSERT_TRUE(wait_for(fw, (kStreakAt / 1000.0 - t_control_s + 0.5) * wall_per_sim_s,
+                       [&] { return truth_time(truth) >= kStreakAt / 1000.0 - 0.1; }));
+  const std::string after_burst = operator_line(kWbcSocket, "status");
+  ASSERT_TRUE(wait_for(fw, 1.0 * wall_per_sim_s, [&] { return truth_time(truth) >= kStreakAt / 1000.0 + 0.2; }));
+  const std::string after_streak = operator_line(kWbcSocket, "status");
+  const std::string fw_out = fw.stop();
+  const std::string summary = emu.stop();
+  const std::vector<TruthSample> samples = read_truth(truth);
+  ::unlink(truth.c_str());
+  ASSERT_FALSE(samples.empty());
+
+  char first_actuating = 'o';
+  int zero_torque_steps = 0;
+  unsigned long long torque_steps = 0, damped_at = 0;
+  for (const TruthSample& t : samples) {
+    if (first_actuating == 'o') first_actuating = t.command;
+    zero_torque_steps += t.command == 'z' ? 1 : 0;
+    torque_steps += t.command == 't' ? 1 : 0;
+    if (damped_at == 0 && torque_steps > 0 && damps(t.command)) damped_at = t.step;
+  }
+  std::printf("HIL wbc: first actuating command '%c', zero-torque steps %d; %llu torque-controlled steps; corrupt "
+              "quaternions: burst of %llu at step %llu, streak from step %llu: damping at step %llu (stale_ticks %u)\n",
+              first_actuating, zero_torque_steps, torque_steps, kBurst, kBurstAt, kStreakAt, damped_at, stale_ticks);
+  EXPECT_EQ(first_actuating, 'd');
+  EXPECT_EQ(zero_torque_steps, 0);
+  EXPECT_GT(torque_steps, 300u) << "the whole-body controller ran";
+  EXPECT_NE(after_burst.find("mode=control faults=none"), std::string::npos) << after_burst;
+  EXPECT_NE(after_streak.find("mode=damping faults="), std::string::npos) << after_streak;
+  EXPECT_NE(after_streak.find("imu_lost"), std::string::npos) << after_streak;
+  EXPECT_LE(damped_at, kStreakAt + stale_ticks + kDampingSlackTicks);
+  EXPECT_GE(damped_at, kStreakAt + stale_ticks - 1) << "damped before the IMU was lost";
+  EXPECT_NE(fw_out.find("(new=imu_lost latched=imu_lost)"), std::string::npos) << fw_out;
+  EXPECT_NE(fw_out.find("(control -> damping)"), std::string::npos) << fw_out;
+  // The first fault is the IMU's (a collapsing arm may trip the drives' checks after it).
+  EXPECT_EQ(fw_out.find("fault_latched"), fw_out.find("fault_latched a=256 b=256")) << fw_out;
+  const auto at = fw_out.find("can sensor imu: ");
+  ASSERT_NE(at, std::string::npos) << fw_out;
+  unsigned long long bad_quaternion = 0;
+  ASSERT_EQ(std::sscanf(fw_out.c_str() + fw_out.find("bad_quaternion=", at), "bad_quaternion=%llu", &bad_quaternion), 1);
+  EXPECT_GE(bad_quaternion, kBurst + stale_ticks) << "the burst's and the streak's samples counted";
+  EXPECT_NE(summary.find("forced_steps 0\n"), std::string::npos) << summary;
+}
+
+TEST(Hil, DeployedWholeBodyControllerDampsWhenTheImuFallsSilent) {
+  REQUIRE_VCAN(8);
+  expect_sensor_loss_damps("faults: [{kind: silent, sensor: imu, at: 4600}]\n", 4600, "imu_lost");
+}
+
+TEST(Hil, DeployedWholeBodyControllerDampsWhenTheWristFtReportsInvalid) {
+  REQUIRE_VCAN(8);
+  expect_sensor_loss_damps("faults: [{kind: status_invalid, sensor: wrist_ft, at: 4600, count: 1000000}]\n", 4600,
+                           "wrist_ft_lost");
+}
+
+// CAN.md 6.4: clipping samples are used and counted, "a streak is a fault": the wrist F/T
+// at full scale (F_x 512 N) from step 4600; its clip_streak (2 in this config: 512 N on the
+// hand for 10 ms throws the arm into a drive fault) samples in a row latch the fault.
+TEST(Hil, DeployedWholeBodyControllerDampsOnAWristFtClippingStreak) {
+  REQUIRE_VCAN(8);
+  expect_sensor_loss_damps("faults: [{kind: saturate, sensor: wrist_ft, at: 4600, count: 1000000}]\n", 4600,
+                           "wrist_ft_clipping_streak", 2);
+}
+
+
+TEST(Hil, RoundTripTime) {
+  REQUIRE_VCAN(7);
+  const CanConfig cfg = load("mit_classic7.yaml");
+  Emulator emu(kConfigDir + "mit_classic7.yaml", "");
+  ASSERT_TRUE(emu.ready());
+  SocketCanBus bus;
+  const std::uint32_t reply_id = cfg.buses[0].drives[0].mit_reply_id;
+  ASSERT_EQ(bus.open("vcan0", false, std::span<const std::uint32_t>(&reply_id, 1), false), "");
+  Frame cmd, rx;
+  mit::encode_special(1, mit::Special::exit_motor_mode, cmd);
+  std::vector<double> rtt_us;
+  const int fd = bus.native_handle();
+  for (int i = 0; i < 2000; ++i) {
+    const std::int64_t t0 = monotonic_ns();
+    ASSERT_EQ(bus.send(cmd), TxStatus::ok);
+    bool got = false;
+    while (!got && monotonic_ns() - t0 < 2000000000LL) {
+      wait_readable(std::span<const int>(&fd, 1), 10000);
+      got = bus.receive(rx) == RxStatus::frame;
+    }
+    ASSERT_TRUE(got) << "no reply to round trip " << i;
+    rtt_us.push_back(1e-3 * static_cast<double>(monotonic_ns() - t0));
+  }
+  std::sort(rtt_us.begin(), rtt_us.end());
+  const auto pct = [&](double p) { return rtt_us[static_cast<std::size_t>(p * (rtt_us.size() - 1))]; };
+  std::printf("round trip host -> drive_emulator -> host, %zu frames, us: min %.0f p50 %.0f p90 %.0f p99 %.0f max %.0f\n",
+              rtt_us.size(), rtt_us.front(), pct(0.5), pct(0.9), pct(0.99), rtt_us.back());
+  RecordProperty("rtt_p50_us", static_cast<int>(pct(0.5)));
+  RecordProperty("rtt_p99_us", static_cast<int>(pct(0.99)));
+}
+
+}  // namespace
+}  // namespace springbok::can
