@@ -13,7 +13,7 @@
 #include "springbok/yaml/reader.hpp"
 #include "springbok/app/operator_server.hpp"
 #include "springbok/app/control_mode.hpp"
-#include "springbok/app/posture_control.hpp"
+#include "springbok/app/mode_controller.hpp"
 #include "springbok/app/slowed_clock.hpp"
 #include "springbok/app/version.hpp"
 #include "springbok/rt/clock.hpp"
@@ -51,7 +51,7 @@ CommandLine parse_command_line(int argc, char** argv, const char* program) {
 
 namespace {
 
-using Modes = PostureModes<ControlMode>;
+using Modes = ModeController<ControlMode>;
 using Loop = ControlLoop<Modes>;
 using FirmwareExecutive = rt::Executive<SlowedClock, Loop>;
 

@@ -6,7 +6,7 @@
 
 #include "springbok/app/config.hpp"
 #include "springbok/app/control_loop.hpp"
-#include "springbok/app/posture_control.hpp"
+#include "springbok/app/mode_controller.hpp"
 #include "springbok/hal/hardware.hpp"
 #include "springbok/rt/clock.hpp"
 #include "springbok/rt/executive.hpp"
@@ -80,7 +80,7 @@ inline AppConfig test_config() {
 // Everything the deployed binary wires, with the stepped clock.
 template <class Hardware, class Control = JointPdHold>
 struct LoopRig {
-  using Modes = PostureModes<Control>;
+  using Modes = ModeController<Control>;
   using Loop = ControlLoop<Modes>;
 
   LoopRig(rt::SteppedClock& c, Hardware& h, const AppConfig& cfg = test_config())

@@ -1,7 +1,8 @@
 // One tick of the firmware, the executive's body:
-//   HAL read -> operator mailbox (to the supervisor or the controller) -> supervisor
-//   checks -> controller -> its state published -> supervisor (damping, clamping) -> HAL write
-//   -> (every N ticks) a telemetry record into its ring
+//   HAL read -> supervisor checks (observe) -> operator mailbox (to the supervisor or the
+//   controller) -> mode controller (compute; its state published) -> supervisor (finish:
+//   damping, clamping) -> HAL write -> the tick's record: log events, status, and every N
+//   ticks a telemetry record into its ring
 // Fixed-size structs passed by reference; the controller is a template
 // parameter (no virtual call, no std::function); one virtual call per HAL
 // exchange. Mode and fault changes, verdicts, HAL errors and the warnings (sensors lost,
@@ -12,7 +13,7 @@
 #include <limits>
 
 #include "springbok/app/operator.hpp"
-#include "springbok/app/posture_control.hpp"
+#include "springbok/app/mode_controller.hpp"
 #include "springbok/app/telemetry.hpp"
 #include "springbok/hal/hardware.hpp"
 #include "springbok/rt/executive.hpp"
@@ -28,77 +29,26 @@ class ControlLoop {
       : hal_(hardware), controller_(controller), supervisor_(supervisor), mailbox_(mailbox), status_(status),
         log_(log) {}
 
+  // read -> observe -> compute -> finish -> write, then the tick's record.
   // rt: no alloc, no block
   void tick(const rt::TickInfo& info) noexcept {
-    const safety::Mode mode_before = supervisor_.mode();
-    const safety::FaultMask faults_before = supervisor_.faults();
-
+    const Before before{supervisor_.mode(), supervisor_.faults()};
     const hal::IoStatus io = hal_.read(meas_);
     supervisor_.observe(meas_, io, info.overrun_streak, info.overruns_in_window);
-
     OperatorRequest request;
     if (mailbox_.take(request)) take(info, request);
 
-    safety::ControllerReport report;
-    const safety::Mode mode = supervisor_.mode();
-    if (mode == safety::Mode::stand_up || mode == safety::Mode::stand || mode == safety::Mode::control) {
-      ControlInput input;
-      input.mode = mode;
-      input.ticks_in_mode = supervisor_.ticks_in_mode();
-      input.dt_s = static_cast<double>(info.elapsed_ns) * 1e-9;
-      input.meas = &meas_;
-      report = controller_.compute(input, cmd_);
-    }
+    ControlInput input;
+    input.mode = supervisor_.mode();
+    input.ticks_in_mode = supervisor_.ticks_in_mode();
+    input.dt_s = static_cast<double>(info.elapsed_ns) * 1e-9;
+    input.meas = &meas_;
+    const safety::ControllerReport report = controller_.compute(input, cmd_);
     controller_.publish(status_.controller);
     cmd_.sequence = info.index;
     supervisor_.finish(meas_, report, cmd_);
     const hal::IoStatus wio = hal_.write(cmd_);
-
-    if (io != hal::IoStatus::ok || wio != hal::IoStatus::ok) {
-      status_.hal_errors.fetch_add(1, std::memory_order_relaxed);
-    }
-    if (io != last_io_) {
-      log(info, rt::LogEvent::hal_io, static_cast<std::int64_t>(io), supervisor_.stale_ticks());
-      last_io_ = io;
-    }
-    if (supervisor_.faults() != faults_before) {
-      log(info, rt::LogEvent::fault_latched, supervisor_.faults() & ~faults_before, supervisor_.faults());
-      if ((supervisor_.faults() & ~faults_before & safety::fault::kJointLimit) != 0) {
-        log(info, rt::LogEvent::joint_limit, supervisor_.limit_joint(), static_cast<std::int64_t>(mode_before),
-            supervisor_.limit_joint_position_rad());
-      }
-    }
-    if (supervisor_.sensors_lost() != sensors_lost_) {  // a warning outside the control mode, a fault in it
-      sensors_lost_ = supervisor_.sensors_lost();
-      log(info, rt::LogEvent::sensors_lost, sensors_lost_, static_cast<std::int64_t>(supervisor_.mode()));
-    }
-    if (supervisor_.degraded_buses() != degraded_buses_) {  // a warning: the robot keeps going
-      log(info, rt::LogEvent::buses_degraded, supervisor_.degraded_buses(), degraded_buses_);
-      degraded_buses_ = supervisor_.degraded_buses();
-    }
-    {  // drives reporting a supply below the backend's warning: a warning (below its fault: a drive fault)
-      std::uint32_t low = 0;
-      double lowest_v = std::numeric_limits<double>::infinity();
-      for (int j = 0; j < kNj; ++j) {
-        const hal::DriveStatus& d = meas_.drives[static_cast<std::size_t>(j)];
-        if (d.bus_voltage_low) low |= std::uint32_t{1} << j;
-        if (d.bus_voltage_v > 0.0) lowest_v = std::min(lowest_v, d.bus_voltage_v);
-      }
-      if (low != low_voltage_drives_) {
-        log(info, rt::LogEvent::bus_voltage_low, low, low_voltage_drives_, lowest_v);
-        low_voltage_drives_ = low;
-      }
-    }
-    if (supervisor_.mode() != mode_before) {
-      log(info, rt::LogEvent::mode_change, static_cast<std::int64_t>(mode_before),
-          static_cast<std::int64_t>(supervisor_.mode()));
-    }
-    status_.mode.store(static_cast<std::uint8_t>(supervisor_.mode()), std::memory_order_relaxed);
-    status_.faults.store(supervisor_.faults(), std::memory_order_relaxed);
-    status_.stale_ticks.store(supervisor_.stale_ticks(), std::memory_order_relaxed);
-    status_.limit_joint_position_rad.store(supervisor_.limit_joint_position_rad(), std::memory_order_relaxed);
-    status_.limit_joint.store(supervisor_.limit_joint(), std::memory_order_release);
-    if (telemetry_ != nullptr && info.index % telemetry_every_ == 0) send_telemetry(info);
+    record(info, before, io, wio);
   }
 
   // Live telemetry: a record every `every_ticks` ticks into `ring` (nullptr: none). Start-up.
@@ -155,6 +105,61 @@ class ControlLoop {
     }
     if constexpr (requires(Controller& c, TelemetryRecord& t) { c.telemetry(t); }) controller_.telemetry(r);
     (void)telemetry_->push(r);
+  }
+
+  struct Before {
+    safety::Mode mode;
+    safety::FaultMask faults;
+  };
+
+  // What the tick changed, into the log ring (mode and fault changes, HAL errors, the
+  // warnings), the loop's status and, every N ticks, a telemetry record. rt: no alloc, no block
+  void record(const rt::TickInfo& info, const Before& before, hal::IoStatus io, hal::IoStatus wio) noexcept {
+    if (io != hal::IoStatus::ok || wio != hal::IoStatus::ok) {
+      status_.hal_errors.fetch_add(1, std::memory_order_relaxed);
+    }
+    if (io != last_io_) {
+      log(info, rt::LogEvent::hal_io, static_cast<std::int64_t>(io), supervisor_.stale_ticks());
+      last_io_ = io;
+    }
+    if (supervisor_.faults() != before.faults) {
+      log(info, rt::LogEvent::fault_latched, supervisor_.faults() & ~before.faults, supervisor_.faults());
+      if ((supervisor_.faults() & ~before.faults & safety::fault::kJointLimit) != 0) {
+        log(info, rt::LogEvent::joint_limit, supervisor_.limit_joint(), static_cast<std::int64_t>(before.mode),
+            supervisor_.limit_joint_position_rad());
+      }
+    }
+    if (supervisor_.sensors_lost() != sensors_lost_) {  // a warning outside the control mode, a fault in it
+      sensors_lost_ = supervisor_.sensors_lost();
+      log(info, rt::LogEvent::sensors_lost, sensors_lost_, static_cast<std::int64_t>(supervisor_.mode()));
+    }
+    if (supervisor_.degraded_buses() != degraded_buses_) {  // a warning: the robot keeps going
+      log(info, rt::LogEvent::buses_degraded, supervisor_.degraded_buses(), degraded_buses_);
+      degraded_buses_ = supervisor_.degraded_buses();
+    }
+    {  // drives reporting a supply below the backend's warning: a warning (below its fault: a drive fault)
+      std::uint32_t low = 0;
+      double lowest_v = std::numeric_limits<double>::infinity();
+      for (int j = 0; j < kNj; ++j) {
+        const hal::DriveStatus& d = meas_.drives[static_cast<std::size_t>(j)];
+        if (d.bus_voltage_low) low |= std::uint32_t{1} << j;
+        if (d.bus_voltage_v > 0.0) lowest_v = std::min(lowest_v, d.bus_voltage_v);
+      }
+      if (low != low_voltage_drives_) {
+        log(info, rt::LogEvent::bus_voltage_low, low, low_voltage_drives_, lowest_v);
+        low_voltage_drives_ = low;
+      }
+    }
+    if (supervisor_.mode() != before.mode) {
+      log(info, rt::LogEvent::mode_change, static_cast<std::int64_t>(before.mode),
+          static_cast<std::int64_t>(supervisor_.mode()));
+    }
+    status_.mode.store(static_cast<std::uint8_t>(supervisor_.mode()), std::memory_order_relaxed);
+    status_.faults.store(supervisor_.faults(), std::memory_order_relaxed);
+    status_.stale_ticks.store(supervisor_.stale_ticks(), std::memory_order_relaxed);
+    status_.limit_joint_position_rad.store(supervisor_.limit_joint_position_rad(), std::memory_order_relaxed);
+    status_.limit_joint.store(supervisor_.limit_joint(), std::memory_order_release);
+    if (telemetry_ != nullptr && info.index % telemetry_every_ == 0) send_telemetry(info);
   }
 
   void log(const rt::TickInfo& info, rt::LogEvent event, std::int64_t a, std::int64_t b, double x = 0.0) noexcept {

@@ -14,7 +14,7 @@
 #include <memory>
 
 #include "springbok/app/config.hpp"
-#include "springbok/app/posture_control.hpp"
+#include "springbok/app/mode_controller.hpp"
 #include "springbok/control/robot_controller.hpp"
 
 namespace springbok::app {
@@ -49,7 +49,7 @@ class ControlMode {
   control::TickStatus last_status_ = control::TickStatus::ok;
 };
 
-static_assert(ControlModeController<ControlMode>);
-static_assert(ControlModeController<JointPdHold>);
+static_assert(ControlLaw<ControlMode>);
+static_assert(ControlLaw<JointPdHold>);
 
 }  // namespace springbok::app

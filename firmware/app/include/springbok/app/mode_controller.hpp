@@ -1,12 +1,14 @@
-// The controllers of the enabled modes:
+// The mode controller: the one place that reads the supervisor's mode and commands the
+// joints for it, every tick (ControlLoop calls it whatever the mode):
 //
+//   idle, damping: nothing (the supervisor writes those commands in finish());
 //   stand_up: the desired posture moves from the pose at entry to the stand
 //             posture along a smoothstep in stand_up_duration_s; done when
 //             the ramp ended and every leg joint is within stand_tolerance_rad;
 //   stand:    hold the stand posture (joint PD, no model-based feed-forward);
-//   control:  the plug-in control-mode controller (ControlMode in
-//             control_mode.hpp: the whole-body controller, or JointPdHold),
-//             which also observes the stand-up and stand ticks.
+//   control:  the control law (a ControlLaw: ControlMode in control_mode.hpp, the
+//             whole-body controller or JointPdHold), which also observes the
+//             stand-up and stand ticks.
 #pragma once
 
 #include <algorithm>
@@ -27,12 +29,12 @@ struct ControlInput {
   const hal::Measurements* meas = nullptr;
 };
 
-// A controller of the control mode; `in.ticks_in_mode` is 0 on its first tick.
+// The control law of the control mode; `in.ticks_in_mode` is 0 on its first tick.
 // observe() sees the stand-up and stand ticks (an estimator keeps running);
 // request() takes an operator's request in `mode` (nullptr: accepted, else why
 // not, a static string); publish() writes its state for `controller` (every tick).
 template <class C>
-concept ControlModeController = requires(C& c, const ControlInput& in, hal::JointCommands& cmd,
+concept ControlLaw = requires(C& c, const ControlInput& in, hal::JointCommands& cmd,
                                          const ControllerRequest& r, rt::LatestValue<ControllerSnapshot>& out) {
   { c.compute(in, cmd) } noexcept -> std::same_as<safety::ControllerReport>;
   { c.observe(in) } noexcept;
@@ -72,10 +74,10 @@ class JointPdHold {
   JointGains gains_;
 };
 
-template <ControlModeController Control>
-class PostureModes {
+template <ControlLaw Control>
+class ModeController {
  public:
-  PostureModes(const AppConfig& config, Control& control) noexcept
+  ModeController(const AppConfig& config, Control& control) noexcept
       : control_(control),
         posture_rad_(config.stand_posture_rad),
         gains_(config.stand_gains),
@@ -85,9 +87,9 @@ class PostureModes {
   // rt: no alloc
   safety::ControllerReport compute(const ControlInput& in, hal::JointCommands& cmd) noexcept {
     const hal::Measurements& m = *in.meas;
-    if (in.mode == safety::Mode::stand_up || in.mode == safety::Mode::stand) control_.observe(in);
     switch (in.mode) {
       case safety::Mode::stand_up: {
+        control_.observe(in);
         if (in.ticks_in_mode == 0) start_rad_ = m.q_rad;
         const double t_s = static_cast<double>(in.ticks_in_mode) * in.dt_s;
         const double s = std::clamp(t_s / duration_s_, 0.0, 1.0);
@@ -103,6 +105,7 @@ class PostureModes {
         return report;
       }
       case safety::Mode::stand:
+        control_.observe(in);
         joint_pd_command(posture_rad_, VecNj::Zero(), gains_, cmd);
         return {};
       case safety::Mode::control:
@@ -114,10 +117,10 @@ class PostureModes {
     return {};
   }
 
-  // The control mode's controller's. rt: no alloc
+  // The control law's. rt: no alloc
   const char* request(const ControllerRequest& r, safety::Mode mode) noexcept { return control_.request(r, mode); }
   void publish(rt::LatestValue<ControllerSnapshot>& out) noexcept { control_.publish(out); }
-  // The control mode's controller's part of a telemetry record, where it has one. rt: no alloc
+  // The control law's part of a telemetry record, where it has one. rt: no alloc
   void telemetry(TelemetryRecord& r) const noexcept {
     if constexpr (requires(const Control& c, TelemetryRecord& t) { c.telemetry(t); }) control_.telemetry(r);
   }
