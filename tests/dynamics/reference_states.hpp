@@ -1,5 +1,5 @@
-// The reference states (../shared/robot/reference/state_*.txt, globbed at run
-// time) and helpers to compare springbok's results with their blocks.
+// The reference states (test_data.hpp: reference_state_files(), globbed at run time) and
+// helpers to compare springbok's results with their blocks.
 #pragma once
 
 #include <algorithm>
@@ -11,26 +11,9 @@
 #include <Eigen/Core>
 
 #include "state_file.hpp"
+#include "test_data.hpp"
 
 namespace springbok::test {
-
-// Every state_*.txt in the shared reference folder, plus those in
-// $SPRINGBOK_REFERENCE_DIR when set (e.g. a held-out set), sorted.
-inline std::vector<std::string> reference_state_files() {
-  std::vector<std::string> dirs{std::string(SPRINGBOK_SHARED_DIR) + "/robot/reference"};
-  if (const char* extra = std::getenv("SPRINGBOK_REFERENCE_DIR")) dirs.emplace_back(extra);
-  std::vector<std::string> files;
-  for (const auto& dir : dirs) {
-    if (!std::filesystem::is_directory(dir)) continue;
-    for (const auto& entry : std::filesystem::directory_iterator(dir)) {
-      const std::string name = entry.path().filename().string();
-      if (name.rfind("state_", 0) == 0 && entry.path().extension() == ".txt")
-        files.push_back(entry.path().string());
-    }
-  }
-  std::sort(files.begin(), files.end());
-  return files;
-}
 
 inline Eigen::MatrixXd to_matrix(const state_file::Block& b) {
   Eigen::MatrixXd m(b.rows, b.cols);

@@ -36,7 +36,7 @@ class Oracle : public ::testing::Test {
 
 TEST_F(Oracle, EveryBlockOfEveryReferenceState) {
   const auto files = springbok::test::reference_state_files();
-  ASSERT_GE(files.size(), 1u) << "no state_*.txt under " << SPRINGBOK_SHARED_DIR;
+  ASSERT_GE(files.size(), 1u) << "no state_*.txt under " << springbok::test::data_dir();
   const dyn::Model model{Rotors::none};  // the URDF alone, as the reference states (and Pinocchio)
   auto data = std::make_unique<dyn::Data>();
   const char* feet[kFeet] = {"lf_foot", "rf_foot", "lh_foot", "rh_foot"};

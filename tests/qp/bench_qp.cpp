@@ -1,4 +1,5 @@
-// bench_qp: Google Benchmark over the shared instance files (globbed at start-up).
+// bench_qp: Google Benchmark over the QP instance files (tests/support/test_data.hpp, globbed
+// at start-up).
 //   qp/cold/<size>/<name>  one cold solve per iteration
 //   qp/warm/<size>/<name>  one solve warm-started from the previous solve's active set
 //   qp/warm-factor/<size>/<name>  the same, also reusing the previous solve's factor of H
@@ -11,8 +12,6 @@
 // issue's reference "bare LLT of H plus L^-T", ~16 us on these machines).
 // Each runs once per instruction-set level the binary holds and the CPU runs, the name
 // ending /isa:<level> (bench_qp_kernels.hpp): the QP and its yardstick at the same level.
-#include <algorithm>
-#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -22,10 +21,10 @@
 #include "bench_qp_kernels.hpp"
 #include "isa_bench.hpp"
 #include "qp_file.hpp"
+#include "test_data.hpp"
 
 namespace {
 
-namespace fs = std::filesystem;
 using springbok::qpfile::Instance;
 using springbok::qpbench::Mode;
 
@@ -56,11 +55,7 @@ std::vector<Instance>& instances() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const fs::path dir = fs::path(SPRINGBOK_SHARED_DIR) / "qp" / "instances";
-  std::vector<std::string> files;
-  for (const auto& e : fs::directory_iterator(dir))
-    if (e.path().extension() == ".qp") files.push_back(e.path().string());
-  std::sort(files.begin(), files.end());
+  const std::vector<std::string> files = springbok::test::qp_instance_files();
   auto& all = instances();
   all.reserve(files.size());
   for (const auto& f : files) {

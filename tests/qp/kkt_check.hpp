@@ -1,6 +1,6 @@
 // Independent KKT check of a QP solution, in long double, on the problem data
 // alone (H, g, Aeq, beq, Ain, lb, ub as dense row-major arrays): it shares no
-// code with the solver. Tolerances are those of shared/qp/FORMAT.md.
+// code with the solver. Tolerances are those of tests/data/qp/FORMAT.md.
 #pragma once
 
 #include <algorithm>

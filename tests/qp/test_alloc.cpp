@@ -9,6 +9,7 @@
 #include "alloc_trap.hpp"
 #include "qp_file.hpp"
 #include "springbok/qp/solver.hpp"
+#include "test_data.hpp"
 
 namespace {
 
@@ -18,7 +19,7 @@ template <int N, int ME, int MI>
 void expect_no_allocation(const std::string& file) {
   using S = springbok::qp::Solver<N, ME, MI>;
   std::string error;
-  const auto in = springbok::qpfile::read_instance(std::string(SPRINGBOK_SHARED_DIR) + "/qp/instances/" + file, error);
+  const auto in = springbok::qpfile::read_instance(springbok::test::qp_instance(file), error);
   ASSERT_TRUE(in.has_value()) << error;
   auto solver = std::make_unique<S>();
   auto problem = std::make_unique<typename S::ProblemType>();

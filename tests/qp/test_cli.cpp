@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "qp_file.hpp"
+#include "test_data.hpp"
 
 namespace {
 
@@ -52,7 +53,7 @@ CliRun run_cli(const std::string& args, const fs::path& work) {
 class QpCli : public ::testing::Test {
  protected:
   fs::path work = fs::temp_directory_path() / ("springbok_qp_cli_" + std::to_string(::getpid()));
-  std::string inst(const std::string& name) { return std::string(SPRINGBOK_SHARED_DIR) + "/qp/instances/" + name; }
+  std::string inst(const std::string& name) { return springbok::test::qp_instance(name); }
   void SetUp() override {
     fs::remove_all(work);
     fs::create_directories(work / "sol");

@@ -1,5 +1,5 @@
-// Every instance in shared/qp/instances (globbed at test time, so held-out files
-// of the same families are picked up): the status matches `expect`; for optimal
+// Every QP instance (tests/data/qp, and ../shared/qp/instances where present: test_data.hpp;
+// globbed at test time, so held-out files are picked up): the status matches `expect`; for optimal
 // ones x matches x* and an independent KKT check passes on our x and multipliers.
 // Each instance is solved at the firmware size (or the CLI's large size), cold,
 // warm from the reference active set and warm from our own active set; WBC-shaped
@@ -16,6 +16,7 @@
 #include "kkt_check.hpp"
 #include "qp_file.hpp"
 #include "springbok/qp/solver.hpp"
+#include "test_data.hpp"
 
 namespace {
 
@@ -35,7 +36,7 @@ std::vector<std::string> qp_files_in(const fs::path& dir) {
   std::sort(files.begin(), files.end());
   return files;
 }
-std::vector<std::string> instance_files() { return qp_files_in(fs::path(SPRINGBOK_SHARED_DIR) / "qp" / "instances"); }
+std::vector<std::string> instance_files() { return springbok::test::qp_instance_files(); }
 // Our own regression instances (tests/qp/instances: problems the soak once got wrong),
 // held to the same checks.
 std::vector<std::string> regression_files() { return qp_files_in(fs::path(SPRINGBOK_SOURCE_DIR) / "tests" / "qp" / "instances"); }

@@ -16,7 +16,7 @@
 
 namespace springbok::test {
 
-// Blocks of one reference state file (../shared/robot/reference/FORMAT.md).
+// Blocks of one reference state file (tests/data/reference/FORMAT.md).
 inline std::map<std::string, Eigen::MatrixXd> read_reference_state(const std::string& path) {
   std::ifstream in(path);
   std::map<std::string, Eigen::MatrixXd> blocks;

@@ -8,6 +8,7 @@
 
 #include "sim_test_util.hpp"
 #include "springbok/sim_hal/bullet_robot.hpp"
+#include "test_data.hpp"
 
 namespace {
 using namespace springbok;
@@ -16,8 +17,8 @@ constexpr int kStates = 10;
 
 std::string state_path(int i) {
   char name[64];
-  std::snprintf(name, sizeof name, "/robot/reference/state_%03d.txt", i);
-  return std::string(SPRINGBOK_SHARED_DIR) + name;
+  std::snprintf(name, sizeof name, "reference/hyq_gen3/state_%03d.txt", i);
+  return (springbok::test::data_dir() / name).string();
 }
 
 sim::SimConfig free_flight(const VecNq& q, const VecNv& v) {

@@ -1,5 +1,5 @@
 // springbok-dyn IN OUT: reads q, v, vdot, tau_aba from a state file
-// (../shared/robot/reference/FORMAT.md) and writes every block of the format
+// (tests/data/reference/FORMAT.md) and writes every block of the format
 // computed by springbok::dyn. A malformed IN gives a message naming the line,
 // exit status 1, and no OUT.
 #include <cstdio>

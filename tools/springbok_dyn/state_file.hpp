@@ -1,4 +1,4 @@
-// Reading and writing RBD state files (../shared/robot/reference/FORMAT.md):
+// Reading and writing RBD state files (tests/data/reference/FORMAT.md):
 // '#' comments, then blocks "<name> <rows> <cols>" each followed by <rows>
 // lines of <cols> numbers. Start-up / tool code: throws StateFileError with a
 // message "<file>:<line>: <what is wrong>".

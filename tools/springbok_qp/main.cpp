@@ -1,6 +1,6 @@
 // springbok-qp [--solution DIR] [--bench REPS] [--warm | --warm-factor] FILE...
 //
-// Solves each instance file (shared/qp/FORMAT.md) with springbok::qp::Solver and
+// Solves each instance file (tests/data/qp/FORMAT.md) with springbok::qp::Solver and
 // prints one line per file:  <name> <status> <objective> <iterations> [<median_us> <p99_us>]
 // Status words: optimal infeasible error maxiter size. Firmware-sized instances
 // (n <= 64, m_eq <= 32, m_in <= 160) use Solver<64, 32, 160>; larger ones a

@@ -1,4 +1,4 @@
-// Reading shared/qp instance files (FORMAT.md, version 1) and writing/reading
+// Reading QP instance files (tests/data/qp/FORMAT.md, version 1) and writing/reading
 // the springbok-qp solution files. Tooling only (allocates, throws inside,
 // reports errors as values); never on the tick path.
 #pragma once

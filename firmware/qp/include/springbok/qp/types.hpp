@@ -98,7 +98,7 @@ struct Problem {
   }
 };
 
-// Multiplier convention (shared/qp/FORMAT.md):
+// Multiplier convention (tests/data/qp/FORMAT.md):
 //   H x + g + Aeq' lambda_eq + Ain' lambda_in = 0,
 //   lambda_in[i] >= 0 at the upper bound, <= 0 at the lower bound, 0 if inactive.
 template <int N, int ME, int MI>
