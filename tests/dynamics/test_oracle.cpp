@@ -35,7 +35,7 @@ class Oracle : public ::testing::Test {
 };
 
 TEST_F(Oracle, EveryBlockOfEveryReferenceState) {
-  const auto files = springbok::test::reference_state_files();
+  const auto files = springbok::test::reference_state_files(robot::kRobotName);
   ASSERT_GE(files.size(), 1u) << "no state_*.txt under " << springbok::test::data_dir();
   const dyn::Model model{Rotors::none};  // the URDF alone, as the reference states (and Pinocchio)
   auto data = std::make_unique<dyn::Data>();

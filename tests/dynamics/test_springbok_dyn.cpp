@@ -11,6 +11,7 @@
 #include <string>
 
 #include "reference_states.hpp"
+#include "springbok/model/model.hpp"
 
 namespace {
 namespace fs = std::filesystem;
@@ -46,7 +47,7 @@ class SpringbokDyn : public ::testing::Test {
   void SetUp() override {
     dir_ = fs::temp_directory_path() / ("springbok_dyn_test_" + std::to_string(::getpid()));
     fs::create_directories(dir_);
-    const auto files = springbok::test::reference_state_files();
+    const auto files = springbok::test::reference_state_files(springbok::robot::kRobotName);
     ASSERT_FALSE(files.empty());
     reference_ = files.front();
   }

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace springbok::test {
@@ -39,10 +40,14 @@ inline std::vector<std::string> data_files(const std::string& repo_subdir, const
   return files;
 }
 
-// The dynamics oracle's states (tests/data/reference/hyq_gen3, ../shared/robot/reference,
+// The dynamics oracle's states of the robot this build is for (tests/data/reference/<robot>,
+// ../shared/robot/<robot>/reference or, for the first robot, ../shared/robot/reference,
 // $SPRINGBOK_REFERENCE_DIR).
-inline std::vector<std::string> reference_state_files() {
-  return data_files("reference/hyq_gen3", "robot/reference", "state_", ".txt", "SPRINGBOK_REFERENCE_DIR");
+inline std::vector<std::string> reference_state_files(std::string_view robot_name) {
+  const std::string robot(robot_name);
+  const bool own_folder = std::filesystem::is_directory(std::filesystem::path(SPRINGBOK_SHARED_DIR) / "robot" / robot);
+  return data_files("reference/" + robot, own_folder ? "robot/" + robot + "/reference" : "robot/reference", "state_",
+                    ".txt", "SPRINGBOK_REFERENCE_DIR");
 }
 
 // The QP instances (tests/data/qp, ../shared/qp/instances).

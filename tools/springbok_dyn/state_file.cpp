@@ -87,7 +87,7 @@ const Block& StateFile::require(const std::string& name, int rows, int cols) con
 }
 
 StateFile parse(const std::string& text, const std::string& source) {
-  StateFile file{source, {}};
+  StateFile file{source, {}, {}};
   std::istringstream in(text);
   std::string line;
   int line_no = 0;
@@ -113,6 +113,12 @@ StateFile parse(const std::string& text, const std::string& source) {
       fail(source, line_no,
            "block '" + open->name + "' row " + std::to_string(rows_read + 1) + " has " +
                std::to_string(tokens.size()) + " numbers, expected " + std::to_string(open->cols));
+    if (open->name == "joints") {  // format v2: the joints' names, in the order of q[7:] and v[6:]
+      if (open->rows != 1) fail(source, open->header_line, "block 'joints' must have 1 row");
+      file.joint_names = tokens;
+      open = nullptr;
+      continue;
+    }
     for (int k = 0; k < open->cols; ++k)
       open->values.push_back(parse_number(tokens[static_cast<std::size_t>(k)], source, line_no, k));
     if (++rows_read == open->rows) open = nullptr;
@@ -134,6 +140,19 @@ StateFile read(const std::string& path) {
 }
 
 DynamicsInput dynamics_input(const StateFile& file) {
+  // Format v2 names its joints: they must be this model's, in its order.
+  if (const Block* names = file.find("joints")) {
+    if (static_cast<int>(file.joint_names.size()) != kNj)
+      fail(file.source, names->header_line,
+           "the file has " + std::to_string(file.joint_names.size()) + " joints, the model " + std::to_string(kNj));
+    for (int j = 0; j < kNj; ++j) {
+      const std::string_view mine = robot::kJoints[static_cast<std::size_t>(j)].name;
+      if (file.joint_names[static_cast<std::size_t>(j)] != mine)
+        fail(file.source, names->header_line + 1,
+             "joint " + std::to_string(j) + " is '" + file.joint_names[static_cast<std::size_t>(j)] + "', the model's '" +
+                 std::string(mine) + "' (a file of another robot, or another order)");
+    }
+  }
   DynamicsInput in;
   const Block& q = file.require("q", 1, kNq);
   copy_row(q, in.q);

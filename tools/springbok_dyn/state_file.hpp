@@ -28,6 +28,7 @@ struct Block {
 struct StateFile {
   std::string source;  // file name, for messages
   std::vector<Block> blocks;
+  std::vector<std::string> joint_names;  // format v2's `joints` block (an empty block in `blocks`)
 
   // The block called `name`, or nullptr.
   const Block* find(const std::string& name) const;

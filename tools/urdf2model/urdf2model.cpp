@@ -1,356 +1,31 @@
-// urdf2model: reads a URDF (tinyxml2) and writes the C++ header holding the
-// compile-time robot model (springbok::model types, see model_types.hpp).
+// urdf2model: reads a robot file (robot.yaml: firmware/model/robots/README.md) and the URDF it
+// names, and writes the C++ header holding the compile-time robot model (springbok::model
+// types, see model_types.hpp), in namespace springbok::robot.
 //
-//   urdf2model ROBOT.urdf OUT.hpp [--namespace NAME]
+//   urdf2model ROBOT.yaml OUT.hpp [--urdf PATH]
 //
-// The tree is rooted at the single link that is no joint's child (the
-// floating base). Fixed joints are merged: their child links' inertias move
-// into the movable parent body, and they become named frames. Movable joints
-// are numbered depth-first in document order, so the URDF's joint order is
-// the generalized-coordinate order. Any structural problem (missing
-// <inertial>, unknown joint type, unknown link, a cycle, two roots, a bad
-// number) is an error that names the element.
-#include <array>
-#include <cmath>
+// The tree is rooted at the single link that is no joint's child (the floating base). Fixed
+// joints, and the joints the robot file locks, are merged: their child links' inertias move
+// into the movable parent body, and they become named frames. The movable joints are ordered
+// as the robot file lists them: the legs LF RF LH RH, then the arm. Any structural problem of
+// the URDF (missing <inertial>, unknown joint type, unknown link, a cycle, two roots, a bad
+// number) is an error that names the element; any problem of the robot file names its field.
+// Every joint comes out turning about +z of its joint frame (turn_axes_to_z): a body's frame
+// may be the URDF link's turned, the named frames and q are the URDF's.
 #include <cstdio>
-#include <cstdlib>
 #include <fstream>
-#include <map>
-#include <set>
 #include <sstream>
-#include <stdexcept>
 #include <string>
-#include <vector>
 
 #include <CLI/CLI.hpp>
-#include <tinyxml2.h>
+
+#include "robot_file.hpp"
+#include "urdf_tree.hpp"
 
 namespace {
 
-using Vec3 = std::array<double, 3>;
-using Mat3 = std::array<double, 9>;  // row-major
+using namespace springbok::urdf2model;
 
-struct Error : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
-// ---- small 3D algebra (start-up code; clarity over speed) -----------------
-Mat3 mul(const Mat3& a, const Mat3& b) {
-  Mat3 c{};
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k) c[3 * i + j] += a[3 * i + k] * b[3 * k + j];
-  return c;
-}
-Vec3 mul(const Mat3& a, const Vec3& v) {
-  Vec3 r{};
-  for (int i = 0; i < 3; ++i)
-    for (int k = 0; k < 3; ++k) r[i] += a[3 * i + k] * v[k];
-  return r;
-}
-Mat3 transpose(const Mat3& a) {
-  Mat3 t{};
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) t[3 * i + j] = a[3 * j + i];
-  return t;
-}
-Vec3 add(const Vec3& a, const Vec3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
-Mat3 identity() { return {1, 0, 0, 0, 1, 0, 0, 0, 1}; }
-
-// URDF: R = Rz(yaw) Ry(pitch) Rx(roll).
-Mat3 rpy_to_matrix(const Vec3& rpy) {
-  const double cr = std::cos(rpy[0]), sr = std::sin(rpy[0]);
-  const double cp = std::cos(rpy[1]), sp = std::sin(rpy[1]);
-  const double cy = std::cos(rpy[2]), sy = std::sin(rpy[2]);
-  return {cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr,
-          sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr,
-          -sp,     cp * sr,                cp * cr};
-}
-
-struct Pose {
-  Mat3 R = identity();
-  Vec3 t{0, 0, 0};
-};
-Pose compose(const Pose& a, const Pose& b) { return {mul(a.R, b.R), add(mul(a.R, b.t), a.t)}; }
-
-// Inertia about the COM in body axes, as a full symmetric matrix.
-struct Body {
-  double mass = 0;
-  Vec3 com{0, 0, 0};
-  Mat3 inertia{};  // about com
-};
-
-// Adds `part` (already expressed in the body frame) to `body` (parallel axis theorem).
-void merge_into(Body& body, const Body& part) {
-  const double m = body.mass + part.mass;
-  if (part.mass == 0.0 && part.inertia == Mat3{}) return;
-  Vec3 c{0, 0, 0};
-  if (m > 0)
-    for (int i = 0; i < 3; ++i) c[i] = (body.mass * body.com[i] + part.mass * part.com[i]) / m;
-  auto shifted = [&c](const Body& b) {
-    const Vec3 d{b.com[0] - c[0], b.com[1] - c[1], b.com[2] - c[2]};
-    const double dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-    Mat3 r = b.inertia;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) r[3 * i + j] += b.mass * ((i == j ? dd : 0.0) - d[i] * d[j]);
-    return r;
-  };
-  const Mat3 a = shifted(body), b = shifted(part);
-  for (int i = 0; i < 9; ++i) body.inertia[i] = a[i] + b[i];
-  body.mass = m;
-  body.com = c;
-}
-
-Body transformed(const Body& b, const Pose& p) {
-  return {b.mass, add(mul(p.R, b.com), p.t), mul(mul(p.R, b.inertia), transpose(p.R))};
-}
-
-// ---- URDF parsing ---------------------------------------------------------
-double parse_number(const std::string& s, const std::string& where) {
-  const char* begin = s.c_str();
-  char* end = nullptr;
-  const double v = std::strtod(begin, &end);
-  while (end && *end == ' ') ++end;
-  if (end == begin || (end && *end != '\0') || !std::isfinite(v))
-    throw Error(where + ": bad number '" + s + "'");
-  return v;
-}
-
-Vec3 parse_vec3(const char* text, const std::string& where, Vec3 fallback) {
-  if (!text) return fallback;
-  std::istringstream in(text);
-  std::vector<std::string> tok;
-  for (std::string t; in >> t;) tok.push_back(t);
-  if (tok.size() != 3) throw Error(where + ": expected 3 numbers, got '" + std::string(text) + "'");
-  return {parse_number(tok[0], where), parse_number(tok[1], where), parse_number(tok[2], where)};
-}
-
-double required_attr(const tinyxml2::XMLElement* e, const char* name, const std::string& where) {
-  const char* text = e ? e->Attribute(name) : nullptr;
-  if (!text) throw Error(where + ": missing attribute '" + name + "'");
-  return parse_number(text, where + " " + name);
-}
-
-Pose parse_origin(const tinyxml2::XMLElement* parent, const std::string& where) {
-  const auto* o = parent->FirstChildElement("origin");
-  if (!o) return {};
-  return {rpy_to_matrix(parse_vec3(o->Attribute("rpy"), where + " <origin rpy>", {0, 0, 0})),
-          parse_vec3(o->Attribute("xyz"), where + " <origin xyz>", {0, 0, 0})};
-}
-
-struct Geometry {
-  std::string shape;
-  Vec3 size{0, 0, 0};
-  Pose origin;
-};
-
-struct Link {
-  std::string name;
-  Body body;  // in the link frame
-  std::vector<Geometry> collisions;
-};
-
-struct JointIn {
-  std::string name, type, parent, child;
-  Pose origin;
-  Vec3 axis{1, 0, 0};
-  bool has_limit = false;
-  double lower = 0, upper = 0, effort = 0, velocity = 0, damping = 0;
-};
-
-Link parse_link(const tinyxml2::XMLElement* e) {
-  Link l;
-  const char* name = e->Attribute("name");
-  if (!name) throw Error("<link> without a name attribute (line " + std::to_string(e->GetLineNum()) + ")");
-  l.name = name;
-  const std::string where = "link '" + l.name + "'";
-  const auto* in = e->FirstChildElement("inertial");
-  if (!in) throw Error(where + ": missing <inertial>");
-  const auto* mass = in->FirstChildElement("mass");
-  if (!mass) throw Error(where + ": <inertial> without <mass>");
-  l.body.mass = required_attr(mass, "value", where + " <mass>");
-  if (l.body.mass < 0) throw Error(where + ": negative mass");
-  const auto* I = in->FirstChildElement("inertia");
-  if (!I) throw Error(where + ": <inertial> without <inertia>");
-  const std::string iw = where + " <inertia>";
-  const double ixx = required_attr(I, "ixx", iw), iyy = required_attr(I, "iyy", iw),
-               izz = required_attr(I, "izz", iw), ixy = required_attr(I, "ixy", iw),
-               ixz = required_attr(I, "ixz", iw), iyz = required_attr(I, "iyz", iw);
-  const Pose inertial_origin = parse_origin(in, where + " <inertial>");
-  const Body local{l.body.mass, {0, 0, 0}, {ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz}};
-  l.body = transformed(local, inertial_origin);
-  for (const auto* c = e->FirstChildElement("collision"); c; c = c->NextSiblingElement("collision")) {
-    const auto* g = c->FirstChildElement("geometry");
-    const auto* shape = g ? g->FirstChildElement() : nullptr;
-    if (!shape) throw Error(where + ": <collision> without <geometry>");
-    Geometry geo;
-    geo.origin = parse_origin(c, where + " <collision>");
-    geo.shape = shape->Name();
-    const std::string gw = where + " <" + geo.shape + ">";
-    if (geo.shape == "box") {
-      geo.size = parse_vec3(shape->Attribute("size"), gw + " size", {0, 0, 0});
-    } else if (geo.shape == "cylinder") {
-      geo.size = {required_attr(shape, "radius", gw), required_attr(shape, "length", gw), 0};
-    } else if (geo.shape == "sphere") {
-      geo.size = {required_attr(shape, "radius", gw), 0, 0};
-    } else {
-      throw Error(where + ": unsupported collision geometry <" + geo.shape + ">");
-    }
-    l.collisions.push_back(geo);
-  }
-  return l;
-}
-
-JointIn parse_joint(const tinyxml2::XMLElement* e) {
-  JointIn j;
-  const char* name = e->Attribute("name");
-  if (!name) throw Error("<joint> without a name attribute (line " + std::to_string(e->GetLineNum()) + ")");
-  j.name = name;
-  const std::string where = "joint '" + j.name + "'";
-  const char* type = e->Attribute("type");
-  if (!type) throw Error(where + ": missing type");
-  j.type = type;
-  if (j.type != "revolute" && j.type != "continuous" && j.type != "fixed")
-    throw Error(where + ": unsupported joint type '" + j.type +
-                "' (springbok models revolute, continuous and fixed joints)");
-  const auto* p = e->FirstChildElement("parent");
-  const auto* c = e->FirstChildElement("child");
-  if (!p || !p->Attribute("link")) throw Error(where + ": missing <parent link=...>");
-  if (!c || !c->Attribute("link")) throw Error(where + ": missing <child link=...>");
-  j.parent = p->Attribute("link");
-  j.child = c->Attribute("link");
-  j.origin = parse_origin(e, where);
-  if (const auto* a = e->FirstChildElement("axis")) j.axis = parse_vec3(a->Attribute("xyz"), where + " <axis>", {1, 0, 0});
-  const double n = std::sqrt(j.axis[0] * j.axis[0] + j.axis[1] * j.axis[1] + j.axis[2] * j.axis[2]);
-  if (j.type != "fixed" && n < 1e-12) throw Error(where + ": zero axis");
-  if (n > 0)
-    for (double& x : j.axis) x /= n;
-  if (const auto* lim = e->FirstChildElement("limit")) {
-    const std::string lw = where + " <limit>";
-    j.effort = required_attr(lim, "effort", lw);
-    j.velocity = required_attr(lim, "velocity", lw);
-    if (j.type == "revolute") {
-      j.has_limit = true;
-      j.lower = required_attr(lim, "lower", lw);
-      j.upper = required_attr(lim, "upper", lw);
-      if (j.lower > j.upper) throw Error(lw + ": lower > upper");
-    }
-  } else if (j.type == "revolute") {
-    throw Error(where + ": revolute joint without <limit>");
-  }
-  if (const auto* d = e->FirstChildElement("dynamics"); d && d->Attribute("damping"))
-    j.damping = parse_number(d->Attribute("damping"), where + " <dynamics damping>");
-  return j;
-}
-
-// ---- the tree ---------------------------------------------------------------
-struct Tree {
-  std::string robot_name;
-  std::string root;
-  std::vector<Link> links;
-  std::map<std::string, int> link_index;
-  std::vector<JointIn> joints;
-};
-
-Tree read_urdf(const std::string& path) {
-  tinyxml2::XMLDocument doc;
-  if (doc.LoadFile(path.c_str()) != tinyxml2::XML_SUCCESS)
-    throw Error("cannot parse XML: " + std::string(doc.ErrorStr()));
-  const auto* robot = doc.FirstChildElement("robot");
-  if (!robot) throw Error("no <robot> element");
-  Tree t;
-  t.robot_name = robot->Attribute("name") ? robot->Attribute("name") : "robot";
-  for (const auto* e = robot->FirstChildElement("link"); e; e = e->NextSiblingElement("link")) {
-    Link l = parse_link(e);
-    if (t.link_index.count(l.name)) throw Error("link '" + l.name + "' defined twice");
-    t.link_index[l.name] = static_cast<int>(t.links.size());
-    t.links.push_back(std::move(l));
-  }
-  if (t.links.empty()) throw Error("no <link>");
-  std::set<std::string> children;
-  for (const auto* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint")) {
-    JointIn j = parse_joint(e);
-    if (!t.link_index.count(j.parent)) throw Error("joint '" + j.name + "': unknown parent link '" + j.parent + "'");
-    if (!t.link_index.count(j.child)) throw Error("joint '" + j.name + "': unknown child link '" + j.child + "'");
-    if (!children.insert(j.child).second)
-      throw Error("joint '" + j.name + "': link '" + j.child + "' has two parent joints");
-    t.joints.push_back(std::move(j));
-  }
-  std::vector<std::string> roots;
-  for (const auto& l : t.links)
-    if (!children.count(l.name)) roots.push_back(l.name);
-  if (roots.empty()) throw Error("no root link: the joints form a cycle");
-  if (roots.size() > 1) {
-    std::string names;
-    for (const auto& r : roots) names += (names.empty() ? "'" : ", '") + r + "'";
-    throw Error("more than one root link (" + names + "): the URDF must be one tree");
-  }
-  t.root = roots.front();
-  return t;
-}
-
-struct Output {
-  Body base;
-  struct J {
-    const JointIn* in;
-    int parent_body;
-    Pose origin;  // in the parent body frame
-    Body body;
-  };
-  std::vector<J> joints;
-  struct F {
-    std::string name;
-    int body;
-    Pose placement;
-  };
-  std::vector<F> frames;
-  struct C {
-    int body;
-    Geometry geo;
-  };
-  std::vector<C> collisions;
-};
-
-Output build(const Tree& t) {
-  Output out;
-  std::map<std::string, std::vector<const JointIn*>> by_parent;
-  for (const auto& j : t.joints) by_parent[j.parent].push_back(&j);
-
-  std::set<std::string> visited;
-  // Depth-first from the root; `body` = index of the movable body the link belongs to,
-  // `pose` = the link frame in that body's frame.
-  auto visit = [&](auto&& self, const std::string& link, int body, const Pose& pose) -> void {
-    if (!visited.insert(link).second) throw Error("link '" + link + "' reached twice: the joints form a cycle");
-    const Link& l = t.links[t.link_index.at(link)];
-    Body& target = body == 0 ? out.base : out.joints[body - 1].body;
-    merge_into(target, transformed(l.body, pose));
-    for (const auto& g : l.collisions) {
-      Geometry geo = g;
-      geo.origin = compose(pose, g.origin);
-      out.collisions.push_back({body, geo});
-    }
-    auto it = by_parent.find(link);
-    if (it == by_parent.end()) return;
-    for (const JointIn* j : it->second) {
-      const Pose child_pose = compose(pose, j->origin);
-      if (j->type == "fixed") {
-        out.frames.push_back({j->child, body, child_pose});
-        self(self, j->child, body, child_pose);
-      } else {
-        out.joints.push_back({j, body, child_pose, Body{}});
-        self(self, j->child, static_cast<int>(out.joints.size()), Pose{});
-      }
-    }
-  };
-  visit(visit, t.root, 0, Pose{});
-  if (visited.size() != t.links.size()) {
-    for (const auto& l : t.links)
-      if (!visited.count(l.name)) throw Error("link '" + l.name + "' is not connected to the root (a cycle?)");
-  }
-  return out;
-}
-
-// ---- emission ---------------------------------------------------------------
 std::string num(double v) {
   if (v == 0.0) return "0.0";  // also folds -0
   char buf[64];
@@ -365,6 +40,11 @@ std::string arr(const std::array<double, N>& a) {
   for (std::size_t i = 0; i < N; ++i) s += (i ? ", " : "") + num(a[i]);
   return s + "}";
 }
+std::string list(const std::vector<double>& a) {
+  std::string s = "{";
+  for (std::size_t i = 0; i < a.size(); ++i) s += (i ? ", " : "") + num(a[i]);
+  return s + "}";
+}
 std::string transform(const Pose& p) { return "{" + arr(p.R) + ", " + arr(p.t) + "}"; }
 std::string inertia(const Body& b) {
   const std::array<double, 6> I{b.inertia[0], b.inertia[4], b.inertia[8], b.inertia[1], b.inertia[2], b.inertia[5]};
@@ -375,36 +55,48 @@ std::string ident(std::string s) {
     if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
   return s;
 }
+// A C++ string literal of `s` (the robot file's free text).
+std::string quoted(const std::string& s) {
+  std::string q = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') q += '\\';
+    q += c == '\n' ? ' ' : c;
+  }
+  return q + "\"";
+}
+std::string gains(const GainsIn& g) { return "{" + num(g.mass) + ", " + num(g.damping) + ", " + num(g.stiffness) + "}"; }
 
-std::string emit(const Tree& t, const Output& o, const std::string& ns, const std::string& source) {
+std::string emit(const Tree& t, const Output& o, const RobotSpec& r) {
   std::ostringstream h;
-  h << "// GENERATED by tools/urdf2model from " << source << " -- do not edit by hand.\n"
-    << "// Regenerate: build/<preset>/bin/urdf2model ../shared/robot/" << source
-    << " firmware/model/include/springbok/model/" << ns << ".hpp\n"
-    << "// A test regenerates this file and fails on any difference.\n"
+  h << "// GENERATED by tools/urdf2model from the robot file " << r.name << "/robot.yaml and its URDF -- do not\n"
+    << "// edit by hand. Regenerate: urdf2model ROBOT_DIR/robot.yaml ROBOT_DIR/robot_model.hpp [--urdf PATH]\n"
+    << "// A test regenerates the shipped robots' models and fails on any difference.\n"
     << "#pragma once\n\n#include <array>\n#include <string_view>\n\n"
     << "#include \"springbok/model/model_types.hpp\"\n\n"
-    << "namespace springbok::model::" << ns << " {\n\n"
-    << "inline constexpr std::string_view kRobotName = \"" << t.robot_name << "\";\n"
+    << "namespace springbok::robot {\n\n"
+    << "inline constexpr std::string_view kRobotName = \"" << r.name << "\";\n"
     << "inline constexpr std::string_view kBaseLink = \"" << t.root << "\";\n"
     << "inline constexpr int kNumJoints = " << o.joints.size() << ";\n"
     << "inline constexpr int kNumBodies = kNumJoints + 1;  // body 0 = the floating base\n\n"
     << "// The floating base with every fixed-attached link merged in.\n"
-    << "inline constexpr Inertia kBaseInertia" << inertia(o.base) << ";\n\n"
-    << "// Movable joints in generalized-coordinate order; joint i moves body i + 1.\n"
-    << "inline constexpr std::array<Joint, kNumJoints> kJoints{{\n";
+    << "inline constexpr model::Inertia kBaseInertia" << inertia(o.base) << ";\n\n"
+    << "// Movable joints in generalized-coordinate order (legs LF RF LH RH, then the arm); joint i\n"
+    << "// moves body i + 1, about +z of its joint frame (a body's frame is its URDF link's turned\n"
+    << "// where the URDF's axis is another).\n"
+    << "inline constexpr std::array<model::Joint, kNumJoints> kJoints{{\n";
   for (const auto& j : o.joints) {
-    const auto& in = *j.in;
+    const auto& in = j.in;
     h << "    {\"" << in.name << "\", \"" << in.child << "\", " << j.parent_body << ",\n"
       << "     " << transform(j.origin) << ",\n"
-      << "     " << arr(in.axis) << ", JointType::" << in.type << ",\n"
+      << "     " << arr(in.axis) << ", model::JointType::" << in.type << ",\n"
       << "     {" << (in.has_limit ? "true" : "false") << ", " << num(in.lower) << ", " << num(in.upper) << ", "
       << num(in.effort) << ", " << num(in.velocity) << "}, " << num(in.damping) << ",\n"
       << "     " << inertia(j.body) << "},\n";
   }
-  h << "}};\n\n// Frames rigidly attached to a body (fixed-joint child links).\n"
+  h << "}};\n\n// Frames rigidly attached to a body (fixed-joint child links; a body's own link or a foot\n"
+    << "// sphere's centre where the robot file names one).\n"
     << "inline constexpr int kNumFrames = " << o.frames.size() << ";\n"
-    << "inline constexpr std::array<Frame, kNumFrames> kFrames{{\n";
+    << "inline constexpr std::array<model::Frame, kNumFrames> kFrames{{\n";
   for (const auto& f : o.frames)
     h << "    {\"" << f.name << "\", " << f.body << ", " << transform(f.placement) << "},\n";
   h << "}};\n";
@@ -412,32 +104,75 @@ std::string emit(const Tree& t, const Output& o, const std::string& ns, const st
     h << "inline constexpr int kFrame_" << ident(o.frames[i].name) << " = " << i << ";\n";
   h << "\n// Joint indices by name.\n";
   for (std::size_t i = 0; i < o.joints.size(); ++i)
-    h << "inline constexpr int kJoint_" << ident(o.joints[i].in->name) << " = " << i << ";\n";
-  h << "\n// Collision primitives (for the simulator), in body frames.\n"
+    h << "inline constexpr int kJoint_" << ident(o.joints[i].in.name) << " = " << i << ";\n";
+  h << "\n// Collision primitives (for the simulator), in body frames.\n";
+  for (const auto& m : o.skipped_meshes) h << "// Not simulated (a mesh): " << m << "\n";
+  h << ""
     << "inline constexpr int kNumCollisions = " << o.collisions.size() << ";\n"
-    << "inline constexpr std::array<Collision, kNumCollisions> kCollisions{{\n";
+    << "inline constexpr std::array<model::Collision, kNumCollisions> kCollisions{{\n";
   for (const auto& c : o.collisions)
-    h << "    {" << c.body << ", Shape::" << c.geo.shape << ", " << arr(c.geo.size) << ", " << transform(c.geo.origin)
-      << "},\n";
-  h << "}};\n\n}  // namespace springbok::model::" << ns << "\n";
+    h << "    {" << c.body << ", model::Shape::" << c.geo.shape << ", " << arr(c.geo.size) << ", "
+      << transform(c.geo.origin) << "},\n";
+  h << "}};\n\n"
+    << "// ---- from the robot file -------------------------------------------------------------\n"
+    << "inline constexpr int kFeet = " << kFeet << ";\n"
+    << "inline constexpr int kLegJoints = " << kLegJoints << ";\n"
+    << "inline constexpr int kFirstArmJoint = " << r.first_arm_joint << ";\n"
+    << "inline constexpr int kArmJoints = " << r.arm_joints << ";\n"
+    << "// The feet's contact spheres: centre frames (LF RF LH RH) and radius.\n"
+    << "inline constexpr std::array<int, kFeet> kFootFrames{" << r.foot_frames[0] << ", " << r.foot_frames[1] << ", "
+    << r.foot_frames[2] << ", " << r.foot_frames[3] << "};\n"
+    << "inline constexpr double kFootRadius_m = " << num(r.foot_radius_m) << ";\n"
+    << "inline constexpr int kEeFrame = " << r.ee_frame << ";\n"
+    << "inline constexpr int kImuFrame = " << r.imu_frame << ";\n"
+    << "inline constexpr int kWristFtFrame = " << r.wrist_ft_frame << ";\n\n"
+    << "// The actuators' rotor inertia reflected through the gear, per joint [kg m^2].\n"
+    << "inline constexpr std::string_view kRotorInertiaSource = " << quoted(r.rotor_source) << ";\n"
+    << "inline constexpr std::array<double, kNumJoints> kRotorInertia_kgm2" << list(r.rotor_inertia_kgm2) << ";\n\n"
+    << "// Per joint: the URDF's flat effort (kJoints[j].limits.effort_nm), or a lever actuator's.\n"
+    << "inline constexpr std::array<model::TorqueLimit, kNumJoints> kTorqueLimits{{\n";
+  for (std::size_t j = 0; j < o.joints.size(); ++j) {
+    if (!r.lever[j]) {
+      h << "    {model::TorqueLimit::Kind::flat, {}},\n";
+      continue;
+    }
+    const LeverIn& l = r.levers[j];
+    h << "    {model::TorqueLimit::Kind::lever, {" << num(l.force_max_n) << ", " << num(l.a_m) << ", " << num(l.b_m)
+      << ", " << num(l.angle_sign) << ", " << num(l.angle_offset_rad) << "}},\n";
+  }
+  h << "}};\n\n"
+    << "// The nominal stance, and the pose lying on the folded legs that stand-up starts from [rad].\n"
+    << "inline constexpr std::array<double, kNumJoints> kStance_rad" << list(r.stance_rad) << ";\n"
+    << "inline constexpr std::array<double, kNumJoints> kLying_rad" << list(r.lying_rad) << ";\n\n"
+    << "// The template rendered unless a config says otherwise (base_rotation's mass 0: the\n"
+    << "// robot's composite inertia).\n"
+    << "inline constexpr model::DefaultTemplate kTemplate{" << gains(r.base) << ", " << gains(r.ee) << ", "
+    << gains(r.base_rotation) << ", " << gains(r.ee_rotation) << "};\n\n"
+    << "}  // namespace springbok::robot\n";
   return h.str();
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"urdf2model: URDF -> springbok compile-time model header"};
-  std::string urdf, out, ns;
-  app.add_option("urdf", urdf, "the robot's URDF")->required();
+  CLI::App app{"urdf2model: robot file + URDF -> springbok compile-time model header"};
+  std::string robot_file, out, urdf;
+  app.add_option("robot", robot_file, "the robot file (robot.yaml)")->required();
   app.add_option("out", out, "header to write ('-' = stdout)")->required();
-  app.add_option("--namespace", ns, "namespace under springbok::model (default: the robot name)");
+  app.add_option("--urdf", urdf, "the URDF (default: the robot file's `urdf`, beside it)");
   CLI11_PARSE(app, argc, argv);
+  std::string reading = robot_file;
   try {
-    const Tree tree = read_urdf(urdf);
-    if (ns.empty()) ns = ident(tree.robot_name);
-    const Output o = build(tree);
-    const std::string source = urdf.substr(urdf.find_last_of('/') + 1);
-    const std::string text = emit(tree, o, ns, source);
+    const RobotFile file(robot_file);
+    if (urdf.empty()) urdf = file.urdf_path();
+    reading = urdf;
+    Tree tree = read_urdf(urdf);
+    reading = robot_file;
+    file.lock_joints(tree);
+    Output bodies = build(tree);
+    const RobotSpec spec = file.apply(tree, bodies);
+    turn_axes_to_z(bodies);
+    const std::string text = emit(tree, bodies, spec);
     if (out == "-") {
       std::fwrite(text.data(), 1, text.size(), stdout);
     } else {
@@ -449,7 +184,7 @@ int main(int argc, char** argv) {
       if (std::rename(tmp.c_str(), out.c_str()) != 0) throw Error(out + ": cannot write");
     }
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "urdf2model: %s: %s\n", urdf.c_str(), e.what());
+    std::fprintf(stderr, "urdf2model: %s: %s\n", reading.c_str(), e.what());
     return 1;
   }
   return 0;

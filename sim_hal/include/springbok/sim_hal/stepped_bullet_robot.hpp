@@ -36,16 +36,13 @@ class SteppedBulletRobot final : public hal::Hardware {
   BulletRobot robot_;
 };
 
-// A crouch inside every joint limit, trunk level (configure() lowers it onto the feet).
+// Lying on the folded legs (the robot file's lying_rad), trunk level (configure() lowers it
+// onto the feet).
 inline SimConfig crouched_sim_config(int rate_hz) {
   SimConfig sim;
   sim.step_s = 1.0 / rate_hz;
   sim.initial_q[2] = 1.0;
-  for (int leg = 0; leg < kFeet; ++leg) {
-    const double side = leg < 2 ? 1.0 : -1.0;  // front knees bend backwards, hind forwards
-    sim.initial_q[7 + leg * kLegJoints + 1] = 1.0 * side;
-    sim.initial_q[7 + leg * kLegJoints + 2] = -2.0 * side;
-  }
+  for (int j = 0; j < kNj; ++j) sim.initial_q[7 + j] = robot::kLying_rad[static_cast<std::size_t>(j)];
   return sim;
 }
 

@@ -9,41 +9,36 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "springbok/model/hyq_gen3.hpp"
-#include "springbok/model/hyq_gen3_actuators.hpp"
+#include "robot_model.hpp"  // the robot's folder (SPRINGBOK_ROBOT): firmware/model/robots/README.md
 #include "springbok/model/model_types.hpp"
 
 namespace springbok {
-
-namespace robot = model::hyq_gen3;
 
 // ---- dimensions --------------------------------------------------------------
 inline constexpr int kNj = robot::kNumJoints;   // actuated joints
 inline constexpr int kNq = 7 + kNj;             // [p_WB, quaternion xyzw, joints]
 inline constexpr int kNv = 6 + kNj;             // [v_B, w_B (trunk frame), joint rates]
 inline constexpr int kNb = robot::kNumBodies;   // bodies, 0 = floating base
-inline constexpr int kFeet = 4;
-inline constexpr int kLegJoints = 3;
-inline constexpr int kArmJoints = 7;
-inline constexpr int kFirstArmJoint = robot::kJoint_arm_joint_1;  // index into the 19 joints
+using robot::kArmJoints;
+using robot::kFeet;
+using robot::kFirstArmJoint;                    // index into the joints
+using robot::kLegJoints;
 
-static_assert(kNq == 26 && kNv == 25 && kNj == 19, "HyQ + Gen3: nq 26, nv 25, 19 joints");
+static_assert(kFeet == 4 && kLegJoints == 3, "a quadruped, three joints per leg");
 static_assert(kFeet * kLegJoints + kArmJoints == kNj);
 static_assert(kFirstArmJoint == kFeet * kLegJoints, "legs first, then the arm");
+static_assert(kArmJoints >= 1);
 
 // ---- named frames ----------------------------------------------------------------
 enum class Foot : int { lf = 0, rf = 1, lh = 2, rh = 3 };
-inline constexpr std::array<int, kFeet> kFootFrames{robot::kFrame_lf_foot, robot::kFrame_rf_foot,
-                                                    robot::kFrame_lh_foot, robot::kFrame_rh_foot};
-inline constexpr int kEeFrame = robot::kFrame_arm_end_effector_link;
-// The wrist 6-axis F/T sensor sits at the Gen3 tool flange, which is the
-// end-effector frame (no gripper): the measured wrench is F_e at the EE.
-inline constexpr int kWristFtFrame = robot::kFrame_arm_end_effector_link;
-inline constexpr int kImuFrame = robot::kFrame_trunk_imu;
-inline constexpr double kFootRadius_m = 0.02175;
+using robot::kEeFrame;        // the hand: the arm's end effector
+using robot::kFootFrames;     // the feet's contact spheres' centres, LF RF LH RH
+using robot::kFootRadius_m;
+using robot::kImuFrame;
+using robot::kWristFtFrame;   // where the wrist F/T sensor measures F_e
 inline constexpr double kGravity_m_s2 = 9.81;
 
-// First joint (0..18) of leg `foot`.
+// First joint of leg `foot`.
 constexpr int leg_first_joint(int foot) { return foot * kLegJoints; }
 
 // Total mass, summed at compile time from the model.
@@ -54,56 +49,55 @@ constexpr double total_mass_kg() {
 }
 
 // ---- rotor (reflected actuator) inertia ----------------------------------------------------
-// Not in the URDF (../shared/robot/PARAMS.md): HyQ's legs are hydraulic (the cylinders'
-// moving mass is in the links; no rotor: 0). The Gen3's joints are motors behind harmonic
-// drives. Kinova publishes no rotor figure; these are an ESTIMATE, not a measurement: a
-// frameless motor of the size such an actuator holds has a rotor inertia of about 4e-6 kg m^2
-// (large actuators, joints 1-4, 39 N m) and 1.5e-6 kg m^2 (small, joints 5-7, 9 N m); times
-// an assumed 100:1 reduction squared: 0.04 and 0.015 kg m^2. Identify it on the robot (a
-// joint's low-frequency acceleration response to a torque chirp) before trusting it. It
-// dominates the wrist's own inertia (~1e-3 kg m^2): without it the dynamically consistent
-// pseudo-inverse of the arm task moved the hand with the light wrist joints, at twice their
-// speed limit.
-// The rotor is modelled as inertia about the joint's axis added to the joint's own body (all
-// axes here are z of the body frame), so the dynamics and the simulated robot (Bullet has no
-// armature) carry the same physics; M's (j, j) entry is exact, the couplings with the
-// joints before it are the rotor's times its reduction (small at 100:1).
-inline constexpr std::array<double, kNj> kRotorInertia_kgm2{
-    0.0,   0.0,   0.0,   0.0,   0.0,   0.0,   0.0,   0.0,   0.0,   0.0,   0.0,   0.0,  // legs
-    0.04,  0.04,  0.04,  0.04,  0.015, 0.015, 0.015};                                    // Gen3 1-7
-
-constexpr bool every_axis_is_z() {
-  for (const auto& j : robot::kJoints) {
-    if (j.axis[0] != 0.0 || j.axis[1] != 0.0 || j.axis[2] != 1.0) return false;
-  }
-  return true;
-}
-static_assert(every_axis_is_z(), "the rotors (and joint_own_axis_inertia_kgm2) take each joint's axis as z");
+// Not in a URDF: the robot file's (robot::kRotorInertiaSource says where each figure comes
+// from). It dominates a light wrist's own inertia: without it the dynamically consistent
+// pseudo-inverse of the arm task moves the hand with the light wrist joints.
+// The rotor is modelled as inertia about the joint's axis added to the joint's own body, so the
+// dynamics and the simulated robot (Bullet has no armature) carry the same physics; M's (j, j)
+// entry is exact, the couplings with the joints before it are the rotor's times its reduction
+// (small at high reductions).
+using robot::kRotorInertia_kgm2;
 
 enum class Rotors { included, none };
 
-// Body b's inertia (0: the trunk), with its joint's rotor unless `rotors` is none. rt: no alloc
+// Body b's inertia (0: the trunk), with its joint's rotor (I_r a a^T about the COM, a the
+// joint's unit axis in the body frame) unless `rotors` is none. rt: no alloc
 constexpr model::Inertia body_inertia(int body, Rotors rotors = Rotors::included) {
   if (body == 0) return robot::kBaseInertia;
   const std::size_t j = static_cast<std::size_t>(body - 1);
   model::Inertia in = robot::kJoints[j].inertia;
-  if (rotors == Rotors::included) in.inertia_com_kgm2[2] += kRotorInertia_kgm2[j];
+  if (rotors == Rotors::included) {
+    const std::array<double, 3>& a = robot::kJoints[j].axis;
+    const double r = kRotorInertia_kgm2[j];
+    in.inertia_com_kgm2[0] += r * a[0] * a[0];
+    in.inertia_com_kgm2[1] += r * a[1] * a[1];
+    in.inertia_com_kgm2[2] += r * a[2] * a[2];
+    in.inertia_com_kgm2[3] += r * a[0] * a[1];
+    in.inertia_com_kgm2[4] += r * a[0] * a[2];
+    in.inertia_com_kgm2[5] += r * a[1] * a[2];
+  }
   return in;
 }
 
-// The inertia of joint j's own body about the joint's axis (z of its frame) [kg m^2]: a
-// lower bound of what the joint drives (the bodies beyond it add to it). A damping law
-// evaluated once per step dt is stable only below about 2 this / dt: for the wrist's last
-// joint at 1 ms ~31 N m s/rad with its rotor, 0.5 without (the drive emulator caps what it
-// renders at this / dt).
+// The inertia of joint j's own body about the joint's axis [kg m^2]: a' I_com a plus the mass
+// times the squared distance of the COM from the axis. A lower bound of what the joint drives
+// (the bodies beyond it add to it). A damping law evaluated once per step dt is stable only
+// below about 2 this / dt (the drive emulator caps what it renders at this / dt).
 constexpr double joint_own_axis_inertia_kgm2(int j) {
   const model::Inertia in = body_inertia(j + 1);
-  return in.inertia_com_kgm2[2] + in.mass_kg * (in.com_m[0] * in.com_m[0] + in.com_m[1] * in.com_m[1]);
+  const std::array<double, 3>& a = robot::kJoints[static_cast<std::size_t>(j)].axis;
+  const std::array<double, 6>& I = in.inertia_com_kgm2;
+  const double about_com = a[0] * a[0] * I[0] + a[1] * a[1] * I[1] + a[2] * a[2] * I[2] +
+                           2.0 * (a[0] * a[1] * I[3] + a[0] * a[2] * I[4] + a[1] * a[2] * I[5]);
+  const std::array<double, 3>& c = in.com_m;
+  const double along = c[0] * a[0] + c[1] * a[1] + c[2] * a[2];
+  const double distance2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2] - along * along;
+  return about_com + in.mass_kg * distance2;
 }
 
 // ---- torque limits -----------------------------------------------------------------------
-// The URDF's flat effort, or a lever actuator's force times its lever arm at the angle
-// (hyq_gen3_actuators.hpp), the same both directions.
+// The URDF's flat effort (or the robot file's in its place), or a lever actuator's force times
+// its lever arm at the angle (the robot file's torque_limits), the same both directions.
 
 // The lever arm's ratio a b sin(phi) / c at the actuator angle phi [m]. rt: no alloc
 inline double lever_arm_m(const model::LeverActuator& l, double phi_rad) noexcept {

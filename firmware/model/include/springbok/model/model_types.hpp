@@ -1,5 +1,5 @@
 // Plain constexpr types of the compile-time robot description. The values
-// come from the generated header (tools/urdf2model reads the URDF); nothing
+// come from the generated header (tools/urdf2model reads the robot file and its URDF); nothing
 // here knows about a particular robot.
 #pragma once
 
@@ -71,6 +71,23 @@ struct Frame {
   std::string_view name;
   int body;
   Transform placement;           // frame in the body frame
+};
+
+// One body's template gains along each axis (SPEC section 2): mass [kg] or rotational inertia
+// [kg m^2], damping [N s/m or N m s/rad], stiffness [N/m or N m/rad].
+struct TemplateGains {
+  double mass;
+  double damping;
+  double stiffness;
+};
+
+// The double mass-spring-damper a robot renders unless its config says otherwise, translational
+// and rotational; base_rotation.mass 0 means the robot's composite rotational inertia.
+struct DefaultTemplate {
+  TemplateGains base;
+  TemplateGains ee;
+  TemplateGains base_rotation;
+  TemplateGains ee_rotation;
 };
 
 enum class Shape { box, cylinder, sphere };

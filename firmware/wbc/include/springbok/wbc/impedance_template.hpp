@@ -30,28 +30,32 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "springbok/model/model.hpp"
+
 namespace springbok::wbc {
 
-// Diagonal desired mass [kg], damping [N s/m] and stiffness [N/m], per axis x y z.
+// Diagonal desired mass [kg], damping [N s/m] and stiffness [N/m], per axis x y z. The
+// defaults are the robot file's `template`.
 struct TemplateParams {
-  Eigen::Vector3d mass_base_kg{92.0, 92.0, 92.0};
-  Eigen::Vector3d damping_base_ns_per_m{610.0, 610.0, 610.0};
-  Eigen::Vector3d stiffness_base_n_per_m{1000.0, 1000.0, 1000.0};
-  Eigen::Vector3d mass_ee_kg{4.0, 4.0, 4.0};
-  Eigen::Vector3d damping_ee_ns_per_m{90.0, 90.0, 90.0};
-  Eigen::Vector3d stiffness_ee_n_per_m{500.0, 500.0, 500.0};
+  Eigen::Vector3d mass_base_kg = Eigen::Vector3d::Constant(robot::kTemplate.base.mass);
+  Eigen::Vector3d damping_base_ns_per_m = Eigen::Vector3d::Constant(robot::kTemplate.base.damping);
+  Eigen::Vector3d stiffness_base_n_per_m = Eigen::Vector3d::Constant(robot::kTemplate.base.stiffness);
+  Eigen::Vector3d mass_ee_kg = Eigen::Vector3d::Constant(robot::kTemplate.ee.mass);
+  Eigen::Vector3d damping_ee_ns_per_m = Eigen::Vector3d::Constant(robot::kTemplate.ee.damping);
+  Eigen::Vector3d stiffness_ee_n_per_m = Eigen::Vector3d::Constant(robot::kTemplate.ee.stiffness);
 };
 
 // Diagonal desired rotational inertia [kg m^2], damping [N m s/rad] and stiffness
 // [N m/rad] per axis of rotation x y z (world). A non-positive base inertia means "the
-// robot's composite rotational inertia at the reference pose" (the WBC resolves it).
+// robot's composite rotational inertia at the reference pose" (the WBC resolves it). The
+// defaults are the robot file's `rotational_template`.
 struct RotationalTemplateParams {
-  Eigen::Vector3d inertia_base_kgm2{0.0, 0.0, 0.0};
-  Eigen::Vector3d damping_base_nms_per_rad{150.0, 150.0, 150.0};
-  Eigen::Vector3d stiffness_base_nm_per_rad{500.0, 500.0, 500.0};
-  Eigen::Vector3d inertia_ee_kgm2{0.1, 0.1, 0.1};
-  Eigen::Vector3d damping_ee_nms_per_rad{4.5, 4.5, 4.5};
-  Eigen::Vector3d stiffness_ee_nm_per_rad{50.0, 50.0, 50.0};
+  Eigen::Vector3d inertia_base_kgm2 = Eigen::Vector3d::Zero();
+  Eigen::Vector3d damping_base_nms_per_rad = Eigen::Vector3d::Constant(robot::kTemplate.base_rotation.damping);
+  Eigen::Vector3d stiffness_base_nm_per_rad = Eigen::Vector3d::Constant(robot::kTemplate.base_rotation.stiffness);
+  Eigen::Vector3d inertia_ee_kgm2 = Eigen::Vector3d::Constant(robot::kTemplate.ee_rotation.mass);
+  Eigen::Vector3d damping_ee_nms_per_rad = Eigen::Vector3d::Constant(robot::kTemplate.ee_rotation.damping);
+  Eigen::Vector3d stiffness_ee_nm_per_rad = Eigen::Vector3d::Constant(robot::kTemplate.ee_rotation.stiffness);
 };
 
 // One axis of either template: masses (or inertias), dampings, stiffnesses.
