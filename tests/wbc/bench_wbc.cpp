@@ -21,10 +21,7 @@ void BM_WbcTick(benchmark::State& state) {
   VecNq q = VecNq::Zero();
   q[2] = 0.6;
   q[6] = 1.0;
-  q.segment<kNj>(7) = wbc::nominal_stance();
-  wbc::VecArm arm;
-  arm << 0.0, 0.6, 0.0, 1.9, 0.0, 0.9, 0.0;
-  q.segment<wbc::kArmDofs>(7 + kFirstArmJoint) = arm;
+  for (int j = 0; j < kNj; ++j) q[7 + j] = robot::kStance_rad[static_cast<std::size_t>(j)];  // the arm bent
   wbc::WbcParams params;
   params.foot_contact_radius_m = kFootRadius_m;
   auto controller = std::make_unique<wbc::WholeBodyController>(params);

@@ -6,11 +6,7 @@ namespace springbok::wbc {
 
 VecNj nominal_stance() noexcept {
   VecNj q = VecNj::Zero();
-  for (int foot = 0; foot < kFeet; ++foot) {
-    const bool front = foot < 2;
-    q[leg_first_joint(foot) + 1] = front ? 0.7 : -0.7;
-    q[leg_first_joint(foot) + 2] = front ? -1.4 : 1.4;
-  }
+  for (int j = 0; j < kFirstArmJoint; ++j) q[j] = robot::kStance_rad[static_cast<std::size_t>(j)];
   return q;
 }
 

@@ -54,21 +54,29 @@ bool ordered_finite(double lo, double hi) { return std::isfinite(lo) && std::isf
 
 CanConfig classic7_layout(Protocol p, const std::string& prefix) {
   CanConfig c;
-  const std::array<const char*, 4> legs{"lf", "rf", "lh", "rh"};
-  for (int leg = 0; leg < 4; ++leg) c.buses.push_back(make_bus(legs[leg], prefix + std::to_string(leg), 3 * leg, 3, p));
-  c.buses.push_back(make_bus("arm0", prefix + "4", 12, 3, p));
-  c.buses.push_back(make_bus("arm1", prefix + "5", 15, 2, p));
-  c.buses.push_back(make_bus("arm2", prefix + "6", 17, 2, p));
+  const std::array<const char*, kFeet> legs{"lf", "rf", "lh", "rh"};
+  for (int leg = 0; leg < kFeet; ++leg) {
+    c.buses.push_back(make_bus(legs[leg], prefix + std::to_string(leg), leg_first_joint(leg), kLegJoints, p));
+  }
+  // The arm's joints over three buses, the first ones taking one more where they do not divide
+  // (7: 3 2 2, as CAN.md 3.2; 6: 2 2 2); an arm of fewer than three joints uses fewer buses.
+  int first = kFirstArmJoint;
+  for (int b = 0; b < 3; ++b) {
+    const int count = kArmJoints / 3 + (b < kArmJoints % 3 ? 1 : 0);
+    if (count == 0) continue;
+    c.buses.push_back(make_bus("arm" + std::to_string(b), prefix + std::to_string(kFeet + b), first, count, p));
+    first += count;
+  }
   return c;
 }
 
 CanConfig fd5_layout(const std::string& prefix) {
   CanConfig c;
-  const std::array<const char*, 4> legs{"lf", "rf", "lh", "rh"};
-  for (int leg = 0; leg < 4; ++leg) {
-    c.buses.push_back(make_bus(legs[leg], prefix + std::to_string(leg), 3 * leg, 3, Protocol::mit));
+  const std::array<const char*, kFeet> legs{"lf", "rf", "lh", "rh"};
+  for (int leg = 0; leg < kFeet; ++leg) {
+    c.buses.push_back(make_bus(legs[leg], prefix + std::to_string(leg), leg_first_joint(leg), kLegJoints, Protocol::mit));
   }
-  BusConfig arm = make_bus("arm", prefix + "4", 12, 7, Protocol::mit);
+  BusConfig arm = make_bus("arm", prefix + std::to_string(kFeet), kFirstArmJoint, kArmJoints, Protocol::mit);
   arm.fd = true;
   arm.data_bitrate = 5000000;
   c.buses.push_back(arm);

@@ -1,5 +1,5 @@
 // springbok::dyn — fixed-size, allocation-free rigid-body dynamics of the
-// springbok robot (HyQ-class quadruped + 7-DoF arm), Pinocchio-style
+// robot this build is for (firmware/model: a quadruped with an arm), Pinocchio-style
 // Model / Data split:
 //
 //   const springbok::dyn::Model model;            // once, at start-up
@@ -52,8 +52,8 @@ inline constexpr std::array<int, kNj> kParentJoint = [] {
 }();
 
 // The dynamics specialise on revolute joints about +z of their joint frame
-// (true for every joint of this robot); a model with another axis must not
-// compile silently into wrong numbers.
+// (urdf2model turns every joint's frame so: tools/urdf2model/urdf_tree.hpp); a
+// model with another axis must not compile silently into wrong numbers.
 static_assert([] {
   for (int i = 0; i < kNj; ++i) {
     const auto& j = robot::kJoints[i];

@@ -19,7 +19,8 @@
 
 namespace springbok::wbc {
 
-// Legs in the PARAMS.md stance (HAA 0, HFE +-0.7, KFE -+1.4), arm straight up (all 0).
+// The legs in the robot file's stance, the arm at its zero (the scenarios and tests that want
+// the robot file's arm pose say so).
 VecNj nominal_stance() noexcept;
 
 struct StandGains {

@@ -127,8 +127,9 @@ struct CanConfig {
 // rated torque not given (the drive's 0x6076 is used) and no cap on 0x6072.
 DriveConfig default_drive(int joint, Protocol p);
 
-// CAN.md 3.3: seven classic 1 Mbit/s buses (one per leg, arm 1-3, 4-5, 6-7),
-// interfaces <prefix>0..6, drive id = joint + 1, every drive speaking `p`.
+// CAN.md 3.3: seven classic 1 Mbit/s buses (one per leg, the arm over three: a 7-joint arm's
+// 1-3, 4-5, 6-7, a 6-joint arm's 1-2, 3-4, 5-6), interfaces <prefix>0..6, drive id = joint + 1,
+// every drive speaking `p`.
 CanConfig classic7_layout(Protocol p, const std::string& interface_prefix = "can");
 // Classic legs (MIT) + one CAN FD arm bus (1/5 Mbit/s, MIT-style frames): five buses.
 CanConfig fd5_layout(const std::string& interface_prefix = "can");
