@@ -29,7 +29,7 @@ constexpr model::Transform kIdentity{{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.
 std::optional<FrameRef> find_frame(std::string_view name) noexcept {
   if (name == robot::kBaseLink) return FrameRef{0, kIdentity};
   for (int j = 0; j < kNj; ++j) {
-    if (robot::kJoints[j].child_link == name) return FrameRef{j + 1, kIdentity};
+    if (robot::kJoints[j].child_link == name) return FrameRef{j + 1, robot::kLinkInBody[static_cast<std::size_t>(j) + 1]};
   }
   for (const auto& frame : robot::kFrames) {
     if (frame.name == name) return FrameRef{frame.body, frame.placement};

@@ -172,6 +172,10 @@ TEST_F(Urdf2Model, EveryAxisComesOutAsZ) {
   // lf_haa: origin (0.1, 0, 0) turned by Ry(pi/2); its unit box-like inertia diag(1, 1, 1) unchanged.
   EXPECT_NE(text.find("{\"lf_haa\", \"lf_hip\", 0,\n     {{0.0, 0.0, 1.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0}, {0.10000000000000001, 0.0, 0.0}}"),
             std::string::npos);
+  // The hip's URDF link frame in its turned body frame: Ry(pi/2)^T (what a named link means).
+  EXPECT_NE(text.find("kLinkInBody{{\n    {{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0}, {0.0, 0.0, 0.0}},\n"
+                      "    {{0.0, 0.0, -1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0}, {0.0, 0.0, 0.0}},"),
+            std::string::npos);
   // lf_hfe hangs on the turned hip: its origin in the hip's new frame is Ry(pi/2)^T [I, (0.1, 0, 0)],
   // turned by its own Rx(-pi/2).
   EXPECT_NE(text.find("{\"lf_hfe\", \"lf_thigh\", 1,\n     {{0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0}, {0.0, 0.0, 0.10000000000000001}}"),

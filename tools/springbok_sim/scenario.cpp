@@ -43,14 +43,15 @@ void read_sim(const Field& f, sim::SimConfig& c) {
   latency["command_ticks"].integer(c.latency.command_ticks, 0, sim::Latency::kMaxTicks);
 }
 
-// 'stance' or 19 angles within the joints' limits.
+// 'stance' (nominal_stance: the robot file's legs, the arm at zero) or kNj angles within the
+// joints' limits.
 void joint_positions(const Field& f, VecNj& q) {
   if (f.is_scalar() && f.node().Scalar() == "stance") {
     q = wbc::nominal_stance();
     return;
   }
   if (!f.is_list()) {
-    f.fail("must be 'stance' or a list of 19 angles, got " + f.describe());
+    f.fail(fmt::format("must be 'stance' or a list of {} angles, got {}", kNj, f.describe()));
     return;
   }
   VecNj v = q;

@@ -93,6 +93,10 @@ std::string emit(const Tree& t, const Output& o, const RobotSpec& r) {
       << num(in.effort) << ", " << num(in.velocity) << "}, " << num(in.damping) << ",\n"
       << "     " << inertia(j.body) << "},\n";
   }
+  h << "}};\n\n// Each body's URDF link frame in the body frame (the identity unless the body was turned).\n"
+    << "inline constexpr std::array<model::Transform, kNumBodies> kLinkInBody{{\n"
+    << "    " << transform(Pose{}) << ",\n";
+  for (const auto& j : o.joints) h << "    " << transform(Pose{j.link_in_body, {0, 0, 0}}) << ",\n";
   h << "}};\n\n// Frames rigidly attached to a body (fixed-joint child links; a body's own link or a foot\n"
     << "// sphere's centre where the robot file names one).\n"
     << "inline constexpr int kNumFrames = " << o.frames.size() << ";\n"

@@ -311,6 +311,7 @@ void turn_axes_to_z(Output& o) {
     const Pose into{transpose(ra), {0, 0, 0}};  // body frame coordinates -> the turned body's
     const int body = static_cast<int>(i) + 1;
     j.origin = compose(j.origin, Pose{ra, {0, 0, 0}});
+    j.link_in_body = transpose(ra);
     j.in.axis = {0, 0, 1};
     j.body = transformed(j.body, into);
     for (auto& f : o.frames)

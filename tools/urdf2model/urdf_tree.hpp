@@ -77,6 +77,7 @@ struct Output {
     int parent_body;
     Pose origin;  // in the parent body frame
     Body body;
+    Mat3 link_in_body = identity();  // the URDF link's axes in the body's (turn_axes_to_z)
   };
   std::vector<J> joints;
   struct F {
