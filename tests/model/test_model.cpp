@@ -1,5 +1,5 @@
-// What holds for any robot's generated model (robots/README.md): its structure, the robot
-// file's frames and poses within the model, physical inertias, and the torque limits' laws.
+// What holds for any robot's generated model (firmware/model/robots/README.md): its structure,
+// the robot file's frames and poses within the model, physical inertias, the torque limits' laws.
 #include <gtest/gtest.h>
 
 #include <cmath>
