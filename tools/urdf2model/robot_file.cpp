@@ -2,10 +2,10 @@
 #include "robot_file.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <map>
 #include <numbers>
-#include <set>
 
 namespace springbok::urdf2model {
 
