@@ -66,7 +66,10 @@ TEST(WbcConfig, BadFieldsAreNamed) {
             "wbc.template.ee.damping: must be a finite number, got '.nan' (line 3)");
   EXPECT_EQ(error_of(base_ok + "  ee: {mass: [4, 4], damping: 1, stiffness: 5}\n"),
             "wbc.template.ee.mass: must be a list of 3, got 2 elements (line 3)");
-  EXPECT_EQ(error_of("weights: {arm: 1}\n"), "wbc.template: missing (line 1)");
+  // No template: the robot file's (robot::kTemplate).
+  const auto robot_default = load("weights: {arm: 1}\n");
+  EXPECT_EQ(robot_default.template_params.stiffness_base_n_per_m.x(), springbok::robot::kTemplate.base.stiffness);
+  EXPECT_EQ(robot_default.template_params.mass_ee_kg.z(), springbok::robot::kTemplate.ee.mass);
   EXPECT_NE(error_of(std::string(kGood) + "gains: {kp: 1}\n").find("wbc.gains: unknown key"), std::string::npos);
   EXPECT_EQ(error_of(std::string(kGood) + "limits: {torque_scale: 1.5}\n"),
             "wbc.limits.torque_scale: must be in [1e-06, 1], got 1.5 (line 9)");

@@ -46,6 +46,15 @@ const Broken kBroken[] = {
     {"zero_axis", "duration_s: 1\ncontroller: {type: stand}\nexternal_wrenches:\n"
                   "  - {frame: trunk, axis: [0, 0, 0], profile: step, amplitude: 5}\n",
      "external_wrenches[0].axis: must not be zero"},
+    {"two_amplitudes", "duration_s: 1\ncontroller: {type: stand}\nexternal_wrenches:\n"
+                       "  - {frame: end_effector, axis: [1, 0, 0], profile: step, amplitude: 5, amplitude_weight_fraction: 0.1}\n",
+     "external_wrenches[0]: needs exactly one of 'amplitude' and 'amplitude_weight_fraction'"},
+    {"no_amplitude", "duration_s: 1\ncontroller: {type: stand}\nexternal_wrenches:\n"
+                     "  - {frame: end_effector, axis: [1, 0, 0], profile: step}\n",
+     "external_wrenches[0]: needs exactly one of 'amplitude' and 'amplitude_weight_fraction'"},
+    {"weight_fraction_range", "duration_s: 1\ncontroller: {type: stand}\nexternal_wrenches:\n"
+                              "  - {frame: end_effector, axis: [1, 0, 0], profile: step, amplitude_weight_fraction: 20}\n",
+     "external_wrenches[0].amplitude_weight_fraction: must be in"},
     {"not_yaml", "duration_s: [1\n", "YAML syntax"},
 };
 

@@ -98,7 +98,7 @@ void expect_stood(const std::string& json, const std::string& name) {
 }
 
 // A push the arm cannot hold leaves the robot standing: the paper's 50 N and 100 N on the
-// straight arm (`stance`: the hand 0.9 m above the shoulder, whose 39 N m hold 43 N there) and
+// straight arm (kStraightArm: the hand 0.9 m above the shoulder, whose 39 N m hold 43 N there) and
 // 120 N on the bent arm of the experiments. The arm yields (arm_overloaded_s) and the base keeps
 // its task. Before, the QP gave the arm's task and speed rows the trunk instead: it pitched the
 // trunk 0.3-0.8 rad, a hind foot unloaded, and the robot fell (QP failures, damping) within a
@@ -106,7 +106,7 @@ void expect_stood(const std::string& json, const std::string& name) {
 // base sank 21 cm under 50 N on the straight arm; under 100 N the robot tipped over).
 TEST(SimWbc, APushTheArmCannotHoldLeavesTheRobotStanding) {
   for (const auto& [name, arm, force] :
-       {std::tuple{"straight_50n", "stance", "50"}, std::tuple{"straight_100n", "stance", "100"},
+       {std::tuple{"straight_50n", kStraightArm.c_str(), "50"}, std::tuple{"straight_100n", kStraightArm.c_str(), "100"},
         std::tuple{"bent_120n", kBentArm.c_str(), "120"}}) {
     const fs::path dir = scratch(std::string("wbc_overload_") + name);
     const std::string text = push_scenario(arm, "[1, 0, 0]", force, "", "4.0");
@@ -140,7 +140,7 @@ TEST(SimWbc, APushTowardTippingLeavesTheRobotStanding) {
   for (const auto& [name, arm, frame, axis, force, margin] :
        {std::tuple{"bent_y100", bent.c_str(), hand.c_str(), "[0, 1, 0]", 100.0, ""},
         std::tuple{"bent_x150", bent.c_str(), hand.c_str(), "[1, 0, 0]", 150.0, ""},
-        std::tuple{"straight_y100", "stance", hand.c_str(), "[0, 1, 0]", 100.0, ""},
+        std::tuple{"straight_y100", kStraightArm.c_str(), hand.c_str(), "[0, 1, 0]", 100.0, ""},
         std::tuple{"bent_y100_off", bent.c_str(), hand.c_str(), "[0, 1, 0]", 100.0, ", support_margin: 0"},
         std::tuple{"trunk_y120", bent.c_str(), trunk.c_str(), "[0, 1, 0]", 120.0, ""},
         std::tuple{"trunk_x200", bent.c_str(), trunk.c_str(), "[1, 0, 0]", 200.0, ""},

@@ -7,6 +7,8 @@ namespace springbok::test {
 // The experiments' robot standing with its arm bent: the initial joint positions (legs, then arm) most
 // scenarios start from.
 inline const std::string kBentArm = "[0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0.6, 0, 1.9, 0, 0.9, 0]";
+// The same legs with the arm straight up (every arm joint at zero).
+inline const std::string kStraightArm = "[0, 0.7, -1.4, 0, 0.7, -1.4, 0, -0.7, 1.4, 0, -0.7, 1.4, 0, 0, 0, 0, 0, 0, 0]";
 
 // A springbok-sim scenario's head with the WBC: its length, the robot standing on the ground
 // (`arm`: the initial joint positions), the settle time and the template's base and ee maps. It ends

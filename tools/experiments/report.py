@@ -237,6 +237,81 @@ def hand_turn_figure(out, log, filename):
     return save_figure(fig, out, filename)
 
 
+STEP_HEADER = ["| scenario | NRMSE base x | NRMSE EE x | steady state base x | steady state EE x | peak dev base x [mm] | "
+               "peak dev EE x [mm] | 90 % rise base / EE [s] | QP failures | max tau/limit | fell | joint limit | "
+               "tick median / p99 [us] |",
+               "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+CHIRP_HEADER = ["| scenario | NRMSE base | NRMSE EE | gain error base [dB] | gain error EE [dB] | QP failures | "
+                "max tau/limit | fell | tick median / p99 [us] |", "|---|---|---|---|---|---|---|---|---|"]
+WALK_HEADER = ["| scenario | command x, y, yaw | mean velocity x, y, yaw | NRMSE base y | NRMSE EE y | "
+               "steady state base y / EE y | QP failures | max tau/limit | fell (s) |",
+               "|---|---|---|---|---|---|---|---|---|"]
+
+
+def step_row(out, n, s):
+    """A step run's table row and check: base_step_* scored on the base x, arm_step_* on the hand x."""
+    if s is None:
+        return f"| {n} | missing |" + " |" * 11, (n, False, "missing")
+    nr, ss, pk = s["nrmse"], s["steady_state_error"], s["peak_deviation"]
+    rb = rise_time(out, n, "base_dx_m", "template_base_x_m")
+    re = rise_time(out, n, "ee_dx_m", "template_ee_x_m")
+    row = (f"| {n} | {pct(nr['base_x'])} | {pct(nr['ee_x'])} | {pct(ss['base_x'])} | {pct(ss['ee_x'])} | "
+           f"{num(pk['base_x'] and 1000 * pk['base_x'])} | {num(pk['ee_x'] and 1000 * pk['ee_x'])} | "
+           f"{num(rb)} / {num(re)} | {s['qp_failures']} | {s['max_torque_ratio']:.3f} | {s['fell']} | "
+           f"{s['joint_limit_hit'] or 'none'} | {s['tick_us']['median']:.1f} / {s['tick_us']['p99']:.1f} |")
+    target = TARGETS["arm_ee_nrmse"] if n.startswith("arm") else TARGETS["base_nrmse"]
+    key = "ee_x" if n.startswith("arm") else "base_x"
+    ok = (nr[key] is not None and nr[key] <= target and all(ss[k] is not None and ss[k] <= TARGETS["steady"]
+          for k in ("base_x", "ee_x")) and not s["fell"] and s["qp_failures"] == 0
+          and s["max_torque_ratio"] <= 1.0 and not s["joint_limit_hit"])
+    return row, (n, ok, f"{key} NRMSE {pct(nr[key])} (target {100 * target:.0f} %), steady state "
+                        f"{pct(ss['base_x'])} / {pct(ss['ee_x'])} (target 1 %)")
+
+
+def chirp_row(n, s):
+    """A chirp run's (base_chirp_<axis>_*) table row and check: the gain error along its axis."""
+    if s is None:
+        return f"| {n} | missing |" + " |" * 7, (n, False, "missing")
+    a = n.split("_")[2]
+    nr, db = s["nrmse"], s["chirp_gain_db_error"] or {}
+    row = (f"| {n} | {pct(nr['base_' + a])} | {pct(nr['ee_' + a])} | {num(db.get('base_' + a))} | "
+           f"{num(db.get('ee_' + a))} | {s['qp_failures']} | {s['max_torque_ratio']:.3f} | {s['fell']} | "
+           f"{s['tick_us']['median']:.1f} / {s['tick_us']['p99']:.1f} |")
+    gains = [db.get("base_" + a), db.get("ee_" + a)]
+    ok = (all(g is not None and g <= TARGETS["chirp_db"] for g in gains) and not s["fell"]
+          and s["qp_failures"] == 0 and s["max_torque_ratio"] <= 1.0 and not s["joint_limit_hit"])
+    return row, (n, ok, f"gain error {num(gains[0])} / {num(gains[1])} dB (target 2 dB)")
+
+
+def walk_row(n, s):
+    """A walk's table row and check: the mean velocity within 10 % or 0.03 of the command."""
+    if s is None:
+        return f"| {n} | missing |" + " |" * 7, (n, False, "missing")
+    g = s["gait"] or {}
+    cmd, mean = g.get("commanded_velocity", {}), g.get("mean_velocity", {})
+    axes = ("x", "y", "yaw")
+    misses = [a for a in axes
+              if abs(mean.get(a, float("nan")) - cmd.get(a, 0.0)) > max(0.1 * abs(cmd.get(a, 0.0)), 0.03)
+              or mean.get(a) is None]
+    fell = f"{s['fell']} ({num(s['fell_time_s'])})" if s["fell"] else "False"
+    row = (f"| {n} | {', '.join(num(cmd.get(a)) for a in axes)} | "
+           f"{', '.join(f'{mean[a]:.3f}' for a in axes if a in mean)} | {pct(s['nrmse']['base_y'])} | "
+           f"{pct(s['nrmse']['ee_y'])} | {pct(s['steady_state_error']['base_y'])} / "
+           f"{pct(s['steady_state_error']['ee_y'])} | {s['qp_failures']} | "
+           f"{s['max_torque_ratio']:.3f} | {fell} |")
+    ok = not misses and not s["fell"] and s["max_torque_ratio"] <= 1.0 and not s["joint_limit_hit"]
+    return row, (n, ok, "mean velocity " + ", ".join(f"{a} {mean.get(a, float('nan')):.3f}" for a in axes)
+                 + " against " + ", ".join(f"{num(cmd.get(a))}" for a in axes)
+                 + " (target 10 % or 0.03)" + (f", fell at {num(s['fell_time_s'])} s" if s["fell"] else ""))
+
+
+def trot_check(n, s):
+    """A trot's check: it stands to the end, within its torque and joint limits."""
+    return (n, not s["fell"] and s["max_torque_ratio"] <= 1.0 and not s["joint_limit_hit"],
+            f"stands to the end ({'fell at ' + num(s['fell_time_s']) + ' s' if s['fell'] else 'yes'}), "
+            f"max tau/limit {s['max_torque_ratio']:.3f}, joint limit {s['joint_limit_hit'] or 'none'}")
+
+
 def trot_study(out, trot_runs, trots, stance, checks):
     """The paper's trotting study (its section VI.C): tables of every axis, Fig. 8-10, its three claims."""
     lines = ["", "## Trotting in place with the 50 N step (push at 2 s): the paper's study", "",
@@ -256,9 +331,7 @@ def trot_study(out, trot_runs, trots, stance, checks):
             checks.append((n, False, "missing"))
             continue
         fell = f"{s['fell']} ({num(s['fell_time_s'])})" if s["fell"] else "False"
-        checks.append((n, not s["fell"] and s["max_torque_ratio"] <= 1.0 and not s["joint_limit_hit"],
-                       f"stands to the end ({'fell at ' + num(s['fell_time_s']) + ' s' if s['fell'] else 'yes'}), "
-                       f"max tau/limit {s['max_torque_ratio']:.3f}, joint limit {s['joint_limit_hit'] or 'none'}"))
+        checks.append(trot_check(n, s))
         lines.append(f"| {n} | {m} | {g.upper()} | {fs} | {df} | {pct(s['nrmse']['base_x'])} | "
                      f"{pct(s['nrmse']['ee_x'])} | {pct(s['steady_state_error']['base_x'])} | "
                      f"{pct(s['steady_state_error']['ee_x'])} | {num(s['base_wrench_error_rms']['fx_n'], '{:.1f}')} | "
@@ -488,13 +561,84 @@ def rotational_study(out, checks):
     return lines, figs
 
 
+def robot_report(out, robot, present):
+    """The report of a robot other than HyQ + Gen3 (tools/reproduce --robot NAME): its runs, classified by
+    name (base_step_*, arm_step_*, base_chirp_<axis>_*, trot_*, walk_*), each against the same targets as
+    HyQ's. Returns (lines, figures, checks)."""
+    steps = [n for n in present if n.startswith(("base_step_", "arm_step_"))]
+    chirps = [n for n in present if n.startswith("base_chirp_")]
+    trots = [n for n in present if n.startswith("trot_")]
+    walks = [n for n in present if n.startswith("walk_")]
+    others = [n for n in present if n not in steps + chirps + trots + walks]
+    summaries = {n: load_summary(out, n) for n in present}
+    lines = [f"# {robot}: the paper's experiments in simulation", "",
+             f"A build for this robot (`-DSPRINGBOK_ROBOT={robot}` or `-DSPRINGBOK_ROBOT_DIR`), its scenarios "
+             "(`tools/scenarios/<robot>/`, or the robot-neutral `tools/scenarios/any_robot/`): each names its "
+             "template and push in its opening comment. Scores and targets as in HyQ + Gen3's report: NRMSE = "
+             "RMS(measured - template) / peak-to-peak(template) from the WBC start; steady state = |mean of the "
+             "last second - F/K| / |F/K|; ground-truth base state, Bullet at 1 kHz.", ""]
+    checks, figs = [], []
+    if steps:
+        lines += ["## Step responses", ""] + STEP_HEADER
+        for n in steps:
+            row, check = step_row(out, n, summaries[n])
+            lines.append(row)
+            checks.append(check)
+        figs.append(plot_cases(out, f"{robot}: step responses", [(n, n) for n in steps],
+                               [("base x", "base_dx_m", "template_base_x_m"), ("EE x", "ee_dx_m", "template_ee_x_m")],
+                               "step_x.png"))
+    if chirps:
+        lines += ["", "## Chirp responses", ""] + CHIRP_HEADER
+        for n in chirps:
+            row, check = chirp_row(n, summaries[n])
+            lines.append(row)
+            checks.append(check)
+    if trots:
+        lines += ["", "## Trotting in place with a push", "",
+                  "| scenario | f_s [Hz] | d_f | NRMSE base x | NRMSE EE x | steady state base x | steady state EE x | "
+                  "QP failures | max tau/limit | fell (s) | tick median / p99 [us] |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for n in trots:
+            s = summaries[n]
+            g = s["gait"] or {}
+            fell = f"{s['fell']} ({num(s['fell_time_s'])})" if s["fell"] else "False"
+            lines.append(f"| {n} | {num(g.get('step_frequency_hz'))} | {num(g.get('duty_factor'))} | "
+                         f"{pct(s['nrmse']['base_x'])} | {pct(s['nrmse']['ee_x'])} | "
+                         f"{pct(s['steady_state_error']['base_x'])} | {pct(s['steady_state_error']['ee_x'])} | "
+                         f"{s['qp_failures']} | {s['max_torque_ratio']:.3f} | {fell} | "
+                         f"{s['tick_us']['median']:.1f} / {s['tick_us']['p99']:.1f} |")
+            checks.append(trot_check(n, s))
+    if walks:
+        lines += ["", "## Walking on command", ""] + WALK_HEADER
+        for n in walks:
+            row, check = walk_row(n, summaries[n])
+            lines.append(row)
+            checks.append(check)
+    if others:
+        lines += ["", "Other runs (no target): " + ", ".join(others)]
+    return lines + targets_section(checks), figs, checks
+
+
+def targets_section(checks):
+    return ["", "## Targets", ""] + [f"- {'PASS' if ok else 'MISS'} {n}: {why}" for n, ok, why in checks]
+
+
 def main():
     parser = argparse.ArgumentParser(description="plots and report.md from springbok-sim runs")
     parser.add_argument("--require", nargs="+", default=[], metavar="NAME",
                         help="exit 1 unless these runs are present and meet their targets")
+    parser.add_argument("--robot", default="hyq_gen3", metavar="NAME",
+                        help="the robot the runs are of (default hyq_gen3: the paper's full study)")
     parser.add_argument("out", metavar="OUT_DIR")
     args = parser.parse_args()
     out = args.out
+    if args.robot != "hyq_gen3":
+        present = list_runs(out)
+        if not present:
+            print(f"report.py: no runs in {out}", file=sys.stderr)
+            return 1
+        lines, figs, checks = robot_report(out, args.robot, present)
+        return write_report(out, lines, figs, checks, present, args.require)
     step_runs = [f"base_step_mb{t}" for t, _, _ in BASE_CASES] + [f"arm_step_me{t}" for t, _, _ in ARM_CASES]
     chirp_runs = [f"base_chirp_{a}_mb{t}" for a in "xy" for t, _, _ in BASE_CASES]
     summaries = {n: load_summary(out, n) for n in step_runs + chirp_runs}
@@ -533,54 +677,21 @@ def main():
               "replays a run's recorded measurements through the firmware's control mode and gets the same torques "
               "bit for bit; the HIL suite (`tools/hil`) runs it over virtual CAN with the IMU and the wrist F/T on "
               "the bus.", ""]
-    lines += ["## Step responses", "",
-              "| scenario | NRMSE base x | NRMSE EE x | steady state base x | steady state EE x | peak dev base x [mm] | "
-              "peak dev EE x [mm] | 90 % rise base / EE [s] | QP failures | max tau/limit | fell | joint limit | "
-              "tick median / p99 [us] |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines += ["## Step responses", ""] + STEP_HEADER
     checks = []
     for n in step_runs:
-        s = summaries[n]
-        if s is None:
-            lines.append(f"| {n} | missing |" + " |" * 11)
-            checks.append((n, False, "missing"))
-            continue
-        nr, ss, pk = s["nrmse"], s["steady_state_error"], s["peak_deviation"]
-        rb = rise_time(out, n, "base_dx_m", "template_base_x_m")
-        re = rise_time(out, n, "ee_dx_m", "template_ee_x_m")
-        lines.append(f"| {n} | {pct(nr['base_x'])} | {pct(nr['ee_x'])} | {pct(ss['base_x'])} | {pct(ss['ee_x'])} | "
-                     f"{num(pk['base_x'] and 1000 * pk['base_x'])} | {num(pk['ee_x'] and 1000 * pk['ee_x'])} | "
-                     f"{num(rb)} / {num(re)} | {s['qp_failures']} | {s['max_torque_ratio']:.3f} | {s['fell']} | "
-                     f"{s['joint_limit_hit'] or 'none'} | {s['tick_us']['median']:.1f} / {s['tick_us']['p99']:.1f} |")
-        target = TARGETS["arm_ee_nrmse"] if n.startswith("arm") else TARGETS["base_nrmse"]
-        key = "ee_x" if n.startswith("arm") else "base_x"
-        ok = (nr[key] is not None and nr[key] <= target and all(ss[k] is not None and ss[k] <= TARGETS["steady"]
-              for k in ("base_x", "ee_x")) and not s["fell"] and s["qp_failures"] == 0
-              and s["max_torque_ratio"] <= 1.0 and not s["joint_limit_hit"])
-        checks.append((n, ok, f"{key} NRMSE {pct(nr[key])} (target {100 * target:.0f} %), steady state "
-                              f"{pct(ss['base_x'])} / {pct(ss['ee_x'])} (target 1 %)"))
+        row, check = step_row(out, n, summaries[n])
+        lines.append(row)
+        checks.append(check)
     lines += ["", "## Chirp responses (20 N, 0 to 5 Hz over 10 s)", "",
               "Gain error: short-time least-squares fits y ~ a sin(phi(t)) + b cos(phi(t)) + c at the chirp's own "
               "phase phi(t), over windows one local period long centred at local frequencies from 0.25 Hz to 3 Hz "
               "(each centre 25 % above the previous); the reported number is the largest |20 log10(A_measured / "
-              "A_template)| over those windows.", "",
-              "| scenario | NRMSE base | NRMSE EE | gain error base [dB] | gain error EE [dB] | QP failures | "
-              "max tau/limit | fell | tick median / p99 [us] |", "|---|---|---|---|---|---|---|---|---|"]
+              "A_template)| over those windows.", ""] + CHIRP_HEADER
     for n in chirp_runs:
-        s = summaries[n]
-        if s is None:
-            lines.append(f"| {n} | missing |" + " |" * 7)
-            checks.append((n, False, "missing"))
-            continue
-        a = n.split("_")[2]
-        nr, db = s["nrmse"], s["chirp_gain_db_error"] or {}
-        lines.append(f"| {n} | {pct(nr['base_' + a])} | {pct(nr['ee_' + a])} | {num(db.get('base_' + a))} | "
-                     f"{num(db.get('ee_' + a))} | {s['qp_failures']} | {s['max_torque_ratio']:.3f} | {s['fell']} | "
-                     f"{s['tick_us']['median']:.1f} / {s['tick_us']['p99']:.1f} |")
-        gains = [db.get("base_" + a), db.get("ee_" + a)]
-        ok = (all(g is not None and g <= TARGETS["chirp_db"] for g in gains) and not s["fell"]
-              and s["qp_failures"] == 0 and s["max_torque_ratio"] <= 1.0 and not s["joint_limit_hit"])
-        checks.append((n, ok, f"gain error {num(gains[0])} / {num(gains[1])} dB (target 2 dB)"))
+        row, check = chirp_row(n, summaries[n])
+        lines.append(row)
+        checks.append(check)
 
     trot_runs = [(f"trot_me{a}_{g}", m, g, fs, df) for a, m in TROT_ARMS for g, fs, df in TROT_GAITS]
     trots = {n: load_summary(out, n) for n, *_ in trot_runs}
@@ -597,32 +708,11 @@ def main():
                   "template's rest pose walks with the command (ramped at 0.5 m/s^2, 1 rad/s^2) and the footholds "
                   "follow the hips' velocity. Mean velocity: the trunk's, over the last 3 s, in its horizontal frame. "
                   "Rendering: displacements from the walking rest pose against the template driven by the measured "
-                  "force.", "",
-                  "| scenario | command x, y, yaw | mean velocity x, y, yaw | NRMSE base y | NRMSE EE y | "
-                  "steady state base y / EE y | QP failures | max tau/limit | fell (s) |",
-                  "|---|---|---|---|---|---|---|---|---|"]
+                  "force.", ""] + WALK_HEADER
         for n in walk_runs:
-            s = walks[n]
-            if s is None:
-                lines.append(f"| {n} | missing |" + " |" * 7)
-                checks.append((n, False, "missing"))
-                continue
-            g = s["gait"] or {}
-            cmd, mean = g.get("commanded_velocity", {}), g.get("mean_velocity", {})
-            axes = ("x", "y", "yaw")
-            misses = [a for a in axes
-                      if abs(mean.get(a, float("nan")) - cmd.get(a, 0.0)) > max(0.1 * abs(cmd.get(a, 0.0)), 0.03)
-                      or mean.get(a) is None]
-            fell = f"{s['fell']} ({num(s['fell_time_s'])})" if s["fell"] else "False"
-            lines.append(f"| {n} | {', '.join(num(cmd.get(a)) for a in axes)} | "
-                         f"{', '.join(f'{mean[a]:.3f}' for a in axes if a in mean)} | {pct(s['nrmse']['base_y'])} | "
-                         f"{pct(s['nrmse']['ee_y'])} | {pct(s['steady_state_error']['base_y'])} / "
-                         f"{pct(s['steady_state_error']['ee_y'])} | {s['qp_failures']} | "
-                         f"{s['max_torque_ratio']:.3f} | {fell} |")
-            ok = not misses and not s["fell"] and s["max_torque_ratio"] <= 1.0 and not s["joint_limit_hit"]
-            checks.append((n, ok, "mean velocity " + ", ".join(f"{a} {mean.get(a, float('nan')):.3f}" for a in axes)
-                           + " against " + ", ".join(f"{num(cmd.get(a))}" for a in axes)
-                           + " (target 10 % or 0.03)" + (f", fell at {num(s['fell_time_s'])} s" if s["fell"] else "")))
+            row, check = walk_row(n, walks[n])
+            lines.append(row)
+            checks.append(check)
         lines += ["", "- Walking adds the gait's own motion to the scored displacements: the trunk rolls and yaws at "
                   "the step frequency (the hand, 0.65 m above the trunk, sways with it), and the base lags its "
                   "walking rest pose by a few millimetres (the steady-state column, relative to F/K). Both count as "
@@ -681,8 +771,7 @@ def main():
     lines += rot_lines
     figs += rot_figs
 
-    lines += ["", "## Targets", ""]
-    lines += [f"- {'PASS' if ok else 'MISS'} {n}: {why}" for n, ok, why in checks]
+    lines += targets_section(checks)
 
     lines += ["", "## Compared with the paper's findings", ""]
     arm = [summaries[f"arm_step_me{t}"] for t, _, _ in ARM_CASES]
@@ -728,13 +817,18 @@ def main():
               "are the simulator's ground truth except in the run above; the sphere feet are modelled at their contact point "
               "(`contact.foot_radius`), without which the base settled 4 % (M_b 92) to 8 % (M_b 184) past F/K_b "
               "because the horizontal ground forces act 2 cm below the foot frame.", ""]
-    lines += ["## Figures", ""] + [f"![{f}]({f})" for f in figs]
+    return write_report(out, lines, figs, checks, present, args.require)
+
+
+def write_report(out, lines, figs, checks, present, require):
+    """Writes OUT_DIR/report.md (with its targets' verdicts) and returns the exit status for --require."""
+    lines += ["", "## Figures", ""] + [f"![{f}]({f})" for f in figs]
     with open(os.path.join(out, "report.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print(f"report.py: wrote {os.path.join(out, 'report.md')} ({len(present)} runs)")
     verdicts = {n: (ok, why) for n, ok, why in checks}
     failed = 0
-    for n in args.require:
+    for n in require:
         ok, why = verdicts.get(n, (False, "missing, or no target for it"))
         print(f"report.py: {'PASS' if ok else 'MISS'} {n}: {why}")
         failed += 0 if ok else 1

@@ -43,8 +43,7 @@ void read_sim(const Field& f, sim::SimConfig& c) {
   latency["command_ticks"].integer(c.latency.command_ticks, 0, sim::Latency::kMaxTicks);
 }
 
-// 'stance' (nominal_stance: the robot file's legs, the arm at zero) or kNj angles within the
-// joints' limits.
+// 'stance' (nominal_stance: the robot file's, legs and arm) or kNj angles within the joints' limits.
 void joint_positions(const Field& f, VecNj& q) {
   if (f.is_scalar() && f.node().Scalar() == "stance") {
     q = wbc::nominal_stance();
@@ -155,10 +154,11 @@ std::optional<NamedWrench> read_wrench(const Field& f) {
     return std::nullopt;
   }
   const std::size_t errors_before = f.errors().size();
-  f.allow_only({"frame", "kind", "axis", "profile", "amplitude", "start_s", "duration_s", "start_frequency_hz",
-                "end_frequency_hz"});
+  f.allow_only({"frame", "kind", "axis", "profile", "amplitude", "amplitude_weight_fraction", "start_s", "duration_s",
+                "start_frequency_hz", "end_frequency_hz"});
   NamedWrench out;
   if (f["frame"].require() && f["frame"].text(out.frame)) {
+    if (out.frame == "end_effector") out.frame = robot::kFrames[robot::kEeFrame].name;  // the robot file's hand, any robot
     if (const auto frame = sim::find_frame(out.frame)) {
       out.wrench.frame = *frame;
     } else {
@@ -180,7 +180,14 @@ std::optional<NamedWrench> read_wrench(const Field& f) {
                                              sim::ProfileShape::chirp, sim::ProfileShape::impulse};
     p.shape = kShapes[profile];
   }
-  if (f["amplitude"].require()) f["amplitude"].number(p.amplitude, -1e5, 1e5);
+  // In newtons (or N m), or as a fraction of the robot's weight, m g: a push that scales with the robot.
+  if (f["amplitude"].present() == f["amplitude_weight_fraction"].present()) {
+    f.fail("needs exactly one of 'amplitude' and 'amplitude_weight_fraction'");
+  } else if (f["amplitude"].present()) {
+    f["amplitude"].number(p.amplitude, -1e5, 1e5);
+  } else if (double fraction = 0.0; f["amplitude_weight_fraction"].number(fraction, -10.0, 10.0)) {
+    p.amplitude = fraction * total_mass_kg() * kGravity_m_s2;
+  }
   p.start_s = 0.0;
   f["start_s"].number(p.start_s, 0.0, 1e6);
   const bool needs_duration = p.shape == sim::ProfileShape::chirp || p.shape == sim::ProfileShape::impulse;

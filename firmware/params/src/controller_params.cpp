@@ -82,7 +82,7 @@ wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
                   "joint_friction"});
   }
   wbc::WbcParams p;
-  if (f["template"].require()) read_template(f["template"], p.template_params);
+  if (f["template"].present()) read_template(f["template"], p.template_params);
   if (f["rotational_template"].present()) {
     p.rotational_template_enabled = true;
     read_rotational_template(f["rotational_template"], p.rotational_template);

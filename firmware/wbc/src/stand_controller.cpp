@@ -5,8 +5,8 @@
 namespace springbok::wbc {
 
 VecNj nominal_stance() noexcept {
-  VecNj q = VecNj::Zero();
-  for (int j = 0; j < kFirstArmJoint; ++j) q[j] = robot::kStance_rad[static_cast<std::size_t>(j)];
+  VecNj q;
+  for (int j = 0; j < kNj; ++j) q[j] = robot::kStance_rad[static_cast<std::size_t>(j)];
   return q;
 }
 

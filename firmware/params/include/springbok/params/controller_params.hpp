@@ -29,7 +29,7 @@
 //   joint_friction: {viscous: 0}    # N m s/rad, compensated: one number or 19 (kJoints' order)
 //
 // (No fallback section: what a failed tick commands is the safety supervisor's.)
-// Everything but `template` is optional (defaults of WbcParams). Masses and
+// Every key is optional (defaults of WbcParams; the template's, the robot file's). Masses and
 // stiffnesses must be positive, dampings non-negative; unknown keys, wrong
 // types and non-finite numbers are errors naming the field.
 //

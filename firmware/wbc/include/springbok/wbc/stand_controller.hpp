@@ -19,8 +19,7 @@
 
 namespace springbok::wbc {
 
-// The legs in the robot file's stance, the arm at its zero (the scenarios and tests that want
-// the robot file's arm pose say so).
+// The robot file's stance_rad: legs and arm.
 VecNj nominal_stance() noexcept;
 
 struct StandGains {

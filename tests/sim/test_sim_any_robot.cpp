@@ -1,0 +1,52 @@
+// The robot-neutral base step (tools/scenarios/any_robot/base_step.yaml) on the robot this build
+// is for, whichever it is: the stance, the template, the feet and the hand all come from the
+// robot file, the push is 5 % of the robot's weight. A robot folder of your own passes this with
+// no code change, or says why not.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdlib>
+
+#include "cli_test_util.hpp"
+#include "springbok/model/model.hpp"
+
+namespace {
+using namespace springbok::test;
+
+TEST(SimAnyRobot, RendersTheBaseStepOfItsRobotFile) {
+  const fs::path dir = scratch("any_robot_base_step");
+  const CliResult r = run(kScenarios + "any_robot/base_step.yaml", dir / "out");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string json = slurp(dir / "out" / "summary.json");
+  EXPECT_FALSE(json_true(json, "fell")) << json;
+  EXPECT_EQ(json_number(json, "qp_failures"), 0.0);
+  EXPECT_LE(json_number(json, "max_torque_ratio"), 1.0);
+  EXPECT_LE(member(json, "nrmse", "base_x"), 0.08);
+  EXPECT_LE(member(json, "nrmse", "ee_x"), 0.03);
+  // At rest the template's closed form: the base F / K_b forward, F = 0.05 m g.
+  const double force_n = 0.05 * springbok::total_mass_kg() * springbok::kGravity_m_s2;
+  const double rest_m = force_n / springbok::robot::kTemplate.base.stiffness;
+  const std::vector<double> t = log_column(dir / "out" / "log.csv", "time_s");
+  const std::vector<double> x = log_column(dir / "out" / "log.csv", "base_x_m");
+  ASSERT_EQ(t.size(), x.size());
+  const auto before_push = static_cast<std::size_t>(std::lower_bound(t.begin(), t.end(), 0.999) - t.begin());
+  ASSERT_LT(before_push, x.size());
+  EXPECT_NEAR(x.back() - x[before_push], rest_m, 0.01 * rest_m);
+}
+
+// tools/experiments/run_all --quick on this build: its robot's scenarios (tools/scenarios/<robot>/,
+// or any_robot/), the report, and every quick target met.
+TEST(SimAnyRobot, TheQuickExperimentsMeetTheirTargets) {
+  const fs::path dir = scratch("any_robot_run_all");
+  const std::string cmd = "'" + std::string(SPRINGBOK_SOURCE_DIR) + "/tools/experiments/run_all' --quick --jobs 1 --robot " +
+                          SPRINGBOK_ROBOT_NAME + " '" + SPRINGBOK_BIN_DIR + "' '" + dir.string() + "' > '" +
+                          (dir / "run_all.txt").string() + "' 2>&1";
+  EXPECT_EQ(std::system(cmd.c_str()), 0) << slurp(dir / "run_all.txt");
+  const std::string out = slurp(dir / "run_all.txt");
+  EXPECT_EQ(out.find("MISS"), std::string::npos) << out;
+  EXPECT_NE(out.find("PASS"), std::string::npos) << out;
+  const std::string report = slurp(dir / "report.md");
+  EXPECT_NE(report.find("## Targets"), std::string::npos);
+}
+
+}  // namespace
