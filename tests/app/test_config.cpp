@@ -63,6 +63,16 @@ TEST(AppConfig, TheShippedFileLoads) {
   EXPECT_EQ(c.wbc.template_params.mass_base_kg.x(), 92.0);
   EXPECT_EQ(c.estimator.velocity_gain_per_s, 30.0);
   EXPECT_EQ(c.estimator.tilt_gain_per_s, 1.0);  // the CAN IMU's pitch is not on the wire: aided
+  EXPECT_FALSE(c.stand_weight_feed_forward);
+}
+
+TEST(AppConfig, TheStandsFeedForwardIsWeightOrNone) {
+  const ConfigResult weight = load_config_text(with("  stand_feed_forward: none", "  stand_feed_forward: weight"));
+  ASSERT_TRUE(weight.ok) << weight.errors.front();
+  EXPECT_TRUE(weight.config.stand_weight_feed_forward);
+  EXPECT_FALSE(load_config_text(with("  stand_feed_forward: none\n", "")).config.stand_weight_feed_forward);
+  EXPECT_EQ(only_error(load_config_text(with("  stand_feed_forward: none", "  stand_feed_forward: gravity"))),
+            "gains.stand_feed_forward: must be one of none, weight, got 'gravity'");
 }
 
 TEST(AppConfig, ControlSectionErrorsNameTheField) {

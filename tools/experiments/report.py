@@ -563,12 +563,12 @@ def rotational_study(out, checks):
 
 def robot_report(out, robot, present):
     """The report of a robot other than HyQ + Gen3 (tools/reproduce --robot NAME): its runs, classified by
-    name (base_step_*, arm_step_*, base_chirp_<axis>_*, trot_*, walk_*), each against the same targets as
+    name (base_step*, arm_step*, base_chirp_<axis>_*, trot*, walk*), each against the same targets as
     HyQ's. Returns (lines, figures, checks)."""
-    steps = [n for n in present if n.startswith(("base_step_", "arm_step_"))]
+    steps = [n for n in present if n.startswith(("base_step", "arm_step"))]
     chirps = [n for n in present if n.startswith("base_chirp_")]
-    trots = [n for n in present if n.startswith("trot_")]
-    walks = [n for n in present if n.startswith("walk_")]
+    trots = [n for n in present if n.startswith("trot")]
+    walks = [n for n in present if n.startswith("walk")]
     others = [n for n in present if n not in steps + chirps + trots + walks]
     summaries = {n: load_summary(out, n) for n in present}
     lines = [f"# {robot}: the paper's experiments in simulation", "",

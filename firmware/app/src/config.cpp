@@ -82,8 +82,12 @@ AppConfig read_config(const Field& root) {
     legs_arm(need(n, "idle_damping_nms_per_rad"), 0.1, 200.0, c.safety.idle_damping_nms_per_rad);
   }
   if (const Field n = root["gains"];
-      section(n, {"stand", "control", "stand_up_duration_s", "stand_tolerance_rad", "stand_posture_rad"})) {
+      section(n, {"stand", "control", "stand_up_duration_s", "stand_tolerance_rad", "stand_posture_rad",
+                  "stand_feed_forward"})) {
     gains(need(n, "stand"), c.stand_gains);
+    if (int feed_forward = 0; n["stand_feed_forward"].choice(feed_forward, {"none", "weight"})) {
+      c.stand_weight_feed_forward = feed_forward == 1;
+    }
     gains(need(n, "control"), c.control_gains);
     need(n, "stand_up_duration_s").number(c.stand_up_duration_s, 0.1, 60.0);
     need(n, "stand_tolerance_rad").number(c.stand_tolerance_rad, 0.001, 0.5);

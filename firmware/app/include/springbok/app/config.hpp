@@ -43,6 +43,9 @@ struct AppConfig {
   double stand_up_duration_s = 3.0;
   double stand_tolerance_rad = 0.05;     // stand-up is done when every leg joint is this close
   VecNj stand_posture_rad = VecNj::Zero();
+  // gains.stand_feed_forward: weight (stand-up and stand carry the robot's weight as the
+  // drives' feed-forward: ModeController) or none (the PD alone; the default).
+  bool stand_weight_feed_forward = false;
   JointGains control_gains;              // control mode with control.controller = joint_pd
   ControlModeKind control_mode = ControlModeKind::wbc;
   wbc::WbcParams wbc;                    // control.wbc (wbc_config.hpp's YAML)

@@ -3,22 +3,31 @@
 //
 //   idle, damping: nothing (the supervisor writes those commands in finish());
 //   stand_up: the desired posture moves from the pose at entry to the stand
-//             posture along a smoothstep in stand_up_duration_s; done when
-//             the ramp ended and every leg joint is within stand_tolerance_rad;
-//   stand:    hold the stand posture (joint PD, no model-based feed-forward);
+//             posture along a smoothstep in stand_up_duration_s (with
+//             gains.stand_feed_forward weight, the feed-forward takes over the
+//             robot's weight along the same smoothstep); done when the ramp
+//             ended and every leg joint is within stand_tolerance_rad;
+//   stand:    hold the stand posture (joint PD, plus the weight's feed-forward
+//             with stand_feed_forward weight);
 //   control:  the control law (a ControlLaw: ControlMode in control_mode.hpp, the
 //             whole-body controller or JointPdHold), which also observes the
 //             stand-up and stand ticks.
+// The weight's feed-forward is wbc::stance_gravity_compensation at the measured joints with
+// the trunk level (tau = g_j - J_st,j^T f, the four feet carrying the base): a level-ground
+// assumption; the PD then only corrects, and the stand does not sag.
 #pragma once
 
 #include <algorithm>
 #include <concepts>
+#include <memory>
 
 #include "springbok/app/config.hpp"
 #include "springbok/app/operator.hpp"
 #include "springbok/app/telemetry.hpp"
 #include "springbok/hal/types.hpp"
+#include "springbok/model/robot_state.hpp"
 #include "springbok/safety/supervisor.hpp"
+#include "springbok/wbc/stand_controller.hpp"
 
 namespace springbok::app {
 
@@ -77,12 +86,13 @@ class JointPdHold {
 template <ControlLaw Control>
 class ModeController {
  public:
-  ModeController(const AppConfig& config, Control& control) noexcept
+  ModeController(const AppConfig& config, Control& control)
       : control_(control),
         posture_rad_(config.stand_posture_rad),
         gains_(config.stand_gains),
         duration_s_(config.stand_up_duration_s),
-        tolerance_rad_(config.stand_tolerance_rad) {}
+        tolerance_rad_(config.stand_tolerance_rad),
+        weight_feed_forward_(config.stand_weight_feed_forward) {}
 
   // rt: no alloc
   safety::ControllerReport compute(const ControlInput& in, hal::JointCommands& cmd) noexcept {
@@ -97,8 +107,9 @@ class ModeController {
         const double blend_rate = s < 1.0 ? 6.0 * s * (1.0 - s) / duration_s_ : 0.0;
         const VecNj span = posture_rad_ - start_rad_;
         joint_pd_command(start_rad_ + blend * span, blend_rate * span, gains_, cmd);
+        if (weight_feed_forward_) cmd.tau_ff_nm = blend * weight_feed_forward(m.q_rad);
         safety::ControllerReport report;
-        // Standing is the legs' posture; the arm holds its own under a PD without gravity compensation.
+        // Standing is the legs' posture.
         report.posture_reached =
             s >= 1.0 &&
             (m.q_rad - posture_rad_).head<kFirstArmJoint>().cwiseAbs().maxCoeff() <= tolerance_rad_;
@@ -107,6 +118,7 @@ class ModeController {
       case safety::Mode::stand:
         control_.observe(in);
         joint_pd_command(posture_rad_, VecNj::Zero(), gains_, cmd);
+        if (weight_feed_forward_) cmd.tau_ff_nm = weight_feed_forward(m.q_rad);
         return {};
       case safety::Mode::control:
         return control_.compute(in, cmd);
@@ -126,12 +138,24 @@ class ModeController {
   }
 
  private:
+  // The joint torques that hold the robot up on its four feet at q_rad, the trunk level. rt: no alloc
+  const VecNj& weight_feed_forward(const VecNj& q_rad) noexcept {
+    q_level_.tail<kNj>() = q_rad;
+    wbc::stance_gravity_compensation(model_, *data_, q_level_, forces_);
+    return forces_.tau_gravity_nm;
+  }
+
   Control& control_;
+  dyn::Model model_;
+  std::unique_ptr<dyn::Data> data_ = std::make_unique<dyn::Data>();
+  VecNq q_level_ = RobotState{}.q;  // the base at the origin, level
+  wbc::StanceForces forces_;
   VecNj posture_rad_;
   VecNj start_rad_ = VecNj::Zero();
   JointGains gains_;
   double duration_s_;
   double tolerance_rad_;
+  bool weight_feed_forward_;
 };
 
 }  // namespace springbok::app
