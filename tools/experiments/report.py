@@ -305,6 +305,17 @@ def walk_row(n, s):
                  + " (target 10 % or 0.03)" + (f", fell at {num(s['fell_time_s'])} s" if s["fell"] else ""))
 
 
+def trot_row(n, s):
+    """A trot's row of a robot's report (its gait, rendering, limits) and its check."""
+    g = s["gait"] or {}
+    fell = f"{s['fell']} ({num(s['fell_time_s'])})" if s["fell"] else "False"
+    return (f"| {n} | {num(g.get('step_frequency_hz'))} | {num(g.get('duty_factor'))} | "
+            f"{pct(s['nrmse']['base_x'])} | {pct(s['nrmse']['ee_x'])} | "
+            f"{pct(s['steady_state_error']['base_x'])} | {pct(s['steady_state_error']['ee_x'])} | "
+            f"{s['qp_failures']} | {s['max_torque_ratio']:.3f} | {fell} | "
+            f"{s['tick_us']['median']:.1f} / {s['tick_us']['p99']:.1f} |"), trot_check(n, s)
+
+
 def trot_check(n, s):
     """A trot's check: it stands to the end, within its torque and joint limits."""
     return (n, not s["fell"] and s["max_torque_ratio"] <= 1.0 and not s["joint_limit_hit"],
@@ -576,44 +587,27 @@ def robot_report(out, robot, present):
              "(`tools/scenarios/<robot>/`, or the robot-neutral `tools/scenarios/any_robot/`): each names its "
              "template and push in its opening comment. Scores and targets as in HyQ + Gen3's report: NRMSE = "
              "RMS(measured - template) / peak-to-peak(template) from the WBC start; steady state = |mean of the "
-             "last second - F/K| / |F/K|; ground-truth base state, Bullet at 1 kHz.", ""]
+             "last second - F/K| / |F/K|; ground-truth base state, Bullet at 1 kHz."]
     checks, figs = [], []
-    if steps:
-        lines += ["## Step responses", ""] + STEP_HEADER
-        for n in steps:
-            row, check = step_row(out, n, summaries[n])
+    trot_header = ["| scenario | f_s [Hz] | d_f | NRMSE base x | NRMSE EE x | steady state base x | steady state EE x | "
+                   "QP failures | max tau/limit | fell (s) | tick median / p99 [us] |",
+                   "|---|---|---|---|---|---|---|---|---|---|---|"]
+    sections = [("Step responses", STEP_HEADER, steps, lambda n: step_row(out, n, summaries[n])),
+                ("Chirp responses", CHIRP_HEADER, chirps, lambda n: chirp_row(n, summaries[n])),
+                ("Trotting in place with a push", trot_header, trots, lambda n: trot_row(n, summaries[n])),
+                ("Walking on command", WALK_HEADER, walks, lambda n: walk_row(n, summaries[n]))]
+    for title, header, names, row_of in sections:
+        if not names:
+            continue
+        lines += ["", f"## {title}", ""] + header
+        for n in names:
+            row, check = row_of(n)
             lines.append(row)
             checks.append(check)
+    if steps:
         figs.append(plot_cases(out, f"{robot}: step responses", [(n, n) for n in steps],
                                [("base x", "base_dx_m", "template_base_x_m"), ("EE x", "ee_dx_m", "template_ee_x_m")],
                                "step_x.png"))
-    if chirps:
-        lines += ["", "## Chirp responses", ""] + CHIRP_HEADER
-        for n in chirps:
-            row, check = chirp_row(n, summaries[n])
-            lines.append(row)
-            checks.append(check)
-    if trots:
-        lines += ["", "## Trotting in place with a push", "",
-                  "| scenario | f_s [Hz] | d_f | NRMSE base x | NRMSE EE x | steady state base x | steady state EE x | "
-                  "QP failures | max tau/limit | fell (s) | tick median / p99 [us] |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|"]
-        for n in trots:
-            s = summaries[n]
-            g = s["gait"] or {}
-            fell = f"{s['fell']} ({num(s['fell_time_s'])})" if s["fell"] else "False"
-            lines.append(f"| {n} | {num(g.get('step_frequency_hz'))} | {num(g.get('duty_factor'))} | "
-                         f"{pct(s['nrmse']['base_x'])} | {pct(s['nrmse']['ee_x'])} | "
-                         f"{pct(s['steady_state_error']['base_x'])} | {pct(s['steady_state_error']['ee_x'])} | "
-                         f"{s['qp_failures']} | {s['max_torque_ratio']:.3f} | {fell} | "
-                         f"{s['tick_us']['median']:.1f} / {s['tick_us']['p99']:.1f} |")
-            checks.append(trot_check(n, s))
-    if walks:
-        lines += ["", "## Walking on command", ""] + WALK_HEADER
-        for n in walks:
-            row, check = walk_row(n, summaries[n])
-            lines.append(row)
-            checks.append(check)
     if others:
         lines += ["", "Other runs (no target): " + ", ".join(others)]
     return lines + targets_section(checks), figs, checks
