@@ -3,6 +3,7 @@
 // to summary.json.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 #include "springbok/hal/types.hpp"
@@ -13,8 +14,9 @@ namespace springbok::simtool {
 class Controller {
  public:
   virtual ~Controller() = default;
-  // rt: no alloc
-  virtual void tick(const hal::Measurements& m, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept = 0;
+  // Tick k in lockstep: reads the robot's measurements and writes its command (the caller
+  // steps the physics after). False: the robot's HAL refused the command.
+  virtual bool tick(sim::BulletRobot& robot, std::int64_t k) noexcept = 0;
   // Extra log.csv columns, each with its leading comma ("" for none).
   virtual std::string csv_columns() const { return ""; }
   // Called once per tick after the physics step: appends this tick's extra columns.

@@ -1,6 +1,6 @@
 // springbok-sim SCENARIO --out DIR
-// Runs a scenario in lockstep with the Bullet robot (read -> controller ->
-// write -> step, one tick per 1 ms of simulated time, as fast as the machine
+// Runs a scenario in lockstep with the Bullet robot (the firmware's tick: read -> controller ->
+// write; then the physics steps; one tick per 1 ms of simulated time, as fast as the machine
 // allows) and writes DIR/log.csv (one row per tick) and DIR/summary.json.
 #include <charconv>
 #include <chrono>
@@ -31,8 +31,9 @@ using simtool::Controller;
 class StandAdapter final : public Controller {
  public:
   explicit StandAdapter(const yaml::Field& p) : stand_(gains(p), wbc::nominal_stance()) {}
-  void tick(const hal::Measurements&, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept override {
-    stand_.tick(truth.q, out);  // base orientation: ground truth (the estimator is a wbc option)
+  bool tick(sim::BulletRobot& robot, std::int64_t) noexcept override {
+    stand_.tick(robot.ground_truth().q, cmd_);  // base orientation: ground truth (the estimator is a wbc option)
+    return robot.write(cmd_) == hal::IoStatus::ok;
   }
 
  private:
@@ -46,6 +47,7 @@ class StandAdapter final : public Controller {
     return g;
   }
   wbc::StandController stand_;
+  hal::JointCommands cmd_;
 };
 
 // The safe mode: tau = -D qd.
@@ -59,26 +61,28 @@ class DampingAdapter final : public Controller {
     kd_.head<kFirstArmJoint>().setConstant(leg);
     kd_.tail<kArmJoints>().setConstant(arm);
   }
-  void tick(const hal::Measurements&, const sim::GroundTruth&, hal::JointCommands& out) noexcept override {
-    out.mode = hal::CommandMode::enabled;
-    out.tau_ff_nm.setZero();
-    out.kp_nm_per_rad.setZero();
-    out.qd_des_rad_s.setZero();
-    out.kd_nms_per_rad = kd_;
+  bool tick(sim::BulletRobot& robot, std::int64_t) noexcept override {
+    cmd_.mode = hal::CommandMode::enabled;
+    cmd_.tau_ff_nm.setZero();
+    cmd_.kp_nm_per_rad.setZero();
+    cmd_.qd_des_rad_s.setZero();
+    cmd_.kd_nms_per_rad = kd_;
+    return robot.write(cmd_) == hal::IoStatus::ok;
   }
 
  private:
   VecNj kd_ = VecNj::Zero();
+  hal::JointCommands cmd_;
 };
 
 // Throws ScenarioError naming every bad controller.params field.
-std::unique_ptr<Controller> make_controller(const simtool::Scenario& s, const std::string& path) {
+std::unique_ptr<Controller> make_controller(const simtool::Scenario& s, const std::string& path, sim::BulletRobot& robot) {
   yaml::Errors errors;
   const yaml::Field params(s.controller_params, "controller.params", errors, s.controller_params_line);
   std::unique_ptr<Controller> c;
   if (s.controller_type == "stand") c = std::make_unique<StandAdapter>(params);
   else if (s.controller_type == "damping") c = std::make_unique<DampingAdapter>(params);
-  else if (s.controller_type == "wbc") c = std::make_unique<simtool::WbcAdapter>(s, params);
+  else if (s.controller_type == "wbc") c = std::make_unique<simtool::WbcAdapter>(s, params, robot);
   else errors.add("controller.type", 0, "unknown controller '" + s.controller_type + "' (known: stand, damping, wbc)");
   simtool::refuse_if_any(errors, path);
   return c;
@@ -139,13 +143,12 @@ void append_row(std::string& out, const sim::GroundTruth& t) {
 
 int run(const std::string& scenario_path, const std::filesystem::path& out_dir, const char* memory_locked) {
   simtool::Scenario s = simtool::load_scenario(scenario_path);
-  std::unique_ptr<Controller> controller = make_controller(s, scenario_path);
-
   simtool::apply_feet_clearance(s);
   sim::BulletRobot hw(s.sim);
   if (auto r = hw.configure(); !r.ok) throw std::runtime_error(r.message);
   for (const auto& w : s.wrenches) hw.add_external_wrench(w.wrench);
   if (auto r = hw.activate(); !r.ok) throw std::runtime_error(r.message);
+  std::unique_ptr<Controller> controller = make_controller(s, scenario_path, hw);
 
   std::filesystem::create_directories(out_dir);
   std::FILE* log = std::fopen((out_dir / "log.csv").c_str(), "wb");
@@ -156,8 +159,6 @@ int run(const std::string& scenario_path, const std::filesystem::path& out_dir, 
   const auto ticks = static_cast<std::int64_t>(std::llround(s.duration_s / s.sim.step_s));
   const auto last_second_ticks = static_cast<std::int64_t>(std::llround(1.0 / s.sim.step_s));
   const double weight_n = total_mass_kg() * s.sim.gravity_m_s2;
-  hal::Measurements meas;
-  hal::JointCommands cmd;
   std::string row;
   row.reserve(4096);
   bool fell = false;
@@ -169,9 +170,7 @@ int run(const std::string& scenario_path, const std::filesystem::path& out_dir, 
 
   const auto wall_start = std::chrono::steady_clock::now();
   for (std::int64_t k = 0; k < ticks; ++k) {
-    hw.read(meas);
-    controller->tick(meas, hw.ground_truth(), cmd);
-    if (hw.write(cmd) != hal::IoStatus::ok) ++write_errors;
+    if (!controller->tick(hw, k)) ++write_errors;
     hw.step();
     const sim::GroundTruth& truth = hw.ground_truth();
     row.clear();

@@ -71,7 +71,7 @@ double percentile(std::vector<double> v, double fraction) {
 
 }  // namespace
 
-WbcAdapter::WbcAdapter(const Scenario& s, const yaml::Field& params)
+WbcAdapter::WbcAdapter(const Scenario& s, const yaml::Field& params, sim::BulletRobot& robot)
     : dt_s_(s.sim.step_s), settle_s_(s.controller_settle_s),
       idle_columns_(static_cast<int>(std::ranges::count(csv_columns(), ','))),
       data_(std::make_unique<dyn::Data>()) {
@@ -106,7 +106,32 @@ WbcAdapter::WbcAdapter(const Scenario& s, const yaml::Field& params)
   }
   params_ = params::read_wbc_params(params, params::WithControllerParts::yes);
   cp.wbc = params_;
-  control_ = std::make_unique<control::RobotController>(cp);
+  // The firmware's configuration: the control mode's controller as the scenario sets it; the
+  // stand posture is the scenario's initial one (stand-up takes one tick), held with the stand
+  // gains and the robot's weight as feed-forward until the operator's `mode control`.
+  config_.rate_hz = static_cast<int>(std::lround(1.0 / dt_s_));
+  config_.control_mode = app::ControlModeKind::wbc;
+  config_.wbc = cp.wbc;
+  config_.estimator = cp.estimator;
+  config_.gait = cp.gait;
+  config_.push_stepping = cp.push_stepping;
+  config_.wrist_tare_samples = cp.tare_samples;
+  config_.stand_posture_rad = s.sim.initial_q.tail<kNj>();
+  config_.stand_up_duration_s = dt_s_;
+  config_.stand_weight_feed_forward = true;
+  const wbc::StandGains stand;
+  config_.stand_gains.kp_nm_per_rad.head<kFirstArmJoint>().setConstant(stand.kp_leg_nm_per_rad);
+  config_.stand_gains.kd_nms_per_rad.head<kFirstArmJoint>().setConstant(stand.kd_leg_nms_per_rad);
+  config_.stand_gains.kp_nm_per_rad.tail<kArmJoints>().setConstant(stand.kp_arm_nm_per_rad);
+  config_.stand_gains.kd_nms_per_rad.tail<kArmJoints>().setConstant(stand.kd_arm_nms_per_rad);
+  config_.control_gains = config_.stand_gains;
+  // The scenario's operator: start, mode control, the velocity schedule's walk requests.
+  posted_.reserve(16 + 2 * velocity_schedule_.size());
+  refusals_.reserve(16);
+  firmware_ = std::make_unique<app::Firmware>(robot, config_, nullptr);
+  if (!use_estimator_) firmware_->control().use_base_truth(&base_truth_);
+  control::RobotController& control = firmware_->control().controller();
+  control.set_start_position_xy(robot.ground_truth().q.head<2>());
   // hand_trajectory: [{at_s, position: [x, y, z], rotation: [rx, ry, rz]}, ...]: the hand's rest
   // point's offset (m) and, optionally, its rest orientation's rotation vector (rad; with the
   // rotational template), both in the rest pose's horizontal frame, at scenario times; the
@@ -128,13 +153,11 @@ WbcAdapter::WbcAdapter(const Scenario& s, const yaml::Field& params)
       waypoints.push_back(w);
     }
     if (ok) {
-      if (const std::string why = control_->set_hand_trajectory(waypoints); !why.empty()) {
+      if (const std::string why = control.set_hand_trajectory(waypoints); !why.empty()) {
         list.fail(why + " (times from the controller's start at settle_s)");
       }
     }
   }
-  supervisor_ = std::make_unique<safety::Supervisor>(safety::SupervisorConfig{});
-  stand_ = std::make_unique<wbc::StandController>(wbc::StandGains{}, s.sim.initial_q.tail<kNj>());
   template_ = std::make_unique<wbc::TemplateReference>(params_.template_params, dt_s_);
   step_profile_ = !s.wrenches.empty();
   for (const auto& w : s.wrenches) {
@@ -154,61 +177,99 @@ WbcAdapter::WbcAdapter(const Scenario& s, const yaml::Field& params)
 
 WbcAdapter::~WbcAdapter() = default;
 
-void WbcAdapter::tick(const hal::Measurements& m, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept {
-  ticked_ = false;
-  if (first_tick_) {
-    control_->set_start_position_xy(truth.q.head<2>());
-    first_tick_ = false;
-  }
-  safety::Supervisor& sup = *supervisor_;
-  sup.observe(m, hal::IoStatus::ok, 0, 0);
-  if (sup.mode() == safety::Mode::idle) (void)sup.request(safety::OperatorCommand::start);
-  if (sup.mode() == safety::Mode::stand) (void)sup.request(safety::OperatorCommand::mode_control);
+void WbcAdapter::post(const app::OperatorRequest& request) noexcept {
+  app::OperatorRequest r = request;
+  r.id = posted_.size() + 1;
+  if (firmware_->mailbox().requests.push(r) && posted_.size() < posted_.capacity()) posted_.push_back({firmware_ticks_, r});
+}
 
-  safety::ControllerReport report;
-  tick_mode_ = sup.mode();
-  if (sup.mode() == safety::Mode::stand_up) {
-    // Settling: the tool's stand controller (orientation from the estimate when the
-    // controller estimates, else the truth); the controller observes.
-    control_->observe(m, dt_s_, true);
-    stand_->tick(use_estimator_ ? control_->estimate().q : truth.q, out);
-    report.posture_reached = truth.time_s + 1.5 * dt_s_ >= settle_s_;  // control from the next tick on
-  } else if (sup.mode() == safety::Mode::control) {
-    if (!control_->engaged()) template_->reset();
-    control::BaseTruth base;
-    base.pose = truth.q.head<7>();
-    base.twist = truth.v.head<6>();
-    truth_before_step_p_ = truth.q.head<3>();
-    truth_before_step_v_ = truth.v.head<3>();
-    while (next_velocity_change_ < velocity_schedule_.size() &&
-           truth.time_s + 0.5 * dt_s_ >= velocity_schedule_[next_velocity_change_].at_s) {
-      (void)control_->request_velocity(velocity_schedule_[next_velocity_change_++].velocity);  // checked when read
+void WbcAdapter::firmware_tick(const sim::GroundTruth& truth) noexcept {
+  app::Firmware& fw = *firmware_;
+  base_truth_.pose = truth.q.head<7>();
+  base_truth_.twist = truth.v.head<6>();
+  rt::TickInfo info;
+  info.index = firmware_ticks_;
+  info.elapsed_ns = std::llround(dt_s_ * 1e9);
+  info.scheduled_ns = static_cast<std::int64_t>(firmware_ticks_) * info.elapsed_ns;
+  info.wake_ns = info.scheduled_ns;
+  fw.loop().tick(info);
+  ++firmware_ticks_;
+  if (recording_ != nullptr) {
+    recording_->push_back({fw.loop().measurements(), fw.loop().commands(), fw.loop().computed_mode()});
+  }
+  app::OperatorReply reply;
+  while (fw.mailbox().replies.pop(reply)) {
+    if (!reply.accepted && refusals_.size() < refusals_.capacity()) {
+      refusals_.push_back(fmt::format("t = {:.3f} s: request {} refused: {}", truth.time_s, reply.id,
+                                      reply.refusal != nullptr ? reply.refusal : "?"));
     }
-    // The thread's page faults and context switches across the tick (read outside the timed
-    // span): what made a slow tick slow, told apart from a slow solve.
-    rusage before{}, after{};
-    getrusage(RUSAGE_THREAD, &before);
-    const auto t0 = std::chrono::steady_clock::now();
-    status_ = control_->tick(m, dt_s_, out, use_estimator_ ? nullptr : &base);
-    tick_us_ = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
-    getrusage(RUSAGE_THREAD, &after);
-    tick_faults_ = static_cast<int>((after.ru_minflt - before.ru_minflt) + (after.ru_majflt - before.ru_majflt));
-    tick_switches_ = static_cast<int>((after.ru_nvcsw - before.ru_nvcsw) + (after.ru_nivcsw - before.ru_nivcsw));
-    report.ok = status_ == control::TickStatus::ok;
-    estimator_ok_ = estimator_ok_ && control_->estimate().status == est::EstimateStatus::ok;
-    ticked_ = control_->engaged();
+  }
+}
+
+bool WbcAdapter::tick(sim::BulletRobot& robot, std::int64_t k) noexcept {
+  const sim::GroundTruth& truth = robot.ground_truth();
+  app::Firmware& fw = *firmware_;
+  control::RobotController& control = fw.control().controller();
+  const double t_s = static_cast<double>(k) * dt_s_;
+  const std::uint64_t hal_errors = fw.status().hal_errors.load(std::memory_order_relaxed);
+  // The scenario's operator: `start` and the stand-up before the physics starts (the robot
+  // starts in the stand posture: its stand-up is done at t = 0, its weight carried from the
+  // first step), `mode control` at settle_s (again each tick while the robot stands, as an
+  // operator would), the velocity schedule's walks.
+  if (k == 0) {
+    app::OperatorRequest start;
+    start.command = safety::OperatorCommand::start;
+    post(start);
+    for (int i = 0; i < kStandUpTicks && fw.supervisor().mode() != safety::Mode::stand; ++i) firmware_tick(truth);
+  }
+  if (fw.supervisor().mode() == safety::Mode::stand && t_s + 0.5 * dt_s_ >= settle_s_) {
+    app::OperatorRequest engage;
+    engage.command = safety::OperatorCommand::mode_control;
+    post(engage);
+  }
+  while (next_velocity_change_ < velocity_schedule_.size() &&
+         t_s + 0.5 * dt_s_ >= velocity_schedule_[next_velocity_change_].at_s) {
+    app::OperatorRequest walk;
+    walk.for_controller = true;
+    walk.request.kind = app::ControllerRequest::Kind::walk;
+    const Vec3& v = velocity_schedule_[next_velocity_change_++].velocity;
+    walk.request.velocity = {v.x(), v.y(), v.z()};
+    post(walk);
+  }
+  truth_before_step_p_ = truth.q.head<3>();
+  truth_before_step_v_ = truth.v.head<3>();
+
+  // The thread's page faults and context switches across the tick (read outside the timed
+  // span): what made a slow tick slow, told apart from a slow solve.
+  rusage before{}, after{};
+  getrusage(RUSAGE_THREAD, &before);
+  const auto t0 = std::chrono::steady_clock::now();
+  firmware_tick(truth);
+  tick_us_ = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
+  getrusage(RUSAGE_THREAD, &after);
+  tick_faults_ = static_cast<int>((after.ru_minflt - before.ru_minflt) + (after.ru_majflt - before.ru_majflt));
+  tick_switches_ = static_cast<int>((after.ru_nvcsw - before.ru_nvcsw) + (after.ru_nivcsw - before.ru_nivcsw));
+
+  const safety::Mode previous_mode = tick_mode_;
+  tick_mode_ = fw.loop().computed_mode();
+  ticked_ = false;
+  if (tick_mode_ == safety::Mode::control) {
+    if (previous_mode != safety::Mode::control) template_->reset();  // engaged anew
+    status_ = fw.control().last_status();
+    estimator_ok_ = estimator_ok_ && control.estimate().status == est::EstimateStatus::ok;
+    ticked_ = control.engaged();
     if (ticked_) {
-      template_->step(control_->output().external_force_world_n);
+      template_->step(control.output().external_force_world_n);
       if (params_.rotational_template_enabled) {
         if (!rotational_template_) {
           rotational_template_.emplace(
-              wbc::template_axes(params_.rotational_template, control_->wbc().base_rotational_inertia_kgm2()), dt_s_);
+              wbc::template_axes(params_.rotational_template, control.wbc().base_rotational_inertia_kgm2()), dt_s_);
         }
-        rotational_template_->step(control_->output().external_torque_world_nm);
+        rotational_template_->step(control.output().external_torque_world_nm);
       }
     }
   }
-  sup.finish(m, report, out);
+  return fw.status().hal_errors.load(std::memory_order_relaxed) == hal_errors;
 }
 
 std::string WbcAdapter::csv_columns() const {
@@ -249,9 +310,9 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
     for (int i = 0; i < idle_columns_; ++i) row += ",0";  // wbc_active 0, and zeros in the WBC's columns
     return;
   }
-  const wbc::WbcOutput& o = control_->output();
+  const wbc::WbcOutput& o = controller().output();
   dyn::forward_kinematics(model_, *data_, truth.q);
-  const wbc::WbcReference& ref = control_->wbc().reference();
+  const wbc::WbcReference& ref = controller().wbc().reference();
   Sample s{};
   s.time_s = truth.time_s;
   const Vec3 base_d = truth.q.head<3>() - ref.base_position_m;
@@ -288,7 +349,7 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
     const Vec3 v_h = yaw.transpose() * (rot * truth.v.head<3>());
     trunk_velocity_h_.push_back(Vec3(v_h.x(), v_h.y(), (rot * truth.v.segment<3>(3)).z()));
   }
-  const RobotState& used = control_->state();
+  const RobotState& used = controller().state();
   if (use_estimator_) {  // the estimate the WBC used this tick vs the truth of that tick (before the step)
     estimator_velocity_sq_sum_ += (used.v.head<3>() - truth_before_step_v_).squaredNorm();
     estimator_position_max_m_ = std::max(estimator_position_max_m_, (used.q.head<3>() - truth_before_step_p_).norm());
@@ -326,11 +387,11 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   if (at_limit) ++any_torque_limit_ticks_;
   if (o.arm_overloaded) ++arm_overloaded_ticks_;
   if (o.support_limited) ++support_limited_ticks_;
-  if (control_->stepping_for_push()) {
+  if (controller().stepping_for_push()) {
     ++push_stepping_ticks_;
     if (!was_stepping_for_push_) ++push_steppings_;
   }
-  was_stepping_for_push_ = control_->stepping_for_push();
+  was_stepping_for_push_ = controller().stepping_for_push();
 
   row += ",1";
   for (int a = 0; a < 6; ++a) put(row, s.measured[a]);
@@ -350,16 +411,16 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   for (int a = 6; a < 12; ++a) put(row, s.measured[a]);
   for (double v : o.base_wrench_desired) put(row, v);
   for (double v : o.base_wrench_applied) put(row, v);
-  for (const Vec3& f : control_->foot_force_estimate_n()) put(row, f.z());
-  for (bool c : control_->state().stance) row += c ? ",1" : ",0";
-  for (double v : control_->input().normal_force_cap_n) put(row, std::isfinite(v) ? v : -1.0);  // -1: no cap
+  for (const Vec3& f : controller().foot_force_estimate_n()) put(row, f.z());
+  for (bool c : controller().state().stance) row += c ? ",1" : ",0";
+  for (double v : controller().input().normal_force_cap_n) put(row, std::isfinite(v) ? v : -1.0);  // -1: no cap
   // The hand's rest point from the engaged one (it moves with hand_trajectory and walking).
-  const Vec3 rest_d = ref.ee_position_m - control_->wbc().engaged_reference().ee_position_m;
+  const Vec3 rest_d = ref.ee_position_m - controller().wbc().engaged_reference().ee_position_m;
   for (int a = 0; a < 3; ++a) put(row, rest_d[a]);
   for (int a = 6; a < 12; ++a) put(row, s.reference[a]);
   for (int a = 0; a < 3; ++a) put(row, s.torque_world_nm[a]);
   // The hand's rest orientation from the engaged one (world; it turns with a hand pose command).
-  const Vec3 rest_r = wbc::so3_log(ref.ee_rotation * control_->wbc().engaged_reference().ee_rotation.transpose());
+  const Vec3 rest_r = wbc::so3_log(ref.ee_rotation * controller().wbc().engaged_reference().ee_rotation.transpose());
   for (int a = 0; a < 3; ++a) put(row, rest_r[a]);
   row += o.arm_reference_saturated ? ",1" : ",0";
   row += o.arm_overloaded ? ",1" : ",0";
@@ -367,8 +428,8 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   row += o.support_limited ? ",1" : ",0";
   put(row, std::isfinite(o.support_distance_m) ? o.support_distance_m : -1.0);
   put(row, std::isfinite(o.capture_distance_m) ? o.capture_distance_m : -1.0);
-  for (int a = 0; a < 3; ++a) put(row, control_->input().unmeasured_force_world_n[a]);
-  row += control_->stepping_for_push() ? ",1" : ",0";
+  for (int a = 0; a < 3; ++a) put(row, controller().input().unmeasured_force_world_n[a]);
+  row += controller().stepping_for_push() ? ",1" : ",0";
 }
 
 std::string WbcAdapter::summary_fields() const {
@@ -496,26 +557,31 @@ std::string WbcAdapter::summary_fields() const {
   j += fmt::format("  \"steady_state_error\": {},\n", json_axes(steady));
   j += fmt::format("  \"peak_deviation\": {},\n", json_axes(peak));
   j += fmt::format("  \"chirp_gain_db_error\": {},\n", chirp_ ? json_axes(chirp_db) : std::string("null"));
-  j += fmt::format("  \"qp_failures\": {},\n", control_->wbc().qp_failures());
+  j += fmt::format("  \"qp_failures\": {},\n", controller().wbc().qp_failures());
   j += fmt::format("  \"failed_ticks\": {},\n", failed_ticks_);
-  j += fmt::format("  \"supervisor\": {{\"mode\": \"{}\", \"faults\": {}}},\n", safety::to_string(supervisor_->mode()),
-                   supervisor_->faults());
+  j += fmt::format("  \"supervisor\": {{\"mode\": \"{}\", \"faults\": {}}},\n", safety::to_string(firmware_->supervisor().mode()),
+                   firmware_->supervisor().faults());
+  {
+    std::string refused;
+    for (const std::string& r : refusals_) refused += fmt::format("{}\"{}\"", refused.empty() ? "" : ", ", r);
+    j += fmt::format("  \"operator_refusals\": [{}],\n", refused);
+  }
   j += fmt::format("  \"qp_from_hint_ticks\": {},\n", qp_from_hint_ticks_);
   j += fmt::format("  \"max_torque_ratio\": {:.6g},\n", max_torque_ratio_);
   j += fmt::format("  \"joint_limit_hit\": {},\n", joint_limit_hit_ ? "\"" + joint_limit_joint_ + "\"" : "null");
   if (trot_) {
-    const gait::TrotParams& g = control_->params().gait.trot;
+    const gait::TrotParams& g = controller().params().gait.trot;
     // The trunk's mean velocity over the last 3 s, in its horizontal frame, and the command then.
     const std::size_t last = std::min(trunk_velocity_h_.size(), static_cast<std::size_t>(std::llround(3.0 / dt_s_)));
     Vec3 mean = Vec3::Zero();
     for (std::size_t i = trunk_velocity_h_.size() - last; i < trunk_velocity_h_.size(); ++i) mean += trunk_velocity_h_[i];
     if (last > 0) mean /= static_cast<double>(last);
-    const Vec3& command = control_->walking_velocity();
+    const Vec3& command = controller().walking_velocity();
     j += fmt::format("  \"gait\": {{\"step_frequency_hz\": {:.6g}, \"duty_factor\": {:.6g}, \"step_height_m\": {:.6g}, "
                      "\"stance_changes\": {}, \"early_touchdowns\": {}, \"late_touchdowns\": {}, \"mean_velocity\": {{\"x\": {:.6g}, \"y\": {:.6g}, \"yaw\": {:.6g}}}, "
                      "\"commanded_velocity\": {{\"x\": {:.6g}, \"y\": {:.6g}, \"yaw\": {:.6g}}}}},\n",
-                     g.step_frequency_hz, g.duty_factor, g.step_height_m, control_->stance_changes(),
-                     control_->trot().plan().early_touchdowns, control_->trot().plan().late_touchdowns, mean.x(), mean.y(),
+                     g.step_frequency_hz, g.duty_factor, g.step_height_m, controller().stance_changes(),
+                     controller().trot().plan().early_touchdowns, controller().trot().plan().late_touchdowns, mean.x(), mean.y(),
                      mean.z(), command.x(), command.y(), command.z());
   } else {
     j += "  \"gait\": null,\n";

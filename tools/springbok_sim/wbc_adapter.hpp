@@ -1,27 +1,29 @@
-// controller.type: wbc — the firmware's controller (springbok::control::
-// RobotController, the same object the deployed binaries run) in the simulator,
-// under the firmware's safety supervisor (springbok::safety::Supervisor).
+// controller.type: wbc — the firmware (springbok::app::Firmware: the safety supervisor, the
+// mode controller and the control mode's whole-body controller, the loop that `springbok` and
+// `springbok-on-sim` run) over the Bullet robot's HAL in lockstep, the scenario as its operator.
 //
-// The run goes through the supervisor's modes as on the robot: start -> stand_up,
-// in which the tool's stand controller (wbc::StandController) holds the initial
-// posture for `controller.settle_s` seconds while the robot settles on its feet and
-// the controller observes (its estimator runs, the wrist F/T is tared); posture
-// reached -> stand -> `mode control`: the controller engages on the next tick (the
-// pose of that instant is the template's reference) and runs from then on. A failed
-// controller tick gets the supervisor's command (the last good one, damping after a
-// streak), as on the robot.
+// The run goes through the supervisor's modes as on the robot: the operator's `start`, then
+// stand_up, done before the physics starts (the stand posture is the scenario's initial one,
+// stand_up_duration_s one tick), then stand from t = 0, in which the mode controller holds the
+// posture with the robot's weight as feed-forward (gains.stand_feed_forward weight) for
+// `controller.settle_s` seconds while the robot settles on its feet and the controller
+// observes (its estimator runs, the wrist F/T is tared);
+// the operator's `mode control` at settle_s: the controller engages (the pose of that instant
+// is the template's reference) and runs from then on. A failed controller tick gets the
+// supervisor's command (the last good one, damping after a streak), as on the robot.
 //
-// The tool's own parts: the ground-truth override (without
-// `controller.params.estimator` the controller reads the base pose and twist from
-// the simulator, with it from its estimator, as on hardware), the scoring and the
-// CSV. `controller.params.gait` makes the controller trot (springbok::gait::TrotGait).
+// The tool's own parts: the ground-truth hook (without `controller.params.estimator` the
+// control mode reads the base pose and twist from the simulator, with it from its estimator,
+// as on hardware: ControlMode::use_base_truth), the scenario's operator (start, mode
+// control, gait.velocity_schedule's walk requests), the scoring and the CSV.
+// `controller.params.gait` makes the controller trot (springbok::gait::TrotGait).
 //
 // After each physics step it logs the measured base and EE displacements from
 // the reference pose (world; positions, and orientations as rotation vectors), the
 // template driven by the measured wrist force (and the rotational one by the wrist
 // torque, when it is on),
-// F_e, the foot forces, the QP status and iterations and the controller's
-// compute time; at the end it scores the run (nrmse, steady_state_error,
+// F_e, the foot forces, the QP status and iterations and the firmware tick's
+// compute time (read to write); at the end it scores the run (nrmse, steady_state_error,
 // peak_deviation, chirp_gain_db_error, qp_failures, max_torque_ratio,
 // joint_limit_hit, tick_us). Definitions: tools/scenarios/README.md.
 #pragma once
@@ -32,11 +34,11 @@
 
 #include "controller.hpp"
 #include "scenario.hpp"
+#include "springbok/app/config.hpp"
+#include "springbok/app/firmware.hpp"
 #include "springbok/control/robot_controller.hpp"
 #include "springbok/dynamics/dynamics.hpp"
-#include "springbok/safety/supervisor.hpp"
 #include "springbok/wbc/impedance_template.hpp"
-#include "springbok/wbc/stand_controller.hpp"
 #include "springbok/wbc/whole_body_controller.hpp"
 
 namespace springbok::simtool {
@@ -44,20 +46,33 @@ namespace springbok::simtool {
 class WbcAdapter final : public Controller {
  public:
   // `params` is the scenario's controller.params; its problems go to params.errors() (the
-  // caller refuses the scenario when there are any).
-  WbcAdapter(const Scenario& scenario, const yaml::Field& params);
+  // caller refuses the scenario when there are any). The firmware runs over `robot`.
+  WbcAdapter(const Scenario& scenario, const yaml::Field& params, sim::BulletRobot& robot);
   ~WbcAdapter() override;
 
-  void tick(const hal::Measurements& m, const sim::GroundTruth& truth, hal::JointCommands& out) noexcept override;
+  bool tick(sim::BulletRobot& robot, std::int64_t k) noexcept override;
   std::string csv_columns() const override;
   void after_step(const sim::GroundTruth& truth, std::string& row) override;
   std::string summary_fields() const override;
 
-  const control::RobotController& controller() const noexcept { return *control_; }
-  control::RobotController& controller() noexcept { return *control_; }
-  // The supervisor's mode the last tick ran in (stand_up: settling, control: the controller).
-  safety::Mode tick_mode() const noexcept { return tick_mode_; }
-  control::TickStatus tick_status() const noexcept { return status_; }
+  // The firmware's configuration made from the scenario (the stand posture, gains, the
+  // controller's parameters), as springbok-on-sim would run it.
+  const app::AppConfig& config() const noexcept { return config_; }
+  // Every operator request the scenario posted, with the tick whose loop took it.
+  struct Posted {
+    std::uint64_t tick;  // the firmware tick that took it
+    app::OperatorRequest request;
+  };
+  const std::vector<Posted>& posted() const noexcept { return posted_; }
+  // One firmware tick as the loop saw it.
+  struct FirmwareTick {
+    hal::Measurements meas;
+    hal::JointCommands cmd;
+    safety::Mode mode;  // the mode it computed in
+  };
+  // Every firmware tick from the next on is appended to `ticks` (nullptr: none; a test's recording).
+  void record(std::vector<FirmwareTick>* ticks) noexcept { recording_ = ticks; }
+  const control::RobotController& controller() const noexcept { return firmware_->control().controller(); }
 
  private:
   // base x y z, ee x y z [m], then the orientation displacements from the rest pose
@@ -91,15 +106,24 @@ class WbcAdapter final : public Controller {
   std::size_t next_velocity_change_ = 0;
   // The trunk's velocity in its horizontal frame [x, y, yaw rate], control ticks (gait.mean_velocity).
   std::vector<Vec3> trunk_velocity_h_;
-  std::unique_ptr<control::RobotController> control_;
-  std::unique_ptr<safety::Supervisor> supervisor_;
-  std::unique_ptr<wbc::StandController> stand_;
+  app::AppConfig config_;
+  control::BaseTruth base_truth_;                   // the ground-truth hook's value, this tick
+  std::unique_ptr<app::Firmware> firmware_;
+  std::vector<Posted> posted_;                      // reserved: posting does not allocate
+  std::vector<std::string> refusals_;               // the operator's requests the firmware refused
   std::unique_ptr<wbc::TemplateReference> template_;
   // The rotational template driven by the measured wrist torque (controller.params.
   // rotational_template), made at engagement: its I_b is the WBC's then.
   std::optional<wbc::TemplateReference> rotational_template_;
-  bool first_tick_ = true;
-  safety::Mode tick_mode_ = safety::Mode::idle;
+  safety::Mode tick_mode_ = safety::Mode::idle;   // the mode the firmware computed in, this tick
+  // The firmware ticks of its stand-up, before the physics starts (stand_up_duration_s is one tick).
+  static constexpr int kStandUpTicks = 2;
+  std::uint64_t firmware_ticks_ = 0;
+  std::vector<FirmwareTick>* recording_ = nullptr;
+  // Into the firmware's mailbox, taken by its next tick. rt: no alloc
+  void post(const app::OperatorRequest& request) noexcept;
+  // One tick of the firmware (read -> observe -> compute -> finish -> write; no physics step).
+  void firmware_tick(const sim::GroundTruth& truth) noexcept;
   bool estimator_ok_ = true;                        // every control tick's estimate was ok
   double estimator_velocity_sq_sum_ = 0.0;          // vs ground truth, WBC ticks
   double estimator_position_max_m_ = 0.0;

@@ -128,7 +128,7 @@ void ControlMode::telemetry(TelemetryRecord& r) const noexcept {
 safety::ControllerReport ControlMode::compute(const ControlInput& in, hal::JointCommands& cmd) noexcept {
   if (kind_ == ControlModeKind::joint_pd) return hold_.compute(in, cmd);
   if (in.ticks_in_mode == 0) control_->disengage();  // entering the control mode: engage anew
-  last_status_ = control_->tick(*in.meas, in.dt_s, cmd);
+  last_status_ = control_->tick(*in.meas, in.dt_s, cmd, base_truth_);
   safety::ControllerReport report;
   report.ok = last_status_ == control::TickStatus::ok;
   return report;

@@ -9,11 +9,9 @@
 #include <ctime>
 #include <memory>
 
-#include "springbok/app/control_loop.hpp"
-#include "springbok/yaml/reader.hpp"
+#include "springbok/app/firmware.hpp"
 #include "springbok/app/operator_server.hpp"
-#include "springbok/app/control_mode.hpp"
-#include "springbok/app/mode_controller.hpp"
+#include "springbok/yaml/reader.hpp"
 #include "springbok/app/slowed_clock.hpp"
 #include "springbok/app/version.hpp"
 #include "springbok/rt/clock.hpp"
@@ -51,9 +49,7 @@ CommandLine parse_command_line(int argc, char** argv, const char* program) {
 
 namespace {
 
-using Modes = ModeController<ControlMode>;
-using Loop = ControlLoop<Modes>;
-using FirmwareExecutive = rt::Executive<SlowedClock, Loop>;
+using FirmwareExecutive = rt::Executive<SlowedClock, Firmware::Loop>;
 
 void print_histogram(const char* name, const rt::DurationHistogram& h) {
   std::printf("%s [us]: n=%llu p50=%.0f p99=%.0f p99.9=%.0f max=%.1f\n", name,
@@ -99,12 +95,8 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   };
   if (!lifecycle_step(&hal::Hardware::configure)) return 1;
 
-  safety::Supervisor supervisor(config.safety);
-  const auto control = std::make_unique<ControlMode>(config);
-  Modes modes(config, *control);
-  const auto mailbox = std::make_unique<OperatorMailbox>();
-  LoopStatus status;
-  Loop loop(hardware, modes, supervisor, *mailbox, status, log_ring.get());
+  Firmware firmware(hardware, config, log_ring.get());
+  Firmware::Loop& loop = firmware.loop();
   SlowedClock clock(options.time_scale);
   const auto executive =
       std::make_unique<FirmwareExecutive>(clock, loop, rt::kNsPerS / config.rate_hz, log_ring.get());
@@ -122,7 +114,7 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
     telemetry.start(*telemetry_ring);
   }
 
-  OperatorServer server(*mailbox, status, executive->published());
+  OperatorServer server(firmware.mailbox(), firmware.status(), executive->published());
   if (const std::string error = server.open(config.operator_socket); !error.empty()) {
     std::fprintf(stderr, "%s\n", error.c_str());
     hardware.deactivate();
@@ -186,7 +178,7 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   std::printf("ticks=%llu overruns=%llu skipped=%llu max_overrun_streak=%u mode=%s faults=%s\n",
               static_cast<unsigned long long>(s.ticks), static_cast<unsigned long long>(s.overruns),
               static_cast<unsigned long long>(s.skipped_ticks), s.max_overrun_streak,
-              safety::to_string(supervisor.mode()), fault_list(supervisor.faults()).c_str());
+              safety::to_string(firmware.supervisor().mode()), fault_list(firmware.supervisor().faults()).c_str());
   print_histogram("wake latency", s.wake_latency);
   print_histogram("compute", s.compute);
   std::printf("log records dropped=%llu\n", static_cast<unsigned long long>(log_ring->dropped()));

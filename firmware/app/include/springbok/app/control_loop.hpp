@@ -43,6 +43,7 @@ class ControlLoop {
     input.ticks_in_mode = supervisor_.ticks_in_mode();
     input.dt_s = static_cast<double>(info.elapsed_ns) * 1e-9;
     input.meas = &meas_;
+    computed_mode_ = input.mode;
     const safety::ControllerReport report = controller_.compute(input, cmd_);
     controller_.publish(status_.controller);
     cmd_.sequence = info.index;
@@ -59,6 +60,9 @@ class ControlLoop {
 
   const hal::Measurements& measurements() const noexcept { return meas_; }
   const hal::JointCommands& commands() const noexcept { return cmd_; }
+  // The mode the last tick's controller computed in (the operator's command of that tick taken,
+  // before the supervisor's finish).
+  safety::Mode computed_mode() const noexcept { return computed_mode_; }
 
  private:
   // An operator's request: the supervisor's command or the controller's request,
@@ -174,6 +178,7 @@ class ControlLoop {
   rt::LogRing* log_;
   hal::Measurements meas_;
   hal::JointCommands cmd_;
+  safety::Mode computed_mode_ = safety::Mode::idle;
   hal::IoStatus last_io_ = hal::IoStatus::ok;
   safety::FaultMask sensors_lost_ = 0;
   std::uint32_t degraded_buses_ = 0;

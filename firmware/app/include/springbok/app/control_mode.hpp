@@ -38,6 +38,11 @@ class ControlMode {
   // status into a telemetry record (the whole-body controller only). rt: no alloc, no block
   void telemetry(TelemetryRecord& r) const noexcept;
 
+  // The simulator's ground truth for the base, read by every control tick instead of the
+  // estimate (springbok-sim, where a scenario asks for it; the caller keeps `truth` current
+  // and alive); nullptr: the estimate, as on the robot. Start-up.
+  void use_base_truth(const control::BaseTruth* truth) noexcept { base_truth_ = truth; }
+
   control::RobotController& controller() noexcept { return *control_; }
   const control::RobotController& controller() const noexcept { return *control_; }
   control::TickStatus last_status() const noexcept { return last_status_; }
@@ -47,6 +52,7 @@ class ControlMode {
   JointPdHold hold_;
   std::unique_ptr<control::RobotController> control_;
   control::TickStatus last_status_ = control::TickStatus::ok;
+  const control::BaseTruth* base_truth_ = nullptr;
 };
 
 static_assert(ControlLaw<ControlMode>);
