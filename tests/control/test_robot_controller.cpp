@@ -145,6 +145,45 @@ TEST_F(Control, AFailedEstimateLeavesTheCommandToTheSupervisor) {
   EXPECT_EQ(c->failed_ticks(), 1u);
 }
 
+// The tick's report is what the controller did this tick: the WBC's output and rest pose,
+// the estimate, the counts; a failed tick's status; an observe tick keeps the last control
+// tick's status and the WBC's last values.
+TEST_F(Control, TheTickReportIsTheTicksOutputAndStatus) {
+  make();
+  c->observe(next(), kDt_s, true);
+  EXPECT_EQ(c->report().status, TickStatus::ok);
+  EXPECT_FALSE(c->report().engaged);
+  EXPECT_EQ(c->report().base_pose, c->estimate().q.head<7>());
+  hal::Measurements m = next();
+  m.wrist.force_n = Vec3(4, 0, 0);
+  ASSERT_EQ(c->tick(m, kDt_s, cmd), TickStatus::ok);
+  const control::TickReport& r = c->report();
+  EXPECT_TRUE(r.engaged);
+  EXPECT_EQ(r.status, TickStatus::ok);
+  EXPECT_EQ(r.base_pose, c->estimate().q.head<7>());
+  EXPECT_EQ(r.base_twist, c->estimate().v.head<6>());
+  EXPECT_EQ(r.wrist_force_n, c->wrist_force_n());
+  EXPECT_EQ(r.qp_status, qp::Status::optimal);
+  EXPECT_EQ(r.qp_iterations, c->output().qp_iterations);
+  EXPECT_EQ(r.base_rest_m, c->wbc().reference().base_position_m);
+  EXPECT_EQ(r.hand_rest_m, c->wbc().reference().ee_position_m);
+  EXPECT_EQ(r.hand_rest_rotation, c->wbc().reference().ee_rotation);
+  EXPECT_EQ(r.hand_displacement_m, c->output().ee_displacement_m);
+  EXPECT_EQ(r.hand_rotation, c->output().ee_rotation);
+  EXPECT_EQ(r.external_force_world_n, c->input().wrist_force_world_n);
+  EXPECT_EQ(r.unmeasured_force_world_n, c->input().unmeasured_force_world_n);
+  for (int f = 0; f < kFeet; ++f) EXPECT_EQ(r.foot_force_n[f], c->output().foot_force_n[f]) << "foot " << f;
+  const Vec3 hand_rest = r.hand_rest_m;
+  m = next();
+  m.imu.valid = false;
+  ASSERT_EQ(c->tick(m, kDt_s, cmd), TickStatus::estimate_failed);
+  EXPECT_EQ(c->report().status, TickStatus::estimate_failed);
+  EXPECT_EQ(c->report().failed_ticks, 1u);
+  EXPECT_EQ(c->report().hand_rest_m, hand_rest);  // the WBC did not run
+  c->observe(next(), kDt_s, true);
+  EXPECT_EQ(c->report().status, TickStatus::estimate_failed);  // the last control tick's
+}
+
 TEST_F(Control, GaitRequestsOutsideTheTrotRangesAreRefused) {
   make();
   control::GaitCommand trot;

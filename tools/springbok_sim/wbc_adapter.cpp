@@ -255,7 +255,7 @@ bool WbcAdapter::tick(sim::BulletRobot& robot, std::int64_t k) noexcept {
   ticked_ = false;
   if (tick_mode_ == safety::Mode::control) {
     if (previous_mode != safety::Mode::control) template_->reset();  // engaged anew
-    status_ = fw.control().last_status();
+    status_ = control.report().status;
     estimator_ok_ = estimator_ok_ && control.estimate().status == est::EstimateStatus::ok;
     ticked_ = control.engaged();
     if (ticked_) {

@@ -63,74 +63,71 @@ void ControlMode::publish(rt::LatestValue<ControllerSnapshot>& out) noexcept {
   ControllerSnapshot s;
   s.wbc = kind_ == ControlModeKind::wbc;
   if (s.wbc) {
-    const control::RobotController& c = *control_;
-    s.engaged = c.engaged();
-    s.gait = c.gait_state();
-    s.stepping_for_push = c.stepping_for_push();
-    s.trot = c.trot().params();
-    s.last_tick = last_status_;
-    s.stance = c.state().stance;
-    s.failed_ticks = c.failed_ticks();
-    s.stance_changes = c.stance_changes();
-    s.tare = c.tare();
-    s.wrist_force_n = c.wrist_force_n();
-    s.base_position_m = c.state().q.head<3>();
-    s.base_velocity_m_s = c.state().rotation_wb * c.state().v.head<3>();
+    const control::TickReport& r = control_->report();
+    s.engaged = r.engaged;
+    s.gait = r.gait;
+    s.stepping_for_push = r.stepping_for_push;
+    s.trot = r.trot;
+    s.last_tick = r.status;
+    s.stance = r.stance;
+    s.failed_ticks = r.failed_ticks;
+    s.stance_changes = r.stance_changes;
+    s.tare = r.tare;
+    s.wrist_force_n = r.wrist_force_n;
+    s.base_position_m = r.base_pose.head<3>();
+    s.base_velocity_m_s = Quat(r.base_pose[6], r.base_pose[3], r.base_pose[4], r.base_pose[5]).normalized() *
+                          Vec3(r.base_twist.head<3>());
   }
   out.publish(s);
 }
 
 // rt: no alloc, no block
-void ControlMode::telemetry(TelemetryRecord& r) const noexcept {
-  r.wbc = kind_ == ControlModeKind::wbc;
-  if (!r.wbc) return;
-  const control::RobotController& c = *control_;
+void ControlMode::telemetry(TelemetryRecord& t) const noexcept {
+  t.wbc = kind_ == ControlModeKind::wbc;
+  if (!t.wbc) return;
+  const control::TickReport& r = control_->report();
   const auto put = [](Triple& to, const Vec3& from) { to = {from.x(), from.y(), from.z()}; };
   const auto put_quaternion = [](std::array<double, 4>& to, const Mat3& from) {
     const Quat q(from);
     to = {q.x(), q.y(), q.z(), q.w()};
   };
   // The base: the estimate (what the controller uses; also before it engages).
-  const est::BaseEstimate& e = c.estimate();
-  const Quat quat = Quat(e.q[6], e.q[3], e.q[4], e.q[5]).normalized();
+  const Quat quat = Quat(r.base_pose[6], r.base_pose[3], r.base_pose[4], r.base_pose[5]).normalized();
   const Mat3 rot = quat.toRotationMatrix();
-  put(r.base_position_m, e.q.head<3>());
-  r.base_quaternion_xyzw = {quat.x(), quat.y(), quat.z(), quat.w()};
-  r.base_rpy_rad = {std::atan2(rot(2, 1), rot(2, 2)), std::asin(std::clamp(-rot(2, 0), -1.0, 1.0)),
+  put(t.base_position_m, r.base_pose.head<3>());
+  t.base_quaternion_xyzw = {quat.x(), quat.y(), quat.z(), quat.w()};
+  t.base_rpy_rad = {std::atan2(rot(2, 1), rot(2, 2)), std::asin(std::clamp(-rot(2, 0), -1.0, 1.0)),
                     std::atan2(rot(1, 0), rot(0, 0))};
-  put(r.base_velocity_m_s, rot * e.v.head<3>());
-  put(r.base_rate_rad_s, rot * e.v.segment<3>(3));
-  r.engaged = c.engaged();
-  r.tick_status = static_cast<std::uint8_t>(last_status_);
-  for (int f = 0; f < kFeet; ++f) r.stance[static_cast<std::size_t>(f)] = c.state().stance[f];
-  if (!r.engaged) return;
-  const wbc::WbcOutput& o = c.output();
-  const wbc::WbcReference& ref = c.wbc().reference();
-  r.qp_status = static_cast<std::uint8_t>(o.qp_status);
-  r.qp_iterations = o.qp_iterations;
-  r.arm_overloaded = o.arm_overloaded;
-  r.support_limited = o.support_limited;
-  r.stepping_for_push = c.stepping_for_push();
-  put(r.base_rest_m, ref.base_position_m);
-  put(r.hand_rest_m, ref.ee_position_m);
-  put(r.base_displacement_m, o.base_displacement_m);
-  put(r.hand_displacement_m, o.ee_displacement_m);
-  put(r.hand_position_m, ref.ee_position_m + o.ee_displacement_m);
-  put_quaternion(r.hand_quaternion_xyzw, o.ee_rotation);
-  put_quaternion(r.hand_rest_quaternion_xyzw, ref.ee_rotation);
-  put(r.external_force_n, o.external_force_world_n);
-  put(r.external_torque_nm, o.external_torque_world_nm);
-  put(r.unmeasured_force_n, c.input().unmeasured_force_world_n);
-  for (int f = 0; f < kFeet; ++f) put(r.foot_force_n[static_cast<std::size_t>(f)], o.foot_force_n[f]);
+  put(t.base_velocity_m_s, rot * r.base_twist.head<3>());
+  put(t.base_rate_rad_s, rot * r.base_twist.tail<3>());
+  t.engaged = r.engaged;
+  t.tick_status = static_cast<std::uint8_t>(r.status);
+  for (int f = 0; f < kFeet; ++f) t.stance[static_cast<std::size_t>(f)] = r.stance[f];
+  if (!t.engaged) return;
+  t.qp_status = static_cast<std::uint8_t>(r.qp_status);
+  t.qp_iterations = r.qp_iterations;
+  t.arm_overloaded = r.arm_overloaded;
+  t.support_limited = r.support_limited;
+  t.stepping_for_push = r.stepping_for_push;
+  put(t.base_rest_m, r.base_rest_m);
+  put(t.hand_rest_m, r.hand_rest_m);
+  put(t.base_displacement_m, r.base_displacement_m);
+  put(t.hand_displacement_m, r.hand_displacement_m);
+  put(t.hand_position_m, r.hand_rest_m + r.hand_displacement_m);
+  put_quaternion(t.hand_quaternion_xyzw, r.hand_rotation);
+  put_quaternion(t.hand_rest_quaternion_xyzw, r.hand_rest_rotation);
+  put(t.external_force_n, r.external_force_world_n);
+  put(t.external_torque_nm, r.external_torque_world_nm);
+  put(t.unmeasured_force_n, r.unmeasured_force_world_n);
+  for (int f = 0; f < kFeet; ++f) put(t.foot_force_n[static_cast<std::size_t>(f)], r.foot_force_n[f]);
 }
 
 // rt: no alloc, no block
 safety::ControllerReport ControlMode::compute(const ControlInput& in, hal::JointCommands& cmd) noexcept {
   if (kind_ == ControlModeKind::joint_pd) return hold_.compute(in, cmd);
   if (in.ticks_in_mode == 0) control_->disengage();  // entering the control mode: engage anew
-  last_status_ = control_->tick(*in.meas, in.dt_s, cmd, base_truth_);
   safety::ControllerReport report;
-  report.ok = last_status_ == control::TickStatus::ok;
+  report.ok = control_->tick(*in.meas, in.dt_s, cmd, base_truth_) == control::TickStatus::ok;
   return report;
 }
 

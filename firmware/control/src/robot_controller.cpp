@@ -142,6 +142,43 @@ void RobotController::observe(const hal::Measurements& m, double dt_s, bool stan
   (void)estimate(m, dt_s, kAllFeet);
   state_.stance = kAllFeet;
   take_wrist(m, standing_still);
+  (void)report_tick(report_.status, false);
+}
+
+TickStatus RobotController::report_tick(TickStatus status, bool control_tick) noexcept {
+  TickReport& r = report_;
+  if (control_tick) r.status = status;
+  r.engaged = engaged_;
+  r.gait = gait_state_;
+  r.stepping_for_push = stepping_for_push_;
+  r.trot = trot_.params();
+  r.stance = state_.stance;
+  r.failed_ticks = failed_ticks_;
+  r.stance_changes = stance_changes_;
+  r.tare = tare_;
+  r.wrist_force_n = wrist_force_n_;
+  const est::BaseEstimate& e = estimator_.estimate();
+  r.base_pose = e.q.head<7>();
+  r.base_twist = e.v.head<6>();
+  if (control_tick && status != TickStatus::estimate_failed) {  // the WBC ran
+    const wbc::WbcOutput& o = wbc_->output();
+    const wbc::WbcReference& ref = wbc_->reference();
+    r.qp_status = o.qp_status;
+    r.qp_iterations = o.qp_iterations;
+    r.arm_overloaded = o.arm_overloaded;
+    r.support_limited = o.support_limited;
+    r.base_rest_m = ref.base_position_m;
+    r.hand_rest_m = ref.ee_position_m;
+    r.hand_rest_rotation = ref.ee_rotation;
+    r.base_displacement_m = o.base_displacement_m;
+    r.hand_displacement_m = o.ee_displacement_m;
+    r.hand_rotation = o.ee_rotation;
+    r.external_force_world_n = o.external_force_world_n;
+    r.external_torque_world_nm = o.external_torque_world_nm;
+    r.unmeasured_force_world_n = input_.unmeasured_force_world_n;
+    r.foot_force_n = o.foot_force_n;
+  }
+  return status;
 }
 
 // The shift of the trot's footholds (frame H; data_ holds this tick's kinematics)
@@ -417,7 +454,7 @@ TickStatus RobotController::tick(const hal::Measurements& m, double dt_s, hal::J
   } else {
     if (estimated != est::EstimateStatus::ok) {
       ++failed_ticks_;
-      return TickStatus::estimate_failed;
+      return report_tick(TickStatus::estimate_failed, true);
     }
     state_.q = estimator_.estimate().q;
     state_.v = estimator_.estimate().v;
@@ -447,7 +484,7 @@ TickStatus RobotController::tick(const hal::Measurements& m, double dt_s, hal::J
   const wbc::WbcOutput& o = wbc_->tick(input_, *data_);
   if (o.failed) {
     ++failed_ticks_;
-    return TickStatus::qp_failed;
+    return report_tick(TickStatus::qp_failed, true);
   }
   cmd.mode = hal::CommandMode::enabled;
   cmd.tau_ff_nm = o.tau_nm;
@@ -455,7 +492,7 @@ TickStatus RobotController::tick(const hal::Measurements& m, double dt_s, hal::J
   cmd.qd_des_rad_s.setZero();
   cmd.kp_nm_per_rad.setZero();
   cmd.kd_nms_per_rad.setZero();
-  return TickStatus::ok;
+  return report_tick(TickStatus::ok, true);
 }
 
 }  // namespace springbok::control

@@ -34,8 +34,9 @@ class ControlMode {
   // Gait changes in the control mode; a tare in any mode. rt: no alloc, no block
   const char* request(const ControllerRequest& r, safety::Mode mode) noexcept;
   void publish(rt::LatestValue<ControllerSnapshot>& out) noexcept;  // rt: no alloc, no block
-  // The estimate, the template's rest pose and displacements, F_e, the QP's forces and
-  // status into a telemetry record (the whole-body controller only). rt: no alloc, no block
+  // The controller's tick report (the estimate, the template's rest pose and displacements,
+  // F_e, the QP's forces and status) into a telemetry record (the whole-body controller
+  // only). rt: no alloc, no block
   void telemetry(TelemetryRecord& r) const noexcept;
 
   // The simulator's ground truth for the base, read by every control tick instead of the
@@ -45,13 +46,11 @@ class ControlMode {
 
   control::RobotController& controller() noexcept { return *control_; }
   const control::RobotController& controller() const noexcept { return *control_; }
-  control::TickStatus last_status() const noexcept { return last_status_; }
 
  private:
   ControlModeKind kind_;
   JointPdHold hold_;
   std::unique_ptr<control::RobotController> control_;
-  control::TickStatus last_status_ = control::TickStatus::ok;
   const control::BaseTruth* base_truth_ = nullptr;
 };
 

@@ -171,6 +171,39 @@ struct Tare {
   std::uint32_t completed = 0;    // tares taken since start-up
 };
 
+// What the controller's last tick (observe() or tick()) did: the one value telemetry, the
+// operator's `controller` report and the simulation's log copy from.
+struct TickReport {
+  TickStatus status = TickStatus::ok;  // of the last control-mode tick (ok before the first)
+  bool engaged = false;
+  GaitState gait = GaitState::stand;
+  bool stepping_for_push = false;      // the trot under way is PushStepping's
+  gait::TrotParams trot;               // of the running (or last) trot
+  Stance stance = kAllFeet;
+  std::uint64_t failed_ticks = 0;
+  std::uint64_t stance_changes = 0;
+  Tare tare;
+  Vec3 wrist_force_n = Vec3::Zero();   // the reading less the tare (zero when not valid), sensor axes
+  // The base estimate: q[0:7] = [p_WB, quaternion xyzw], v[0:6] = [v_B, w_B] (trunk axes).
+  Vec<7> base_pose = Vec<7>::Zero();
+  Vec6 base_twist = Vec6::Zero();
+  // The whole-body controller's, from its last engaged tick.
+  qp::Status qp_status = qp::Status::bad_input;
+  int qp_iterations = 0;
+  bool arm_overloaded = false;
+  bool support_limited = false;
+  Vec3 base_rest_m = Vec3::Zero();             // the template's rest pose (world)
+  Vec3 hand_rest_m = Vec3::Zero();
+  Mat3 hand_rest_rotation = Mat3::Identity();
+  Vec3 base_displacement_m = Vec3::Zero();     // x_b, x_e
+  Vec3 hand_displacement_m = Vec3::Zero();
+  Mat3 hand_rotation = Mat3::Identity();       // the hand's orientation (world)
+  Vec3 external_force_world_n = Vec3::Zero();  // F_e, T_e
+  Vec3 external_torque_world_nm = Vec3::Zero();
+  Vec3 unmeasured_force_world_n = Vec3::Zero();
+  std::array<Vec3, kFeet> foot_force_n{};      // the QP's, world axes
+};
+
 class RobotController {
  public:
   // Start-up: allocates the QP and the dynamics workspace once.
@@ -227,6 +260,8 @@ class RobotController {
   double control_time_s() const noexcept { return control_time_s_; }
   const Vec3& walking_velocity() const noexcept { return velocity_now_; }
 
+  // The last tick's report (observe() and tick() fill it). rt: no alloc
+  const TickReport& report() const noexcept { return report_; }
   bool engaged() const noexcept { return engaged_; }
   const RobotState& state() const noexcept { return state_; }
   const est::BaseEstimate& estimate() const noexcept { return estimator_.estimate(); }
@@ -248,6 +283,8 @@ class RobotController {
   const ControlParams& params() const noexcept { return params_; }
 
  private:
+  // The tick's report; `control_tick`: a control-mode tick, whose status it is. rt: no alloc
+  TickStatus report_tick(TickStatus status, bool control_tick) noexcept;
   // The estimator's tick (reset on the first one and after a gap in m.sequence).
   est::EstimateStatus estimate(const hal::Measurements& m, double dt_s, const Stance& stance) noexcept;
   void take_wrist(const hal::Measurements& m, bool collect) noexcept;
@@ -303,6 +340,7 @@ class RobotController {
   Vec3 tare_force_sum_n_ = Vec3::Zero(), tare_torque_sum_nm_ = Vec3::Zero();
   std::uint64_t stance_changes_ = 0;
   std::uint64_t failed_ticks_ = 0;
+  TickReport report_;
 };
 
 // The robot's centre of mass (world) from the mass matrix's base block: about the
