@@ -26,7 +26,7 @@ have_sim=0
 
 # File lists: what each package must hold.
 list=$(dpkg-deb -c "$fw" | awk '{print $6}')
-for f in ./usr/bin/springbok ./usr/bin/springbok-can-up ./usr/bin/springbokctl ./etc/springbok/springbok.yaml ./usr/lib/systemd/system/springbok.service; do
+for f in ./usr/bin/springbok ./usr/bin/springbok-can-up ./usr/bin/springbokctl ./usr/bin/springbok-teleop ./etc/springbok/springbok.yaml ./usr/lib/systemd/system/springbok.service; do
   grep -qx "$f" <<<"$list" || fail "$fw lacks $f"
 done
 grep -q 'springbok-sim\|springbok-on-sim' <<<"$list" && fail "$fw holds a simulation binary"
@@ -73,6 +73,8 @@ grep -q 'config OK' <<<"$out" || fail "--check-config said: $out"
 out=$("${emulator[@]}" "$root/usr/bin/springbok-can-up" --dry-run --config "$root/etc/springbok/springbok.yaml" 2>&1) ||
   fail "installed springbok-can-up --dry-run: $out"
 [[ $(grep -c ' up$' <<<"$out") == 8 ]] || fail "springbok-can-up brings up $(grep -c ' up$' <<<"$out") interfaces, not 8: $out"
+[[ $(dpkg-deb -f "$fw" Depends) == *libevdev2* ]] || fail "$fw does not depend on libevdev2 (springbok-teleop): $(dpkg-deb -f "$fw" Depends)"
+"${emulator[@]}" "$root/usr/bin/springbok-teleop" --help >/dev/null || fail "installed springbok-teleop --help"
 ver=$("${emulator[@]}" "$root/usr/bin/springbok" --version)
 [[ $(head -n 1 <<<"$ver") == "springbok $version (revision "*")" ]] || fail "--version said: $ver"
 # The kernels it runs: the amd64 package holds every x86-64 level's and picks one the CPU runs.

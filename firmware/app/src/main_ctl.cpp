@@ -8,94 +8,14 @@
 // value of KEY=value in the reply (e.g. `springbokctl --field mode status` -> control),
 // exit 1 when the reply has no such key. The socket: --socket, else
 // $SPRINGBOK_OPERATOR_SOCKET, else /run/springbok/operator.sock (the shipped config's).
-#include <poll.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <unistd.h>
-
-#include <cerrno>
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
-namespace {
-
-struct Reply {
-  bool reached = false;
-  std::string line;
-  std::string error;  // why not reached
-};
-
-Reply exchange(const std::string& path, const std::string& line, int timeout_ms) {
-  Reply r;
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  if (path.size() >= sizeof addr.sun_path) {
-    r.error = "socket path too long: " + path;
-    return r;
-  }
-  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) {
-    r.error = std::string("socket: ") + std::strerror(errno);
-    return r;
-  }
-  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
-    r.error = "cannot connect to " + path + ": " + std::strerror(errno);
-    ::close(fd);
-    return r;
-  }
-  const std::string out = line + "\n";
-  if (::send(fd, out.data(), out.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(out.size())) {
-    r.error = "cannot send to " + path + ": " + std::strerror(errno);
-    ::close(fd);
-    return r;
-  }
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
-  char buf[4096];
-  while (r.line.find('\n') == std::string::npos) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-    pollfd p{fd, POLLIN, 0};
-    if (left.count() <= 0 || ::poll(&p, 1, static_cast<int>(left.count())) != 1) {
-      r.error = "no reply from " + path + " within " + std::to_string(timeout_ms) + " ms";
-      ::close(fd);
-      return r;
-    }
-    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
-    if (n <= 0) {
-      r.error = "the server at " + path + " closed the connection";
-      ::close(fd);
-      return r;
-    }
-    r.line.append(buf, static_cast<std::size_t>(n));
-  }
-  ::close(fd);
-  r.line.erase(r.line.find('\n'));
-  r.reached = true;
-  return r;
-}
-
-// The value of `key=value` among the reply's words, or nullptr.
-bool field(const std::string& reply, const std::string& key, std::string& value) {
-  std::size_t at = 0;
-  while (at < reply.size()) {
-    const std::size_t end = std::min(reply.find(' ', at), reply.size());
-    const std::string word = reply.substr(at, end - at);
-    if (word.size() > key.size() && word.compare(0, key.size(), key) == 0 && word[key.size()] == '=') {
-      value = word.substr(key.size() + 1);
-      return true;
-    }
-    at = end + 1;
-  }
-  return false;
-}
-
-}  // namespace
+#include "springbok/app/operator_client.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"springbokctl: send one command to the springbok operator socket and print the reply"};
@@ -117,24 +37,25 @@ int main(int argc, char** argv) {
 
   std::string line;
   for (const std::string& w : words) line += (line.empty() ? "" : " ") + w;
-  const Reply r = exchange(socket_path, line, timeout_ms);
-  if (!r.reached) {
-    std::fprintf(stderr, "springbokctl: %s\n", r.error.c_str());
+  springbok::app::OperatorClient client(socket_path);
+  std::string reply, error;
+  if (!client.exchange(line, timeout_ms, reply, error)) {
+    std::fprintf(stderr, "springbokctl: %s\n", error.c_str());
     return 2;
   }
-  if (r.line.rfind("ok", 0) != 0) {
-    std::fprintf(stderr, "%s\n", r.line.c_str());
+  if (reply.rfind("ok", 0) != 0) {
+    std::fprintf(stderr, "%s\n", reply.c_str());
     return 1;
   }
   if (!key.empty()) {
     std::string value;
-    if (!field(r.line, key, value)) {
-      std::fprintf(stderr, "springbokctl: no %s= in the reply: %s\n", key.c_str(), r.line.c_str());
+    if (!springbok::app::reply_field(reply, key, value)) {
+      std::fprintf(stderr, "springbokctl: no %s= in the reply: %s\n", key.c_str(), reply.c_str());
       return 1;
     }
     std::printf("%s\n", value.c_str());
     return 0;
   }
-  std::printf("%s\n", r.line.c_str());
+  std::printf("%s\n", reply.c_str());
   return 0;
 }
