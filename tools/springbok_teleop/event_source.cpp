@@ -6,13 +6,13 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <chrono>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 #include <thread>
 
-#include <fmt/format.h>
 
 namespace springbok::teleop {
 namespace {
@@ -62,7 +62,7 @@ class DeviceSource final : public EventSource {
 
   std::string name() const override {
     const char* n = libevdev_get_name(dev_);
-    return fmt::format("{} ({})", n != nullptr ? n : "unnamed", path_);
+    return std::string(n != nullptr ? n : "unnamed") + " (" + path_ + ")";
   }
 
  private:
@@ -126,13 +126,13 @@ class RecordingSource final : public EventSource {
 std::unique_ptr<EventSource> open_device(const std::string& path, std::string& error) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
   if (fd < 0) {
-    error = fmt::format("cannot open {}: {}", path, std::strerror(errno));
+    error = "cannot open " + path + ": " + std::strerror(errno);
     return nullptr;
   }
   libevdev* dev = nullptr;
   const int rc = libevdev_new_from_fd(fd, &dev);
   if (rc < 0) {
-    error = fmt::format("{} is not an input device: {}", path, std::strerror(-rc));
+    error = path + " is not an input device: " + std::strerror(-rc);
     ::close(fd);
     return nullptr;
   }
@@ -155,7 +155,7 @@ std::unique_ptr<EventSource> open_recording(const std::string& path, std::string
     std::string first;
     if (!(words >> first)) continue;
     const auto fail = [&](const std::string& why) {
-      error = fmt::format("{}:{}: {}", path, number, why);
+      error = path + ":" + std::to_string(number) + ": " + why;
       return nullptr;
     };
     std::string extra;
@@ -198,13 +198,21 @@ std::unique_ptr<EventSource> open_recording(const std::string& path, std::string
 std::string format_event(double t_s, const InputEvent& e) {
   const char* type = libevdev_event_type_get_name(static_cast<unsigned>(e.type));
   const char* code = libevdev_event_code_get_name(static_cast<unsigned>(e.type), static_cast<unsigned>(e.code));
-  return fmt::format("{:.3f} {} {} {}", t_s, type != nullptr ? type : "EV_UNKNOWN", code != nullptr ? code : "UNKNOWN",
-                     e.value);
+  char buf[128];
+  std::snprintf(buf, sizeof buf, "%.3f %s %s %d", t_s, type != nullptr ? type : "EV_UNKNOWN",
+                code != nullptr ? code : "UNKNOWN", e.value);
+  return buf;
+}
+
+std::string format_unplug(double t_s) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.3f unplug", t_s);
+  return buf;
 }
 
 std::string axis_name(int code) {
   const char* name = libevdev_event_code_get_name(EV_ABS, static_cast<unsigned>(code));
-  return name != nullptr ? name : fmt::format("ABS_{}", code);
+  return name != nullptr ? std::string(name) : "ABS_" + std::to_string(code);
 }
 
 }  // namespace springbok::teleop

@@ -44,6 +44,8 @@ std::unique_ptr<EventSource> open_recording(const std::string& path, std::string
 
 // One line of the stream format for an event at t_s ("0.120 EV_KEY BTN_TL 1").
 std::string format_event(double t_s, const InputEvent& e);
+// The stream's line for an unplug at t_s ("2.500 unplug").
+std::string format_unplug(double t_s);
 // The name of an axis code (ABS_X), for the stream's header.
 std::string axis_name(int code);
 

@@ -24,7 +24,6 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
-#include <fmt/format.h>
 
 #include "event_source.hpp"
 #include "springbok/app/operator_client.hpp"
@@ -154,7 +153,7 @@ int main(int argc, char** argv) {
         case teleop::EventSource::Next::gone:
           gone = true;
           pad.unplugged(seconds_since(t0));
-          if (recording.is_open()) recording << fmt::format("{:.3f} unplug\n", seconds_since(t0));
+          if (recording.is_open()) recording << teleop::format_unplug(seconds_since(t0)) << "\n";
           std::fprintf(stderr, "springbok-teleop: %s is gone\n", source->name().c_str());
           reopen_at_s = seconds_since(t0) + 1.0;
           break;

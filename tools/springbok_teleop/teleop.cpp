@@ -2,8 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
+#include <cstdio>
 
 #include "springbok/gait/trot.hpp"
 
@@ -114,7 +113,9 @@ void Teleop::poll(double t_s, std::vector<std::string>& out) {
   if (walking_ && t_s >= next_walk_s_) {
     const std::array<double, 3> v = velocity();
     const auto mm = [](double x) { return std::round(x * 1000.0) / 1000.0 + 0.0; };  // + 0.0: no "-0.000"
-    out.push_back(fmt::format("walk {:.3f} {:.3f} {:.3f}", mm(v[0]), mm(v[1]), mm(v[2])));
+    char line[96];
+    std::snprintf(line, sizeof line, "walk %.3f %.3f %.3f", mm(v[0]), mm(v[1]), mm(v[2]));
+    out.emplace_back(line);
     next_walk_s_ += config_.period_s;
     if (next_walk_s_ <= t_s) next_walk_s_ = t_s + config_.period_s;  // late: from now on
   }
