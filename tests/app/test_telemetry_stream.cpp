@@ -2,7 +2,8 @@
 // the simulated robot) runs for 2 s with the shipped config, its telemetry pointed at a
 // UDP socket of this test on loopback; the datagrams are what PlotJuggler's UDP server
 // reads (one flat JSON object each, a `timestamp` in seconds) at the configured rate: the
-// shipped 100 Hz, and the most there is, 1 kHz (one datagram per tick), with no drop.
+// shipped 100 Hz, and the most there is, 1 kHz (one datagram per tick), with no drop. At the
+// stop the flight recorder writes every tick of the run to its CSV file.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -59,6 +60,7 @@ TEST_P(TelemetryStream, TheDeployedProgramStreamsPlotJugglerJsonAtTheConfiguredR
   cfg = replaced(cfg, "path: /var/log/springbok/rt.log", "path: \"-\"");
   cfg = replaced(cfg, "port: 9870 ", "port: " + std::to_string(port) + " ");
   cfg = replaced(cfg, "  rate_hz: 100 ", "  rate_hz: " + std::to_string(rate_hz) + " ");
+  cfg = replaced(cfg, "  dir: /var/log/springbok ", "  dir: " + (dir / "flight").string() + " ");
   std::ofstream(dir / "robot.yaml") << cfg;
 
   std::atomic<bool> done{false};
@@ -86,7 +88,26 @@ TEST_P(TelemetryStream, TheDeployedProgramStreamsPlotJugglerJsonAtTheConfiguredR
   }
   program.join();
   ::close(fd);
+  // The flight recorder's file at the stop: every tick of the run (the warm-up's included),
+  // one row each, a tick apart, the same fields as the datagrams.
+  std::vector<std::string> flight_rows;
+  std::string flight_header;
+  for (const auto& e : std::filesystem::directory_iterator(dir / "flight")) {
+    if (e.path().string().find("-stop.csv") == std::string::npos) continue;
+    std::ifstream in(e.path());
+    std::getline(in, flight_header);
+    for (std::string line; std::getline(in, line);) flight_rows.push_back(line);
+  }
   std::filesystem::remove_all(dir);
+  EXPECT_NE(output.find("flight recorder (stop): "), std::string::npos) << output;
+  ASSERT_GE(flight_rows.size(), 1800u) << output;  // 2 s of ticks, fewer where a loaded machine skipped some
+  EXPECT_LE(flight_rows.size(), 2600u);
+  EXPECT_EQ(flight_header.rfind("timestamp,tick,mode,faults,", 0), 0u) << flight_header;
+  for (std::size_t i = 1; i < flight_rows.size(); ++i) {
+    const double t0 = std::stod(flight_rows[i - 1]), t1 = std::stod(flight_rows[i]);
+    ASSERT_NEAR(t1 - t0, 1e-3 * std::round((t1 - t0) / 1e-3), 1e-9) << "row " << i;
+    ASSERT_GE(t1 - t0, 1e-3 - 1e-9) << "row " << i;  // a grid point apart (more after a skipped one)
+  }
 
   // 2 s of firmware time (the warm-up's ticks stream too). At 1 kHz a loaded machine may lose a
   // few on the loopback (the receiver's buffer); the program itself must drop none (below).

@@ -50,7 +50,7 @@ AppConfig read_config(const Field& root) {
     root.fail("empty document");
     return c;
   }
-  if (!root.allow_only({"loop", "rt", "safety", "gains", "control", "operator", "log", "telemetry", "can"})) return c;
+  if (!root.allow_only({"loop", "rt", "safety", "gains", "control", "operator", "log", "telemetry", "recorder", "can"})) return c;
   c.has_can_section = root["can"].present();
 
   if (const Field n = root["loop"]; section(n, {"rate_hz", "warmup_ticks"})) {
@@ -134,6 +134,7 @@ AppConfig read_config(const Field& root) {
   }
   if (const Field n = root["log"]; section(n, {"path"})) need(n, "path").text(c.log_path);
   c.telemetry = read_telemetry_config(root["telemetry"]);
+  c.recorder = read_recorder_config(root["recorder"]);
   return c;
 }
 

@@ -48,7 +48,7 @@ ParsedLine controller_request(ControllerRequest r, std::string name) {
   return p;
 }
 
-constexpr const char* kVerbs = "(start, stop, mode, reset, status, gait, walk, tune, hand, tare, controller)";
+constexpr const char* kVerbs = "(start, stop, mode, reset, status, gait, walk, tune, hand, tare, controller, dump)";
 
 // `walk <v_x> <v_y> <yaw_rate>`: the running trot's velocity (m/s, m/s, rad/s), checked by
 // the config's reader against the trot's velocity ranges.
@@ -233,12 +233,12 @@ ParsedLine parse_operator_line(std::string_view line) {
   if (verb == "walk") return parse_walk(words);
   if (verb == "tune") return parse_tune(words);
   if (verb == "hand") return parse_hand(words);
-  if (verb == "tare" || verb == "controller") {
+  if (verb == "tare" || verb == "controller" || verb == "dump") {
     if (args != 0) return error(std::string(verb) + " takes no argument");
     if (verb == "tare") return controller_request(ControllerRequest{}, "tare");
     ParsedLine p;
-    p.kind = ParsedLine::Kind::controller_status;
-    p.name = "controller";
+    p.kind = verb == "dump" ? ParsedLine::Kind::dump : ParsedLine::Kind::controller_status;
+    p.name = std::string(verb);
     return p;
   }
   return error("unknown command '" + std::string(verb) + "' " + kVerbs);

@@ -163,6 +163,13 @@ std::string OperatorServer::handle_line(std::string_view line) {
     case ParsedLine::Kind::error: return parsed.error;
     case ParsedLine::Kind::status: return status_line();
     case ParsedLine::Kind::controller_status: return controller_line();
+    case ParsedLine::Kind::dump: {
+      if (recorder_ == nullptr) return "error: dump: the flight recorder is off (recorder.enabled)";
+      std::string error;
+      const std::string path = recorder_->write(DumpReason::operator_request, error);
+      if (path.empty()) return "error: dump: " + error;
+      return "ok dump " + path;
+    }
     case ParsedLine::Kind::command:
       request.command = parsed.command;
       break;

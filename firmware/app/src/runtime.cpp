@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <memory>
@@ -114,7 +115,17 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
     telemetry.start(*telemetry_ring);
   }
 
+  // The flight recorder (flight_recorder.hpp): the loop records every tick, its thread writes.
+  std::unique_ptr<FlightRecorder> recorder;
+  if (config.recorder.enabled) {
+    recorder = std::make_unique<FlightRecorder>(
+        static_cast<std::size_t>(std::lround(config.recorder.seconds * config.rate_hz)), config.recorder.dir);
+    loop.set_recorder(recorder.get());
+    recorder->start();
+  }
+
   OperatorServer server(firmware.mailbox(), firmware.status(), executive->published());
+  server.set_recorder(recorder.get());
   if (const std::string error = server.open(config.operator_socket); !error.empty()) {
     std::fprintf(stderr, "%s\n", error.c_str());
     hardware.deactivate();
@@ -171,6 +182,17 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
   hardware.deactivate();
   server.stop();
   telemetry.stop();
+  if (recorder) {  // the last seconds, at every stop
+    recorder->stop();
+    std::string error;
+    const std::string path = recorder->write(DumpReason::stop, error);
+    if (path.empty()) {
+      std::fprintf(stderr, "springbok: %s\n", error.c_str());
+    } else {
+      std::fprintf(stderr, "springbok: flight recorder (stop): %s (%.2f s to write)\n", path.c_str(),
+                   recorder->last_write_s());
+    }
+  }
   drainer.stop();
   if (log_file != stderr) std::fclose(log_file);
 

@@ -36,30 +36,80 @@ std::uint32_t telemetry_every_ticks(const TelemetryConfig& config, int loop_rate
 
 namespace {
 
-// ,"name":value with 9 significant digits. JSON has no NaN or infinity: such a value is
-// left out of its datagram.
-void number(std::string& out, std::string_view name, double value) {
-  if (!std::isfinite(value)) return;
-  out += ",\"";
-  out += name;
-  out += "\":";
+constexpr const char* kFootNames[kFeet] = {"lf", "rf", "lh", "rh"};
+
+// Every field of a record after its timestamp, in order: field(name, value). A drive's bus
+// voltage only where it reports one (> 0), unless `every_field`.
+template <class Field>
+void for_each_field(const TelemetryRecord& r, bool every_field, Field&& field) {
+  const auto triple = [&](std::string_view name, std::string_view unit, const Triple& v) {
+    static constexpr const char* kAxes[3] = {"_x_", "_y_", "_z_"};
+    for (std::size_t a = 0; a < 3; ++a) field(std::string(name) + kAxes[a] + std::string(unit), v[a]);
+  };
+  const auto quaternion = [&](std::string_view name, const std::array<double, 4>& q) {  // <name>_qx .. _qw
+    static constexpr const char* kParts[4] = {"_qx", "_qy", "_qz", "_qw"};
+    for (std::size_t i = 0; i < 4; ++i) field(std::string(name) + kParts[i], q[i]);
+  };
+  field("tick", static_cast<double>(r.tick));
+  field("mode", r.mode);
+  field("faults", r.faults);
+  field("compute_us", r.compute_us);
+  field("wake_latency_us", r.wake_latency_us);
+  field("wbc", r.wbc ? 1.0 : 0.0);
+  field("engaged", r.engaged ? 1.0 : 0.0);
+  field("tick_status", r.tick_status);
+  field("qp_status", r.qp_status);
+  field("qp_iterations", r.qp_iterations);
+  field("arm_overloaded", r.arm_overloaded ? 1.0 : 0.0);
+  field("support_limited", r.support_limited ? 1.0 : 0.0);
+  field("stepping_for_push", r.stepping_for_push ? 1.0 : 0.0);
+  triple("base", "m", r.base_position_m);
+  quaternion("base", r.base_quaternion_xyzw);
+  field("base_roll_rad", r.base_rpy_rad[0]);
+  field("base_pitch_rad", r.base_rpy_rad[1]);
+  field("base_yaw_rad", r.base_rpy_rad[2]);
+  triple("base_velocity", "m_s", r.base_velocity_m_s);
+  triple("base_rate", "rad_s", r.base_rate_rad_s);
+  triple("hand", "m", r.hand_position_m);
+  quaternion("hand", r.hand_quaternion_xyzw);
+  triple("base_rest", "m", r.base_rest_m);
+  triple("hand_rest", "m", r.hand_rest_m);
+  quaternion("hand_rest", r.hand_rest_quaternion_xyzw);
+  triple("base_displacement", "m", r.base_displacement_m);
+  triple("hand_displacement", "m", r.hand_displacement_m);
+  triple("fe", "n", r.external_force_n);
+  triple("unmeasured", "n", r.unmeasured_force_n);
+  triple("te", "nm", r.external_torque_nm);
+  for (int f = 0; f < kFeet; ++f) {
+    triple(std::string(kFootNames[f]) + "_force", "n", r.foot_force_n[static_cast<std::size_t>(f)]);
+    field(std::string(kFootNames[f]) + "_stance", r.stance[static_cast<std::size_t>(f)] ? 1.0 : 0.0);
+  }
+  for (int j = 0; j < kNj; ++j) {
+    const std::string name(robot::kJoints[static_cast<std::size_t>(j)].name);
+    const auto i = static_cast<std::size_t>(j);
+    field("q_" + name + "_rad", r.q_rad[i]);
+    field("qd_" + name + "_rad_s", r.qd_rad_s[i]);
+    field("tau_" + name + "_nm", r.tau_nm[i]);
+    if (every_field || r.bus_voltage_v[i] > 0.0) field("bus_voltage_" + name + "_v", r.bus_voltage_v[i]);
+  }
+}
+
+// 9 significant digits.
+void append_number(std::string& out, double value) {
   char buf[32];
   const auto r = std::to_chars(buf, buf + sizeof buf, value, std::chars_format::general, 9);
   out.append(buf, r.ptr);
 }
 
-void triple(std::string& out, std::string_view name, std::string_view unit, const Triple& v) {
-  static constexpr const char* kAxes[3] = {"_x_", "_y_", "_z_"};
-  for (std::size_t a = 0; a < 3; ++a) number(out, std::string(name) + kAxes[a] + std::string(unit), v[a]);
+// The firmware clock in microseconds, fixed notation (a plain number for PlotJuggler); beyond
+// 1e12 s, where that would not fit, 17 significant digits.
+void append_timestamp(std::string& out, double timestamp_s) {
+  char stamp[32];
+  const auto end = std::abs(timestamp_s) < 1e12
+                       ? std::to_chars(stamp, stamp + sizeof stamp, timestamp_s, std::chars_format::fixed, 6)
+                       : std::to_chars(stamp, stamp + sizeof stamp, timestamp_s, std::chars_format::general, 17);
+  out.append(stamp, end.ptr);
 }
-
-// <name>_qx .. <name>_qw
-void quaternion(std::string& out, std::string_view name, const std::array<double, 4>& q) {
-  static constexpr const char* kParts[4] = {"_qx", "_qy", "_qz", "_qw"};
-  for (std::size_t i = 0; i < 4; ++i) number(out, std::string(name) + kParts[i], q[i]);
-}
-
-constexpr const char* kFootNames[kFeet] = {"lf", "rf", "lh", "rh"};
 
 }  // namespace
 
@@ -69,57 +119,35 @@ std::string telemetry_json(const TelemetryRecord& r) {
   std::string out;
   out.reserve(6000);
   out += "{\"timestamp\":";
-  // Microseconds in fixed notation (a plain number for PlotJuggler); beyond 1e12 s, where
-  // that would not fit, 17 significant digits.
-  char stamp[32];
-  const auto end = std::abs(r.timestamp_s) < 1e12
-                       ? std::to_chars(stamp, stamp + sizeof stamp, r.timestamp_s, std::chars_format::fixed, 6)
-                       : std::to_chars(stamp, stamp + sizeof stamp, r.timestamp_s, std::chars_format::general, 17);
-  out.append(stamp, end.ptr);
-  number(out, "tick", static_cast<double>(r.tick));
-  number(out, "mode", r.mode);
-  number(out, "faults", r.faults);
-  number(out, "compute_us", r.compute_us);
-  number(out, "wake_latency_us", r.wake_latency_us);
-  number(out, "wbc", r.wbc ? 1.0 : 0.0);
-  number(out, "engaged", r.engaged ? 1.0 : 0.0);
-  number(out, "tick_status", r.tick_status);
-  number(out, "qp_status", r.qp_status);
-  number(out, "qp_iterations", r.qp_iterations);
-  number(out, "arm_overloaded", r.arm_overloaded ? 1.0 : 0.0);
-  number(out, "support_limited", r.support_limited ? 1.0 : 0.0);
-  number(out, "stepping_for_push", r.stepping_for_push ? 1.0 : 0.0);
-  triple(out, "base", "m", r.base_position_m);
-  quaternion(out, "base", r.base_quaternion_xyzw);
-  number(out, "base_roll_rad", r.base_rpy_rad[0]);
-  number(out, "base_pitch_rad", r.base_rpy_rad[1]);
-  number(out, "base_yaw_rad", r.base_rpy_rad[2]);
-  triple(out, "base_velocity", "m_s", r.base_velocity_m_s);
-  triple(out, "base_rate", "rad_s", r.base_rate_rad_s);
-  triple(out, "hand", "m", r.hand_position_m);
-  quaternion(out, "hand", r.hand_quaternion_xyzw);
-  triple(out, "base_rest", "m", r.base_rest_m);
-  triple(out, "hand_rest", "m", r.hand_rest_m);
-  quaternion(out, "hand_rest", r.hand_rest_quaternion_xyzw);
-  triple(out, "base_displacement", "m", r.base_displacement_m);
-  triple(out, "hand_displacement", "m", r.hand_displacement_m);
-  triple(out, "fe", "n", r.external_force_n);
-  triple(out, "unmeasured", "n", r.unmeasured_force_n);
-  triple(out, "te", "nm", r.external_torque_nm);
-  for (int f = 0; f < kFeet; ++f) {
-    triple(out, std::string(kFootNames[f]) + "_force", "n", r.foot_force_n[static_cast<std::size_t>(f)]);
-    number(out, std::string(kFootNames[f]) + "_stance", r.stance[static_cast<std::size_t>(f)] ? 1.0 : 0.0);
-  }
-  for (int j = 0; j < kNj; ++j) {
-    const std::string name(robot::kJoints[static_cast<std::size_t>(j)].name);
-    const auto i = static_cast<std::size_t>(j);
-    number(out, "q_" + name + "_rad", r.q_rad[i]);
-    number(out, "qd_" + name + "_rad_s", r.qd_rad_s[i]);
-    number(out, "tau_" + name + "_nm", r.tau_nm[i]);
-    if (r.bus_voltage_v[i] > 0.0) number(out, "bus_voltage_" + name + "_v", r.bus_voltage_v[i]);
-  }
+  append_timestamp(out, r.timestamp_s);
+  // JSON has no NaN or infinity: such a value is left out of its datagram.
+  for_each_field(r, false, [&out](std::string_view name, double value) {
+    if (!std::isfinite(value)) return;
+    out += ",\"";
+    out += name;
+    out += "\":";
+    append_number(out, value);
+  });
   out += '}';
   return out;
+}
+
+std::string telemetry_csv_header() {
+  std::string out = "timestamp";
+  for_each_field(TelemetryRecord{}, true, [&out](std::string_view name, double) {
+    out += ',';
+    out += name;
+  });
+  return out;
+}
+
+void append_telemetry_csv_row(std::string& out, const TelemetryRecord& r) {
+  append_timestamp(out, r.timestamp_s);
+  for_each_field(r, true, [&out](std::string_view, double value) {
+    out += ',';
+    append_number(out, value);
+  });
+  out += '\n';
 }
 
 TelemetrySender::~TelemetrySender() {

@@ -221,6 +221,10 @@ TEST_F(LoopTest, DrivesWithALowSupplyAreLoggedBothWaysAndNeverAFault) {
 }
 
 TEST_F(LoopTest, WholeTicksAllocateNothing) {
+  FlightRecorder recorder(1000, "/nonexistent");  // every tick recorded, a fault's file asked for
+  rig->loop.set_recorder(&recorder);
+  TelemetryRing telemetry;
+  rig->loop.set_telemetry(&telemetry, 10);
   rig->executive->run_ticks(5);
   springbok::test::AllocationTrap trap;
   OperatorRequest request;
@@ -237,6 +241,8 @@ TEST_F(LoopTest, WholeTicksAllocateNothing) {
   const std::size_t allocations = trap.disarm();
   EXPECT_EQ(allocations, 0u);
   EXPECT_EQ(rig->supervisor.mode(), Mode::damping);  // the overrun streak tripped inside the trap
+  EXPECT_EQ(recorder.pending(), DumpReason::fault);
+  EXPECT_EQ(recorder.recorded(), 710u);  // every tick
 }
 
 }  // namespace

@@ -28,8 +28,8 @@ TEST(OperatorLine, Parsing) {
   EXPECT_EQ(parse_operator_line("start").kind, K::command);
   EXPECT_EQ(parse_operator_line("  mode   control \r").command, safety::OperatorCommand::mode_control);
   EXPECT_EQ(parse_operator_line("status").kind, K::status);
-  EXPECT_EQ(parse_operator_line("").error, "error: empty command (start, stop, mode, reset, status, gait, walk, tune, hand, tare, controller)");
-  EXPECT_EQ(parse_operator_line("START").error, "error: unknown command 'START' (start, stop, mode, reset, status, gait, walk, tune, hand, tare, controller)");
+  EXPECT_EQ(parse_operator_line("").error, "error: empty command (start, stop, mode, reset, status, gait, walk, tune, hand, tare, controller, dump)");
+  EXPECT_EQ(parse_operator_line("START").error, "error: unknown command 'START' (start, stop, mode, reset, status, gait, walk, tune, hand, tare, controller, dump)");
   EXPECT_EQ(parse_operator_line("stop now").error, "error: stop takes no argument");
   EXPECT_EQ(parse_operator_line("mode").error, "error: mode needs one argument: stand or control");
   EXPECT_EQ(parse_operator_line("mode idle").error, "error: unknown mode 'idle' (stand or control)");
@@ -245,7 +245,7 @@ TEST_F(OperatorSocket, CommandsAndMalformedLines) {
   ASSERT_EQ(replies.size(), 16u);
   EXPECT_EQ(replies[0].substr(0, 38), "ok status mode=idle faults=none ticks=");
   EXPECT_EQ(replies[1], "error: mode control: mode control needs mode stand (mode=idle faults=none)");
-  EXPECT_EQ(replies[2], "error: unknown command 'frobnicate' (start, stop, mode, reset, status, gait, walk, tune, hand, tare, controller)");
+  EXPECT_EQ(replies[2], "error: unknown command 'frobnicate' (start, stop, mode, reset, status, gait, walk, tune, hand, tare, controller, dump)");
   EXPECT_EQ(replies[3], "error: mode needs one argument: stand or control");
   EXPECT_EQ(replies[4], "error: start takes no argument");
   EXPECT_EQ(replies[5], "error: non-printable byte in the command");

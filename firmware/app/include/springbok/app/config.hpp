@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "springbok/app/flight_recorder.hpp"
 #include "springbok/app/telemetry.hpp"
 #include "springbok/control/robot_controller.hpp"
 #include "springbok/estimation/base_estimator.hpp"
@@ -56,6 +57,7 @@ struct AppConfig {
   std::string operator_socket;
   std::string log_path;                  // "-" = standard error
   TelemetryConfig telemetry;             // telemetry: (live UDP stream; telemetry.hpp)
+  RecorderConfig recorder;               // recorder: (the flight recorder; flight_recorder.hpp)
   bool has_can_section = false;
 };
 

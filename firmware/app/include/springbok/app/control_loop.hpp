@@ -1,8 +1,8 @@
 // One tick of the firmware, the executive's body:
 //   HAL read -> supervisor checks (observe) -> operator mailbox (to the supervisor or the
 //   controller) -> mode controller (compute; its state published) -> supervisor (finish:
-//   damping, clamping) -> HAL write -> the tick's record: log events, status, and every N
-//   ticks a telemetry record into its ring
+//   damping, clamping) -> HAL write -> the tick's record: log events, status, the flight
+//   recorder's record (every tick) and every N ticks a telemetry record into its ring
 // Fixed-size structs passed by reference; the controller is a template
 // parameter (no virtual call, no std::function); one virtual call per HAL
 // exchange. Mode and fault changes, verdicts, HAL errors and the warnings (sensors lost,
@@ -12,8 +12,9 @@
 #include <algorithm>
 #include <limits>
 
-#include "springbok/app/operator.hpp"
+#include "springbok/app/flight_recorder.hpp"
 #include "springbok/app/mode_controller.hpp"
+#include "springbok/app/operator.hpp"
 #include "springbok/app/telemetry.hpp"
 #include "springbok/hal/hardware.hpp"
 #include "springbok/rt/executive.hpp"
@@ -57,6 +58,9 @@ class ControlLoop {
     telemetry_ = ring;
     telemetry_every_ = every_ticks < 1 ? 1 : every_ticks;
   }
+  // The flight recorder: the record of every tick, and a file asked for when a fault latches
+  // (nullptr: none). Start-up.
+  void set_recorder(FlightRecorder* recorder) noexcept { recorder_ = recorder; }
 
   const hal::Measurements& measurements() const noexcept { return meas_; }
   const hal::JointCommands& commands() const noexcept { return cmd_; }
@@ -89,9 +93,8 @@ class ControlLoop {
     mailbox_.replies.push(reply);
   }
 
-  // The loop's part of a telemetry record, the controller's part, into the ring (a full
-  // ring drops it and counts). rt: no alloc, no block
-  void send_telemetry(const rt::TickInfo& info) noexcept {
+  // The tick's record: the loop's part and the controller's. rt: no alloc, no block
+  void fill_record(const rt::TickInfo& info) noexcept {
     TelemetryRecord& r = telemetry_record_;
     r = TelemetryRecord{};
     r.timestamp_s = static_cast<double>(info.scheduled_ns) * 1e-9;
@@ -108,7 +111,6 @@ class ControlLoop {
       r.bus_voltage_v[i] = meas_.drives[i].bus_voltage_v;
     }
     if constexpr (requires(Controller& c, TelemetryRecord& t) { c.telemetry(t); }) controller_.telemetry(r);
-    (void)telemetry_->push(r);
   }
 
   struct Before {
@@ -163,7 +165,13 @@ class ControlLoop {
     status_.stale_ticks.store(supervisor_.stale_ticks(), std::memory_order_relaxed);
     status_.limit_joint_position_rad.store(supervisor_.limit_joint_position_rad(), std::memory_order_relaxed);
     status_.limit_joint.store(supervisor_.limit_joint(), std::memory_order_release);
-    if (telemetry_ != nullptr && info.index % telemetry_every_ == 0) send_telemetry(info);
+    const bool telemetry_tick = telemetry_ != nullptr && info.index % telemetry_every_ == 0;
+    if (recorder_ != nullptr || telemetry_tick) fill_record(info);
+    if (telemetry_tick) (void)telemetry_->push(telemetry_record_);  // a full ring drops it and counts
+    if (recorder_ != nullptr) {
+      recorder_->record(telemetry_record_);
+      if ((supervisor_.faults() & ~before.faults) != 0) recorder_->request(DumpReason::fault);
+    }
   }
 
   void log(const rt::TickInfo& info, rt::LogEvent event, std::int64_t a, std::int64_t b, double x = 0.0) noexcept {
@@ -184,6 +192,7 @@ class ControlLoop {
   std::uint32_t degraded_buses_ = 0;
   std::uint32_t low_voltage_drives_ = 0;  // bit j: joint j's drive reports its supply below the warning
   TelemetryRing* telemetry_ = nullptr;
+  FlightRecorder* recorder_ = nullptr;
   std::uint32_t telemetry_every_ = 1;
   TelemetryRecord telemetry_record_;
 };

@@ -5,6 +5,7 @@
 //   the supervisor's:  start | stop | reset | mode stand | mode control | status
 //   the controller's:  gait stand | gait trot [key=value ...] | walk VX VY YAW_RATE |
 //                      tune key=value ... | hand X Y Z SECONDS | tare | controller
+//   the flight recorder's:  dump (its ring to a file now; the reply names the file)
 //   -> "ok ..." or "error: ..."  (a malformed line changes nothing)
 //
 // `gait trot` takes the keys of the scenario's and config's `gait:` map
@@ -60,7 +61,7 @@ struct ControllerRequest {
 };
 
 struct ParsedLine {
-  enum class Kind : std::uint8_t { command, controller_request, status, controller_status, error } kind = Kind::error;
+  enum class Kind : std::uint8_t { command, controller_request, status, controller_status, dump, error } kind = Kind::error;
   safety::OperatorCommand command = safety::OperatorCommand::stop;  // Kind::command
   ControllerRequest request;                                        // Kind::controller_request
   std::string name;   // the command as the replies name it ("start", "gait trot")

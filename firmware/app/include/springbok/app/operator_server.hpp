@@ -9,6 +9,7 @@
 #include <string>
 #include <thread>
 
+#include "springbok/app/flight_recorder.hpp"
 #include "springbok/app/operator.hpp"
 #include "springbok/rt/executive.hpp"
 
@@ -24,6 +25,9 @@ class OperatorServer {
   ~OperatorServer();
   OperatorServer(const OperatorServer&) = delete;
   OperatorServer& operator=(const OperatorServer&) = delete;
+
+  // The flight recorder `dump` writes (nullptr: "dump" is refused). Start-up.
+  void set_recorder(FlightRecorder* recorder) noexcept { recorder_ = recorder; }
 
   // Binds and listens (replacing a stale socket file); "" or the error.
   std::string open(const std::string& socket_path);
@@ -45,6 +49,7 @@ class OperatorServer {
   std::string path_;
   int listen_fd_ = -1;
   std::uint64_t next_id_ = 1;
+  FlightRecorder* recorder_ = nullptr;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

@@ -85,6 +85,11 @@ using TelemetryRing = rt::SpscRing<TelemetryRecord, 256>;
 // the whole datagram ("": counted as a send error). Fuzzed: tests/fuzz/fuzz_telemetry.cpp.
 std::string telemetry_json(const TelemetryRecord& record);
 
+// The same fields as CSV (the flight recorder's files): a header line of their names, and
+// one row per record, every field in every row (a non-finite value as "nan").
+std::string telemetry_csv_header();
+void append_telemetry_csv_row(std::string& out, const TelemetryRecord& record);
+
 // The non-RT sender: drains the ring, one datagram per record.
 class TelemetrySender {
  public:

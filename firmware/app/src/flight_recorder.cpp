@@ -1,0 +1,143 @@
+#include "springbok/app/flight_recorder.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+
+#include "springbok/yaml/reader.hpp"
+
+namespace springbok::app {
+
+RecorderConfig read_recorder_config(const yaml::Field& f) {
+  RecorderConfig c;
+  if (!f.present() || !f.allow_only({"enabled", "seconds", "dir"})) return c;
+  f["enabled"].boolean(c.enabled);
+  f["seconds"].number(c.seconds, 1.0, 300.0);
+  if (f["dir"].text(c.dir) && c.dir.empty()) f["dir"].fail("must name a directory");
+  return c;
+}
+
+const char* to_string(DumpReason reason) noexcept {
+  switch (reason) {
+    case DumpReason::none: return "none";
+    case DumpReason::fault: return "fault";
+    case DumpReason::stop: return "stop";
+    case DumpReason::operator_request: return "operator";
+  }
+  return "unknown";
+}
+
+FlightRecorder::FlightRecorder(std::size_t capacity, std::string dir)
+    : slots_(capacity < 1 ? 1 : capacity), dir_(std::move(dir)) {
+  copy_.reserve(slots_.size());
+}
+
+FlightRecorder::~FlightRecorder() { stop(); }
+
+// rt: no alloc, no block
+void FlightRecorder::record(const TelemetryRecord& r) noexcept {
+  const std::uint64_t k = head_.load(std::memory_order_relaxed);
+  Slot& s = slots_[static_cast<std::size_t>(k % slots_.size())];
+  s.sequence.store(2 * k + 1, std::memory_order_relaxed);
+  std::atomic_thread_fence(std::memory_order_release);
+  s.record = r;
+  s.sequence.store(2 * k + 2, std::memory_order_release);
+  head_.store(k + 1, std::memory_order_release);
+}
+
+// rt: no alloc, no block
+void FlightRecorder::request(DumpReason reason) noexcept {
+  std::uint8_t none = 0;
+  (void)pending_.compare_exchange_strong(none, static_cast<std::uint8_t>(reason), std::memory_order_acq_rel);
+}
+
+std::size_t FlightRecorder::snapshot() {
+  copy_.clear();
+  const std::uint64_t head = head_.load(std::memory_order_acquire);
+  const std::uint64_t n = slots_.size();
+  for (std::uint64_t k = head > n ? head - n : 0; k < head; ++k) {
+    const Slot& s = slots_[static_cast<std::size_t>(k % n)];
+    const std::uint64_t before = s.sequence.load(std::memory_order_acquire);
+    if (before != 2 * k + 2) continue;  // overwritten since (or being written)
+    copy_.push_back(s.record);
+    std::atomic_thread_fence(std::memory_order_acquire);
+    if (s.sequence.load(std::memory_order_relaxed) != before) copy_.pop_back();  // written over meanwhile
+  }
+  return copy_.size();
+}
+
+std::string FlightRecorder::write(DumpReason reason, std::string& error) {
+  const std::lock_guard<std::mutex> lock(write_mutex_);
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::size_t n = snapshot();
+  std::error_code ec;
+  std::filesystem::create_directories(dir_, ec);
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char stamp[32];
+  std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &utc);
+  const std::uint64_t number = files_.load(std::memory_order_relaxed) + 1;
+  const std::string path = dir_ + "/flight-" + stamp + "-" + std::to_string(number) + "-" + to_string(reason) + ".csv";
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (f == nullptr) {
+    error = "flight recorder: cannot write " + path;
+    return "";
+  }
+  std::string chunk = telemetry_csv_header() + "\n";
+  chunk.reserve(1 << 20);
+  for (std::size_t i = 0; i < n; ++i) {
+    append_telemetry_csv_row(chunk, copy_[i]);
+    if (chunk.size() > (1 << 20) - 8192 || i + 1 == n) {
+      std::fwrite(chunk.data(), 1, chunk.size(), f);
+      chunk.clear();
+    }
+  }
+  if (n == 0) std::fwrite(chunk.data(), 1, chunk.size(), f);
+  const bool ok = std::fflush(f) == 0 && std::ferror(f) == 0;
+  std::fclose(f);
+  if (!ok) {
+    error = "flight recorder: error writing " + path;
+    return "";
+  }
+  last_file_ = path;
+  files_.fetch_add(1, std::memory_order_relaxed);
+  last_write_s_.store(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                      std::memory_order_relaxed);
+  return path;
+}
+
+std::string FlightRecorder::last_file() const {
+  const std::lock_guard<std::mutex> lock(write_mutex_);
+  return last_file_;
+}
+
+void FlightRecorder::run() {
+  while (!stop_.load(std::memory_order_acquire)) {
+    // Taken before the write: a request while it writes gets a file of its own.
+    const auto reason = static_cast<DumpReason>(pending_.exchange(0, std::memory_order_acq_rel));
+    if (reason != DumpReason::none) {
+      std::string error;
+      const std::string path = write(reason, error);
+      if (path.empty()) {
+        std::fprintf(stderr, "springbok: %s\n", error.c_str());
+      } else {
+        std::fprintf(stderr, "springbok: flight recorder (%s): %s\n", to_string(reason), path.c_str());
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+}
+
+void FlightRecorder::start() {
+  stop_.store(false);
+  thread_ = std::thread([this] { run(); });
+}
+
+void FlightRecorder::stop() {
+  stop_.store(true);
+  if (thread_.joinable()) thread_.join();
+}
+
+}  // namespace springbok::app
