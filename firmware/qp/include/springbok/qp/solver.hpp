@@ -20,7 +20,7 @@
 //  3. Goldfarb-Idnani on that reduced QP. With H = I the GI basis J = [Q1 Q2] needs
 //     only Q1, the orthonormal basis of the active normals (N = Q1 R), kept by
 //     Gram-Schmidt with re-orthogonalisation on additions and Givens rotations on
-//     drops; the step direction is z = n - Q1 Q1'n. The reduced normal t_i of a
+//     drops; the step direction is z = n+ - Q1 Q1'n+. The reduced normal t_i of a
 //     row is computed only when the row is picked (rows that never become
 //     violated cost one dot product per outer iteration, in Ain x). A row within
 //     1e-8 of the span of the active rows counts as dependent (dual steps only);
@@ -121,7 +121,7 @@ class Solver {
   const double* t_of(int row) noexcept;
   double reduced_row(int row, int sigma) noexcept;
   double project() noexcept;
-  void append(int row, int sigma, double rhs, double np_norm, double z_norm, double multiplier) noexcept;
+  void append(int row, int sigma, double rhs, double full_norm, double z_norm, double multiplier) noexcept;
   void drop(int k) noexcept;
   void solve_r(const double* d, double* out) noexcept;
   void compute_x() noexcept;
@@ -172,18 +172,18 @@ class Solver {
   void solve_gram(double* y, int cols) noexcept;
   Options options_;
   const ProblemType* p_ = nullptr;
-  int n_ = 0, np_ = 0, meq_ = 0, mi_ = 0;  // np_: n padded to whole chunks of four
-  int me_ = 0, rank_ = 0, m_ = 0, mp_ = 0, q_ = 0;  // mp_: m_ padded to whole chunks
+  int n_ = 0, n_padded_ = 0, meq_ = 0, mi_ = 0;  // n_padded_: n padded to whole chunks of four
+  int me_ = 0, rank_ = 0, m_ = 0, m_padded_ = 0, q_ = 0;  // m_padded_: m_ padded to whole chunks
   int iterations_ = 0, max_iterations_ = 0, epoch_ = 0;
   int g_reduced_at_ = -1;  // column of L^-1 g when solve_on_hinted_set reduced E and g (-1: not this solve)
   int verdict_row_ = -1, ignored_row_ = -1;  // the row of an infeasible verdict; the row a second run leaves out
   double verdict_gap_ = kInf;                 // that verdict's violation relative to its path
   double x_norm_ = 0.0, full_norm_ = 0.0, c_norm_ = 0.0;
-  double np_sq_ = 0.0;  // |np|^2 of reduced_row()'s np_vec_ (project())
+  double normal_sq_ = 0.0;  // |n+|^2 of reduced_row()'s normal_ (project())
   double eq_cond_ = 1.0;  // max/min |diagonal| of the equality block's R (a condition estimate)
   bool x_current_ = false;     // x_ = L^-T Q [v1; w] for the current w (set when run() ends optimal)
   bool rows_checked_ = false;  // Ain's row norms known, zero rows settled (check_rows())
-  static constexpr double kMinReducedShare = 0.1;  // most_violated(): floor of |np_i| / |t_i|
+  static constexpr double kMinReducedShare = 0.1;  // most_violated(): floor of |n+_i| / |t_i|
   static constexpr int kStop = -2;       // most_violated(): stop with stop_status_
   Status stop_status_ = Status::optimal;
   bool slack_current_ = false;  // slack_ = Ain x_ (set by finish() when x_ is the one most_violated used)
@@ -209,7 +209,7 @@ class Solver {
   Buf<double, kMaxEqRows + 1> eq_w_{};  // tau v'c_j of one reflector for the columns right of it
   // reduced problem
   alignas(64) Buf<double, kLd> stat_res_{};  // the stationarity residual of finish_checked()
-  alignas(64) Buf<double, kLd> v1_{}, c_{}, w_{}, x_{}, xp_{}, y_{}, np_vec_{}, z_{}, d_{}, e_{}, rdir_{}, beta_{};
+  alignas(64) Buf<double, kLd> v1_{}, c_{}, w_{}, x_{}, xp_{}, y_{}, normal_{}, z_{}, d_{}, e_{}, rdir_{}, beta_{};
   alignas(64) Buf<double, kLd * N> q1_{};
   alignas(64) Buf<double, kLd * N> r_{};
   alignas(64) Buf<double, kLd> u_{};  // multipliers of the active rows (padded: solve_r's chunks)
@@ -231,7 +231,7 @@ class Solver {
   Buf<double, MI> lo_eff_{}, hi_eff_{}, lo_abs_{}, hi_abs_{};  // violable bounds (most_violated)
   Buf<std::int8_t, MI> active_side_{};
   Buf<bool, MI> have_t_{};
-  Buf<double, MI> red_norm_{};  // most_violated()'s scale: |np_i| = |t_i past rank_| (floored), where have_t_
+  Buf<double, MI> red_norm_{};  // most_violated()'s scale: |n+_i| = |t_i past rank_| (floored), where have_t_
   Buf<int, MI> cand_row_{};      // most_violated()'s violated rows
   Buf<double, MI> cand_viol_{};  // and their violations (negative: the upper side)
   Buf<int, MI> skipped_epoch_{};  // row skipped as a rounding-level violation while epoch_ holds

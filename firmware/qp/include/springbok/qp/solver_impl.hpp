@@ -54,7 +54,7 @@ template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::classify() noexcept -> Status {
   const ProblemType& p = *p_;
   n_ = p.n;
-  np_ = dense::padded(std::max(0, std::min(p.n, N)));
+  n_padded_ = dense::padded(std::max(0, std::min(p.n, N)));
   if (p.n < 1 || p.n > N || p.meq < 0 || p.meq > ME || p.mi < 0 || p.mi > MI) return Status::bad_input;
   meq_ = p.meq;
   mi_ = p.mi;
@@ -178,7 +178,7 @@ inline auto Solver<N, ME, MI>::factor(const Hint& hint) noexcept -> Status {
       have_factored_h_ = true;
     }
   }
-  std::fill(inv_diag_.begin() + n_, inv_diag_.begin() + np_, 0.0);  // keeps padding zero
+  std::fill(inv_diag_.begin() + n_, inv_diag_.begin() + n_padded_, 0.0);  // keeps padding zero
   return Status::optimal;
 }
 
@@ -188,7 +188,7 @@ template <int N, int ME, int MI>
 template <class Column>
 inline auto Solver<N, ME, MI>::solve_lower_each(int cols, Column column) noexcept -> void {
   dense::unit_forward_solve_each(l_.data(), kLd, nc_, cols, column);
-  for (int c = 0; c < cols; ++c) dense::scale_chunks(inv_diag_.data(), column(c), np_);
+  for (int c = 0; c < cols; ++c) dense::scale_chunks(inv_diag_.data(), column(c), n_padded_);
 }
 
 template <int N, int ME, int MI>
@@ -197,19 +197,19 @@ inline auto Solver<N, ME, MI>::solve_lower(double* y, int ldy, int cols) noexcep
 }
 
 // Row `row` of Ain in the variable order (offsets of its entries precomputed), zero
-// padding to np_.
+// padding to n_padded_.
 template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::gather_ain_row(int row, double* dst) const noexcept -> void {
   const double* src = p_->ain.data() + row;
   for (int k = 0; k < n_; ++k) dst[k] = src[ain_offset_[k]];
-  std::fill(dst + n_, dst + np_, 0.0);
+  std::fill(dst + n_, dst + n_padded_, 0.0);
 }
 
-// dst[k] = src[perm_[k]] for the n_ variables, zero padding to np_.
+// dst[k] = src[perm_[k]] for the n_ variables, zero padding to n_padded_.
 template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::gather(const double* src, double* dst) const noexcept -> void {
   for (int k = 0; k < n_; ++k) dst[k] = src[perm_[k]];
-  std::fill(dst + n_, dst + np_, 0.0);
+  std::fill(dst + n_, dst + n_padded_, 0.0);
 }
 
 // ---- step 2: the equality block --------------------------------------------
@@ -234,7 +234,7 @@ inline auto Solver<N, ME, MI>::load_equalities() noexcept -> void {
     for (int r = 0; r < meq_; ++r) bcol(r)[k] = col[r];
   }
   for (me_ = 0; me_ < meq_; ++me_) {
-    std::fill(bcol(me_) + n_, bcol(me_) + np_, 0.0);
+    std::fill(bcol(me_) + n_, bcol(me_) + n_padded_, 0.0);
     eq_row_norm_[me_] = std::sqrt(eq_row_sq_[me_]);
     eq_rhs_[me_] = p.beq_values[me_];
     eq_src_[me_] = me_;
@@ -242,7 +242,7 @@ inline auto Solver<N, ME, MI>::load_equalities() noexcept -> void {
   for (int i = 0; i < mi_; ++i) {
     if (kind_[i] != RowKind::equal) continue;
     gather_ain_row(i, bcol(me_));
-    eq_row_norm_[me_] = row_norm_[i] = std::sqrt(dense::dot_chunks(bcol(me_), bcol(me_), np_));
+    eq_row_norm_[me_] = row_norm_[i] = std::sqrt(dense::dot_chunks(bcol(me_), bcol(me_), n_padded_));
     eq_rhs_[me_] = p.lower[i];
     eq_src_[me_] = -1 - i;
     ++me_;
@@ -255,7 +255,7 @@ inline auto Solver<N, ME, MI>::eliminate_equalities() noexcept -> Status {
   // g rides along as column me_: the same solve and reflectors give c = Q' L^-1 g.
   double* gcol = bcol(me_);
   if (g_reduced_at_ >= 0) {  // solve_on_hinted_set left L^-1 E' in place, L^-1 g at that column
-    if (g_reduced_at_ != me_) std::copy_n(bcol(g_reduced_at_), np_, gcol);
+    if (g_reduced_at_ != me_) std::copy_n(bcol(g_reduced_at_), n_padded_, gcol);
   } else {
     load_equalities();
     gcol = bcol(me_);
@@ -263,7 +263,7 @@ inline auto Solver<N, ME, MI>::eliminate_equalities() noexcept -> Status {
     solve_lower(bcol(0), kLd, me_ + 1);
   }
   for (int k = 0; k < me_; ++k) {
-    eq_norm2_[k] = dense::dot_chunks(bcol(k), bcol(k), np_);
+    eq_norm2_[k] = dense::dot_chunks(bcol(k), bcol(k), n_padded_);
     eq_left2_[k] = eq_norm2_[k];
   }
   // Householder QR with column pivoting on the relative remaining norm.
@@ -292,12 +292,12 @@ inline auto Solver<N, ME, MI>::eliminate_equalities() noexcept -> Status {
     }
     double* bk = bcol(k);
     double scale = 0.0;
-    tau_[k] = dense::make_householder(bk + k, dense::tail_squared_norm(bk, k + 1, np_), scale);
+    tau_[k] = dense::make_householder(bk + k, dense::tail_squared_norm(bk, k + 1, n_padded_), scale);
     double* vk = vcol(k);  // the full padded reflector: zeros above k, 1 at k (bk's tail is left unused)
     std::fill(vk, vk + dense::chunk_start(k), 0.0);
-    dense::scaled_below(bk, k, np_, scale, 1.0, vk);
+    dense::scaled_below(bk, k, n_padded_, scale, 1.0, vk);
     if (tau_[k] != 0.0) {  // the reflector on columns k+1 .. me_ (g last) at once
-      const int start = dense::chunk_start(k), len = np_ - start, cols = me_ - k;
+      const int start = dense::chunk_start(k), len = n_padded_ - start, cols = me_ - k;
       dense::gemv_t_chunks(bcol(k + 1) + start, kLd, len, cols, vk + start, eq_w_.data());
       for (int j = 0; j < cols; ++j) eq_w_[j] *= tau_[k];
       dense::sub_outer_chunks(vk + start, len, cols, eq_w_.data(), bcol(k + 1) + start, kLd);
@@ -307,12 +307,12 @@ inline auto Solver<N, ME, MI>::eliminate_equalities() noexcept -> Status {
       // |c_j[k+1:]|^2 = |c_j[k:]|^2 - c_j[k]^2 (LAPACK-style downdate), recomputed
       // once cancellation has eaten more than three digits of it.
       const double left2 = eq_left2_[j] - cj[k] * cj[k];
-      eq_left2_[j] = left2 > 1e-3 * eq_norm2_[j] ? left2 : dense::tail_squared_norm(cj, k + 1, np_);
+      eq_left2_[j] = left2 > 1e-3 * eq_norm2_[j] ? left2 : dense::tail_squared_norm(cj, k + 1, n_padded_);
     }
     ++rank_;
   }
   m_ = n_ - rank_;
-  mp_ = dense::padded(m_);
+  m_padded_ = dense::padded(m_);
   build_wy();
   // Condition estimate of the equality block from the pivoted QR's diagonal: the
   // accuracy with which the equalities pin x down (rounding-level tests scale with it).
@@ -341,8 +341,8 @@ inline auto Solver<N, ME, MI>::eliminate_equalities() noexcept -> Status {
     if (std::abs(implied - eq_rhs_[j]) > 1e-9 * scale) return Status::infeasible;
   }
   // c = Q' L^-1 g; the unconstrained reduced minimiser is w0 = -c[r:].
-  std::copy_n(gcol, np_, c_.data());
-  c_norm_ = std::sqrt(dense::dot_chunks(c_.data(), c_.data(), np_));
+  std::copy_n(gcol, n_padded_, c_.data());
+  c_norm_ = std::sqrt(dense::dot_chunks(c_.data(), c_.data(), n_padded_));
   return Status::optimal;
 }
 
@@ -357,7 +357,7 @@ inline auto Solver<N, ME, MI>::eliminate_equalities() noexcept -> Status {
 template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::build_wy() noexcept -> void {
   for (int k = 0; k < rank_; ++k) {
-    dense::gemv_t_chunks(v_.data(), kLd, np_, k, vcol(k), wy_s_.data());  // V[:, :k]' v_k
+    dense::gemv_t_chunks(v_.data(), kLd, n_padded_, k, vcol(k), wy_s_.data());  // V[:, :k]' v_k
     upper_t_times_s(k);
     double* tk = wy_t_.data() + idx(0, k, kLd);
     for (int i = 0; i < k; ++i) tk[i] = -tau_[k] * wy_u_[i];
@@ -379,9 +379,9 @@ inline auto Solver<N, ME, MI>::upper_t_times_s(int k) noexcept -> void {
 template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::apply_q(double* y) noexcept -> void {
   if (rank_ == 0) return;
-  dense::gemv_t_chunks(v_.data(), kLd, np_, rank_, y, wy_s_.data());
+  dense::gemv_t_chunks(v_.data(), kLd, n_padded_, rank_, y, wy_s_.data());
   upper_t_times_s(rank_);
-  dense::gemv_sub_chunks(v_.data(), kLd, np_, rank_, wy_u_.data(), y);
+  dense::gemv_sub_chunks(v_.data(), kLd, n_padded_, rank_, wy_u_.data(), y);
 }
 
 // y <- H_k y = (I - tau_k v_k v_k') y (y padded; v_k zero above row k).
@@ -390,8 +390,8 @@ inline auto Solver<N, ME, MI>::apply_reflector(int k, double* y) noexcept -> voi
   const double tau = tau_[k];
   if (tau == 0.0) return;
   const int start = dense::chunk_start(k);
-  const double w = tau * dense::dot_chunks(vcol(k) + start, y + start, np_ - start);
-  dense::axpy_chunks(-w, vcol(k) + start, y + start, np_ - start);
+  const double w = tau * dense::dot_chunks(vcol(k) + start, y + start, n_padded_ - start);
+  dense::axpy_chunks(-w, vcol(k) + start, y + start, n_padded_ - start);
 }
 
 // ---- step 3: Goldfarb-Idnani on the reduced problem -------------------------
@@ -454,7 +454,7 @@ inline auto Solver<N, ME, MI>::reduce_queued(int queued) noexcept -> void {
   for (int c = 0; c < queued; ++c) {
     const double* t = tvec(batch_row_[c]);
     const double reduced = std::sqrt(dense::dot(t + rank_, t + rank_, m_));
-    const double full = std::sqrt(dense::dot_chunks(t, t, np_));
+    const double full = std::sqrt(dense::dot_chunks(t, t, n_padded_));
     red_norm_[batch_row_[c]] = std::max({reduced, kMinReducedShare * full, std::numeric_limits<double>::min()});
   }
 }
@@ -469,48 +469,49 @@ inline auto Solver<N, ME, MI>::t_of(int row) noexcept -> const double* {
   return tvec(row);
 }
 
-// Reduced constraint of row `row` on side sigma (+1 lower, -1 upper): np'w >= rhs.
-// Writes np into np_vec_ and |L^-1 a| (the scale for dependence tests: np itself is
+// Reduced constraint of row `row` on side sigma (+1 lower, -1 upper): n+'w >= rhs.
+// Writes n+ (the normal of the row to add, in the reduced coordinates: Goldfarb and
+// Idnani's n+) into normal_ and |L^-1 a| (the scale for dependence tests: n+ itself is
 // only rounding noise when the row lies in the span of the equalities) into
 // full_norm_; returns rhs.
 template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::reduced_row(int row, int sigma) noexcept -> double {
   const double* t = t_of(row);
-  full_norm_ = std::sqrt(dense::dot_chunks(t, t, np_));
+  full_norm_ = std::sqrt(dense::dot_chunks(t, t, n_padded_));
   const double h = dense::dot(t, v1_.data(), rank_);
   const double* at = t + rank_;
   const double s = static_cast<double>(sigma);
-  for (int i = 0; i < m_; ++i) np_vec_[i] = s * at[i];
-  for (int i = m_; i < mp_; ++i) np_vec_[i] = 0.0;
-  np_sq_ = dense::dot_chunks(np_vec_.data(), np_vec_.data(), mp_);
+  for (int i = 0; i < m_; ++i) normal_[i] = s * at[i];
+  for (int i = m_; i < m_padded_; ++i) normal_[i] = 0.0;
+  normal_sq_ = dense::dot_chunks(normal_.data(), normal_.data(), m_padded_);
   return sigma > 0 ? p_->lower[row] - h : h - p_->upper[row];
 }
 
-// z = np - Q1 Q1'np by classical Gram-Schmidt, d = Q1'np; returns |z|^2. A second
-// pass only when the first cancelled more than half of |np|^2 (|z| < |np| / sqrt 2,
+// z = n+ - Q1 Q1'n+ by classical Gram-Schmidt, d = Q1'n+; returns |z|^2. A second
+// pass only when the first cancelled more than half of |n+|^2 (|z| < |n+| / sqrt 2,
 // the Daniel-Gragg-Kaufman-Stewart criterion: "twice is enough", and once is enough
 // without that cancellation). Reduced vectors and the columns of Q1 are zero-padded
-// to mp_, so whole chunks are used.
+// to m_padded_, so whole chunks are used.
 template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::project() noexcept -> double {
-  std::copy_n(np_vec_.data(), mp_, z_.data());
-  if (q_ == 0) return np_sq_;
-  dense::gemv_t_chunks(q1_.data(), kLd, mp_, q_, z_.data(), d_.data());
-  dense::gemv_sub_chunks(q1_.data(), kLd, mp_, q_, d_.data(), z_.data());
-  const double zz = dense::dot_chunks(z_.data(), z_.data(), mp_);
-  if (zz >= 0.5 * np_sq_) return zz;
-  dense::gemv_t_chunks(q1_.data(), kLd, mp_, q_, z_.data(), e_.data());
-  dense::gemv_sub_chunks(q1_.data(), kLd, mp_, q_, e_.data(), z_.data());
+  std::copy_n(normal_.data(), m_padded_, z_.data());
+  if (q_ == 0) return normal_sq_;
+  dense::gemv_t_chunks(q1_.data(), kLd, m_padded_, q_, z_.data(), d_.data());
+  dense::gemv_sub_chunks(q1_.data(), kLd, m_padded_, q_, d_.data(), z_.data());
+  const double zz = dense::dot_chunks(z_.data(), z_.data(), m_padded_);
+  if (zz >= 0.5 * normal_sq_) return zz;
+  dense::gemv_t_chunks(q1_.data(), kLd, m_padded_, q_, z_.data(), e_.data());
+  dense::gemv_sub_chunks(q1_.data(), kLd, m_padded_, q_, e_.data(), z_.data());
   for (int j = 0; j < q_; ++j) d_[j] += e_[j];
-  return dense::dot_chunks(z_.data(), z_.data(), mp_);
+  return dense::dot_chunks(z_.data(), z_.data(), m_padded_);
 }
 
 template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::append(
-    int row, int sigma, double rhs, double np_norm, double z_norm, double multiplier) noexcept -> void {
+    int row, int sigma, double rhs, double full_norm, double z_norm, double multiplier) noexcept -> void {
   double* qc = q1col(q_);
   const double inv = 1.0 / z_norm;
-  for (int i = 0; i < mp_; ++i) qc[i] = z_[i] * inv;  // padding stays zero
+  for (int i = 0; i < m_padded_; ++i) qc[i] = z_[i] * inv;  // padding stays zero
   double* rc = rcol(q_);
   std::copy_n(d_.data(), q_, rc);
   rc[q_] = z_norm;
@@ -519,7 +520,7 @@ inline auto Solver<N, ME, MI>::append(
   act_row_[q_] = row;
   act_sigma_[q_] = static_cast<std::int8_t>(sigma);
   act_rhs_[q_] = rhs;
-  act_norm_[q_] = np_norm;
+  act_norm_[q_] = full_norm;
   active_side_[row] = static_cast<std::int8_t>(sigma);
   ++q_;
   ++epoch_;
@@ -550,7 +551,7 @@ inline auto Solver<N, ME, MI>::drop(int k) noexcept -> void {
       rc[j] = c * a + s * b;
       rc[j + 1] = c * b - s * a;
     }
-    dense::rotate_chunks(c, s, q1col(j), q1col(j + 1), mp_);  // zero padding stays zero
+    dense::rotate_chunks(c, s, q1col(j), q1col(j + 1), m_padded_);  // zero padding stays zero
   }
   --q_;
 }
@@ -578,22 +579,22 @@ inline auto Solver<N, ME, MI>::compute_x() noexcept -> void {
   double* y = xp_.data();
   std::copy_n(v1_.data(), rank_, y);
   std::copy_n(w_.data(), m_, y + rank_);
-  std::fill(y + n_, y + np_, 0.0);
+  std::fill(y + n_, y + n_padded_, 0.0);
   apply_q(y);
-  dense::scale_chunks(inv_diag_.data(), y, np_);
+  dense::scale_chunks(inv_diag_.data(), y, n_padded_);
   dense::unit_backward_solve_transposed(l_.data(), kLd, nc_, y);
   for (int k = 0; k < n_; ++k) x_[perm_[k]] = y[k];
   x_norm_ = std::sqrt(dense::squared_norm(x_.data(), n_));
 }
 
 // The most violated inactive row, or -1. A violation counts beyond feasibility_tol
-// max(|a_i| |x|, |bound|); among those rows the pick is the largest violation / |np_i|,
-// np_i the row in the reduced coordinates (the violation's distance in the metric of
+// max(|a_i| |x|, |bound|); among those rows the pick is the largest violation / |n+_i|,
+// n+_i the row in the reduced coordinates (the violation's distance in the metric of
 // H on the equalities' null space: the row whose addition alone would raise the
 // objective most). Against violation / |a_i| this halves the iterations of the long
 // shared instances (wbc_sat_torque_08: 132 -> 54). A row nearly in the span of the
-// equalities (|np_i| < kMinReducedShare |t_i|) counts with that share instead: its
-// violation would drive a step of violation / |np_i|^2 that is mostly rounding.
+// equalities (|n+_i| < kMinReducedShare |t_i|) counts with that share instead: its
+// violation would drive a step of violation / |n+_i|^2 that is mostly rounding.
 // The t_i it needs are those of the violated rows only, each cached for when its row
 // is added. The first call of a solve reads Ain once for its row norms and Ain x
 // (check_rows()); it returns kStop with stop_status_ when Ain is bad input or a zero
@@ -674,7 +675,7 @@ inline auto Solver<N, ME, MI>::violation(
 // |[v1; w]| = |L' x|.
 template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::v_norm() const noexcept -> double {
-  return std::sqrt(dense::squared_norm(v1_.data(), rank_) + dense::dot_chunks(w_.data(), w_.data(), mp_));
+  return std::sqrt(dense::squared_norm(v1_.data(), rank_) + dense::dot_chunks(w_.data(), w_.data(), m_padded_));
 }
 
 // The side (+1 lower, -1 upper) of a hinted row that can be active there, else 0.
@@ -710,10 +711,10 @@ inline auto Solver<N, ME, MI>::warm_start(const ActiveSet<MI>& hint) noexcept ->
     const int sigma = hinted_sigma(row, hint.side[static_cast<std::size_t>(e)]);
     if (sigma == 0 || active_side_[row] != 0) continue;
     const double rhs = reduced_row(row, sigma);
-    const double np_norm = full_norm_;
+    const double full_norm = full_norm_;
     const double z_norm = std::sqrt(project());
-    if (q_ >= m_ || !(z_norm > dependence_tol() * np_norm)) continue;
-    append(row, sigma, rhs, np_norm, z_norm, 0.0);
+    if (q_ >= m_ || !(z_norm > dependence_tol() * full_norm)) continue;
+    append(row, sigma, rhs, full_norm, z_norm, 0.0);
   }
   for (;;) {
     // beta = R^-T rhs - Q1'w0, u = R^-1 beta.
@@ -723,7 +724,7 @@ inline auto Solver<N, ME, MI>::warm_start(const ActiveSet<MI>& hint) noexcept ->
       for (int l = 0; l < j; ++l) v -= rj[l] * beta_[l];
       beta_[j] = v / rj[j];
     }
-    for (int j = 0; j < q_; ++j) beta_[j] -= dense::dot_chunks(q1col(j), w_.data(), mp_);
+    for (int j = 0; j < q_; ++j) beta_[j] -= dense::dot_chunks(q1col(j), w_.data(), m_padded_);
     solve_r(beta_.data(), u_.data());
     int worst = -1;
     double worst_u = 0.0;
@@ -769,7 +770,7 @@ inline auto Solver<N, ME, MI>::second_opinion() noexcept -> Status {
   // Within 1e-9 of the row's scale, or within what the reduced coordinates resolve
   // along the path this answer was computed on (|L^-1 a| max(|v|, |c|)).
   const double* t = tvec(row);  // reduced when the first run picked the row
-  const double t_norm = have_t_[row] ? std::sqrt(dense::dot_chunks(t, t, np_)) : 0.0;
+  const double t_norm = have_t_[row] ? std::sqrt(dense::dot_chunks(t, t, n_padded_)) : 0.0;
   const double reduced_scale = t_norm * std::max(v_norm(), c_norm_) + bound;
   const double limit = std::max(1e-9 * std::max({1.0, row_norm_[row] * x_norm_, bound}), 1e-11 * reduced_scale);
   return viol <= limit ? Status::optimal : Status::infeasible;
@@ -783,7 +784,7 @@ inline auto Solver<N, ME, MI>::run(const ActiveSet<MI>* warm) noexcept -> Status
   q_ = 0;
   epoch_ = 0;
   for (int i = 0; i < m_; ++i) w_[i] = -c_[rank_ + i];
-  for (int i = m_; i < mp_; ++i) w_[i] = 0.0;
+  for (int i = m_; i < m_padded_; ++i) w_[i] = 0.0;
   for (int i = 0; i < mi_; ++i) {
     active_side_[i] = 0;
     skipped_epoch_[i] = -1;
@@ -800,8 +801,8 @@ inline auto Solver<N, ME, MI>::run(const ActiveSet<MI>* warm) noexcept -> Status
       return Status::optimal;
     }
     const double rhs = reduced_row(p, sigma);
-    const double np_norm = full_norm_;
-    double slack = dense::dot_chunks(np_vec_.data(), w_.data(), mp_) - rhs;  // < 0 when violated
+    const double full_norm = full_norm_;
+    double slack = dense::dot_chunks(normal_.data(), w_.data(), m_padded_) - rhs;  // < 0 when violated
     double u_plus = 0.0;
     for (;;) {
       if (!count_iteration()) return Status::maxiter;
@@ -812,7 +813,7 @@ inline auto Solver<N, ME, MI>::run(const ActiveSet<MI>* warm) noexcept -> Status
       double t1 = kInf;
       int k = -1;
       for (int j = 0; j < q_; ++j) {
-        if (rdir_[j] * act_norm_[j] > 1e-10 * np_norm) {
+        if (rdir_[j] * act_norm_[j] > 1e-10 * full_norm) {
           const double ratio = u_[j] / rdir_[j];
           if (ratio < t1) {
             t1 = ratio;
@@ -820,14 +821,14 @@ inline auto Solver<N, ME, MI>::run(const ActiveSet<MI>* warm) noexcept -> Status
           }
         }
       }
-      const bool dependent = q_ >= m_ || !(z_norm > dependence_tol() * np_norm);
+      const bool dependent = q_ >= m_ || !(z_norm > dependence_tol() * full_norm);
       // A row (nearly) dependent on the active rows whose violation is at the
       // rounding level of the reduced coordinates (a degenerate vertex; the path from
       // the unconstrained minimiser c sets that level) is skipped until the active set
       // changes: exchanges driven by it would only amplify rounding (a primal step of
       // violation / |z|^2 along a z of rounding noise, or a dual step through a
       // multiplier ratio of rounding noise, throws w and the multipliers far away).
-      const bool nearly_dependent = dependent || !(z_norm > 1e-8 * np_norm);
+      const bool nearly_dependent = dependent || !(z_norm > 1e-8 * full_norm);
       const double path = std::max(v_norm(), c_norm_);
       if (nearly_dependent && u_plus == 0.0 && -slack <= rounding_level() * (full_norm_ * path + std::abs(rhs))) {
         skipped_epoch_[p] = epoch_;
@@ -844,11 +845,11 @@ inline auto Solver<N, ME, MI>::run(const ActiveSet<MI>* warm) noexcept -> Status
       for (int j = 0; j < q_; ++j) u_[j] = std::max(0.0, u_[j] - t * rdir_[j]);
       u_plus += t;
       if (!dependent) {
-        dense::axpy_chunks(t, z_.data(), w_.data(), mp_);
+        dense::axpy_chunks(t, z_.data(), w_.data(), m_padded_);
         slack += t * zz;
       }
       if (!dependent && t2 <= t1) {
-        append(p, sigma, rhs, np_norm, z_norm, u_plus);
+        append(p, sigma, rhs, full_norm, z_norm, u_plus);
         break;
       }
       drop(k);
@@ -1004,7 +1005,7 @@ inline auto Solver<N, ME, MI>::finish(ResultType& result) noexcept -> bool {
     // along a direction the active rows barely see and push an inactive row out of
     // its bounds. It is kept only if it lowers the active residual and (for an
     // optimal run) leaves every row inside its tolerance.
-    std::copy_n(w_.data(), mp_, keep_w_.data());
+    std::copy_n(w_.data(), m_padded_, keep_w_.data());
     std::copy_n(v1_.data(), rank_, keep_v1_.data());
     std::copy_n(u_.data(), q_, keep_u_.data());
     std::copy_n(x_.data(), n_, keep_x_.data());
@@ -1012,7 +1013,7 @@ inline auto Solver<N, ME, MI>::finish(ResultType& result) noexcept -> bool {
     refine();
     slack_current_ = false;
     if (!(active_residuals() < before) || (x_current_ && !inactive_rows_inside())) {
-      std::copy_n(keep_w_.data(), mp_, w_.data());
+      std::copy_n(keep_w_.data(), m_padded_, w_.data());
       std::copy_n(keep_v1_.data(), rank_, v1_.data());
       std::copy_n(keep_u_.data(), q_, u_.data());
       std::copy_n(keep_x_.data(), n_, x_.data());

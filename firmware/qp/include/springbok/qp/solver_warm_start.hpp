@@ -59,7 +59,7 @@ inline auto Solver<N, ME, MI>::solve_on_hinted_set(
   const int cp = dense::padded(cols);
   for (int j = 0; j < cols; ++j) {
     double* sj = scol(j);
-    dense::gemv_t_chunks(bcol(j), kLd, np_, cols - j, bcol(j), sj + j);
+    dense::gemv_t_chunks(bcol(j), kLd, n_padded_, cols - j, bcol(j), sj + j);
     std::fill(sj + cols, sj + cp, 0.0);
   }
   for (int repair = 0;; ++repair) {
@@ -86,7 +86,7 @@ inline auto Solver<N, ME, MI>::solve_on_hinted_set(
 template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::load_set_row(int k, int row, int sigma) noexcept -> void {
   gather_ain_row(row, bcol(k));
-  eq_row_norm_[k] = row_norm_[row] = std::sqrt(dense::dot_chunks(bcol(k), bcol(k), np_));
+  eq_row_norm_[k] = row_norm_[row] = std::sqrt(dense::dot_chunks(bcol(k), bcol(k), n_padded_));
   eq_rhs_[k] = sigma > 0 ? p_->lower[row] : p_->upper[row];
   eq_src_[k] = -1 - row;
   hinted_side_[k] = static_cast<std::int8_t>(sigma);
@@ -96,13 +96,13 @@ inline auto Solver<N, ME, MI>::load_set_row(int k, int row, int sigma) noexcept 
 template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::add_set_column(int& cols, int row, std::int8_t sigma) noexcept -> bool {
   if (cols >= n_ || cols >= kMaxEqRows) return false;
-  std::copy_n(bcol(cols), np_, bcol(cols + 1));
+  std::copy_n(bcol(cols), n_padded_, bcol(cols + 1));
   load_set_row(cols, row, sigma);
   solve_lower(bcol(cols), kLd, 1);
   const int cp = dense::padded(cols + 1);
   for (int j = 0; j <= cols; ++j) {
     double* sj = scol(j);
-    sj[cols] = dense::dot_chunks(bcol(j), bcol(cols), np_);
+    sj[cols] = dense::dot_chunks(bcol(j), bcol(cols), n_padded_);
     std::fill(sj + cols + 1, sj + cp, 0.0);
   }
   ++cols;
@@ -114,7 +114,7 @@ inline auto Solver<N, ME, MI>::add_set_column(int& cols, int row, std::int8_t si
 // left, and S loses row and column k.
 template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::drop_set_column(int& cols, int k) noexcept -> void {
-  for (int j = k; j < cols; ++j) std::copy_n(bcol(j + 1), np_, bcol(j));
+  for (int j = k; j < cols; ++j) std::copy_n(bcol(j + 1), n_padded_, bcol(j));
   for (int j = k; j + 1 < cols; ++j) {
     eq_row_norm_[j] = eq_row_norm_[j + 1];
     eq_rhs_[j] = eq_rhs_[j + 1];
@@ -193,7 +193,7 @@ inline auto Solver<N, ME, MI>::solve_on_set(
     std::fill(gram_inv_diag_.begin() + cols, gram_inv_diag_.begin() + cp, 0.0);
   }
   gram_cols_ = cols;
-  dense::gemv_t_chunks(bcol(0), kLd, np_, cols, c, lam_.data());
+  dense::gemv_t_chunks(bcol(0), kLd, n_padded_, cols, c, lam_.data());
   for (int j = 0; j < cols; ++j) lam_[j] += eq_rhs_[j];
   solve_gram(lam_.data(), cols);
   // v = B lam - c (stationarity holds by construction whatever lam's rounding), then
@@ -203,16 +203,16 @@ inline auto Solver<N, ME, MI>::solve_on_set(
   // x 1e-12 off: rows of norm 1e3 |x| then violated by 1e-8 in the soak.)
   double* v = hinted_v_.data();
   for (int j = 0; j < cols; ++j) step_[j] = -lam_[j];
-  for (int i = 0; i < np_; ++i) v[i] = -c[i];
-  dense::gemv_sub_chunks(bcol(0), kLd, np_, cols, step_.data(), v);
-  dense::gemv_t_chunks(bcol(0), kLd, np_, cols, v, step_.data());
+  for (int i = 0; i < n_padded_; ++i) v[i] = -c[i];
+  dense::gemv_sub_chunks(bcol(0), kLd, n_padded_, cols, step_.data(), v);
+  dense::gemv_t_chunks(bcol(0), kLd, n_padded_, cols, v, step_.data());
   for (int j = 0; j < cols; ++j) step_[j] = eq_rhs_[j] - step_[j];
   solve_gram(step_.data(), cols);
   for (int j = 0; j < cols; ++j) {
     lam_[j] += step_[j];
     step_[j] = -step_[j];
   }
-  dense::gemv_sub_chunks(bcol(0), kLd, np_, cols, step_.data(), v);
+  dense::gemv_sub_chunks(bcol(0), kLd, n_padded_, cols, step_.data(), v);
   fix.drops = 0;
   for (int j = me_; j < cols; ++j) {
     if (static_cast<double>(hinted_side_[j]) * lam_[j] < 0.0) drop_col_[fix.drops++] = j;
@@ -223,8 +223,8 @@ inline auto Solver<N, ME, MI>::solve_on_set(
   }
   // x = L^-T v (permuted back).
   double* y = xp_.data();
-  std::copy_n(v, np_, y);
-  dense::scale_chunks(inv_diag_.data(), y, np_);
+  std::copy_n(v, n_padded_, y);
+  dense::scale_chunks(inv_diag_.data(), y, n_padded_);
   dense::unit_backward_solve_transposed(l_.data(), kLd, nc_, y);
   for (int k = 0; k < n_; ++k) x_[perm_[k]] = y[k];
   x_norm_ = std::sqrt(dense::squared_norm(x_.data(), n_));
@@ -276,7 +276,7 @@ inline auto Solver<N, ME, MI>::solve_on_set(
   // The result: f = 1/2 |v|^2 + c'v, multipliers -lam, the hinted rows and the
   // lb == ub rows active.
   double objective = 0.0;
-  for (int i = 0; i < np_; ++i) objective += v[i] * (0.5 * v[i] + c[i]);
+  for (int i = 0; i < n_padded_; ++i) objective += v[i] * (0.5 * v[i] + c[i]);
   std::copy_n(x_.data(), n_, result.x.begin());
   result.objective = objective;
   std::fill_n(result.lambda_eq.begin(), meq_, 0.0);
