@@ -94,7 +94,7 @@ class Solver {
   double* gcol(int j) noexcept { return gram_.data() + idx(0, j, kLd); }
   double* scol(int j) noexcept { return gram_s_.data() + idx(0, j, kLd); }
 
-  // Steps 0-4 (solver_impl.hpp).
+  // Steps 0-4 (defined in solver_impl.hpp).
   // ---- step 0: validate and classify
   Status classify() noexcept;
   // ---- step 1: Cholesky
@@ -151,7 +151,7 @@ class Solver {
   void refine() noexcept;
   bool finish(ResultType& result) noexcept;
 
-  // The warm start's shortcut, the hinted set as equalities (solver_warm_start.hpp).
+  // The warm start's shortcut, the hinted set as equalities (defined in solver_warm_start.hpp).
   enum class Shortcut : std::uint8_t { solved, fallback };
   // What would make a failed set fit: Ain's row to add (on side sigma), or the block's
   // columns (>= me_) to drop; none: fall back to the full method.
@@ -170,6 +170,8 @@ class Solver {
   bool hinted_row(int i, int cols) const noexcept;
   double ain_row_norm(int i) const noexcept;
   void solve_gram(double* y, int cols) noexcept;
+
+  // The state and the workspace: all of it in the object (solve() never allocates).
   Options options_;
   const ProblemType* p_ = nullptr;
   int n_ = 0, n_padded_ = 0, meq_ = 0, mi_ = 0;  // n_padded_: n padded to whole chunks of four
@@ -244,9 +246,9 @@ class Solver {
   int gram_cols_ = 0;                               // columns of S that gram_ holds the factor of
   alignas(64) Buf<double, kLd> lam_{}, step_{}, hinted_v_{};
   Buf<std::int8_t, N> hinted_side_{};  // side of column k >= me_ of b_ (+1 lower, -1 upper)
-  alignas(64) Buf<double, kLd * N> gram_s_{};
+  alignas(64) Buf<double, kLd * N> gram_s_{};  // S = B'B itself (lower triangle), kept across repairs
   ActiveSet<MI> repaired_set_{};  // the shortcut's set after its repairs, when they did not fit
-  Buf<int, N> drop_col_{};  // S = B'B itself (lower triangle), kept across repairs
+  Buf<int, N> drop_col_{};  // the block's columns a repair drops (SetRepair::drops of them)
 };
 
 }  // namespace springbok::qp

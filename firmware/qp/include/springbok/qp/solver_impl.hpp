@@ -591,10 +591,10 @@ inline auto Solver<N, ME, MI>::compute_x() noexcept -> void {
 // max(|a_i| |x|, |bound|); among those rows the pick is the largest violation / |n+_i|,
 // n+_i the row in the reduced coordinates (the violation's distance in the metric of
 // H on the equalities' null space: the row whose addition alone would raise the
-// objective most). Against violation / |a_i| this halves the iterations of the long
-// shared instances (wbc_sat_torque_08: 132 -> 54). A row nearly in the span of the
-// equalities (|n+_i| < kMinReducedShare |t_i|) counts with that share instead: its
-// violation would drive a step of violation / |n+_i|^2 that is mostly rounding.
+// objective most): it takes fewer iterations than violation / |a_i| on the long
+// shared instances. A row nearly in the span of the equalities (|n+_i| <
+// kMinReducedShare |t_i|) counts with that share instead: its violation would drive a
+// step of violation / |n+_i|^2 that is mostly rounding.
 // The t_i it needs are those of the violated rows only, each cached for when its row
 // is added. The first call of a solve reads Ain once for its row norms and Ain x
 // (check_rows()); it returns kStop with stop_status_ when Ain is bad input or a zero
