@@ -27,6 +27,23 @@ class Oracle : public ::testing::Test {
     worst = std::max(worst, err);
   }
 
+  // The feet's and the end effector's frames, Jacobians and dJ/dt v held in `d`, each named in a
+  // failure by the algorithm that computed it (`fk`, `jacobians`, `jacobians_dot`).
+  void expect_frame_blocks(const state_file::StateFile& file, const dyn::Data& d, const std::string& fk,
+                           const std::string& jacobians, const std::string& jacobians_dot) {
+    static constexpr const char* kFeetNames[kFeet] = {"lf_foot", "rf_foot", "lh_foot", "rh_foot"};
+    for (int f = 0; f < kFeet; ++f) {
+      const std::string name = kFeetNames[f];
+      expect_block(file, "p_" + name, d.frames[kFootFrames[f]].translation.transpose(), fk);
+      expect_block(file, "J_" + name, d.J_feet[f], jacobians);
+      expect_block(file, "dJv_" + name, d.dJv_feet[f].transpose(), jacobians_dot);
+    }
+    expect_block(file, "p_ee", d.frames[kEeFrame].translation.transpose(), fk);
+    expect_block(file, "R_ee", d.frames[kEeFrame].rotation, fk);
+    expect_block(file, "J_ee", d.J_ee, jacobians);
+    expect_block(file, "dJv_ee", d.dJv_ee.transpose(), jacobians_dot);
+  }
+
   void TearDown() override {
     for (const auto& [name, err] : max_error_) std::printf("  max error %-12s %.3g\n", name.c_str(), err);
   }
@@ -39,7 +56,6 @@ TEST_F(Oracle, EveryBlockOfEveryReferenceState) {
   ASSERT_GE(files.size(), 1u) << "no state_*.txt under " << springbok::test::data_dir();
   const dyn::Model model{Rotors::none};  // the URDF alone, as the reference states (and Pinocchio)
   auto data = std::make_unique<dyn::Data>();
-  const char* feet[kFeet] = {"lf_foot", "rf_foot", "lh_foot", "rh_foot"};
   for (const auto& path : files) {
     const auto file = state_file::read(path);
     const auto in = state_file::dynamics_input(file);
@@ -51,32 +67,14 @@ TEST_F(Oracle, EveryBlockOfEveryReferenceState) {
     expect_block(file, "vdot_aba", dyn::aba(model, *data, in.q, in.v, in.tau_aba).transpose(), "aba");
     dyn::point_jacobians(model, *data, in.q);
     dyn::point_jacobians_dot_times_v(model, *data, in.q, in.v);
-    for (int f = 0; f < kFeet; ++f) {
-      const std::string name = feet[f];
-      expect_block(file, "p_" + name, data->frames[kFootFrames[f]].translation.transpose(), "forward_kinematics");
-      expect_block(file, "J_" + name, data->J_feet[f], "point_jacobians");
-      expect_block(file, "dJv_" + name, data->dJv_feet[f].transpose(), "point_jacobians_dot_times_v");
-    }
-    expect_block(file, "p_ee", data->frames[kEeFrame].translation.transpose(), "forward_kinematics");
-    expect_block(file, "R_ee", data->frames[kEeFrame].rotation, "forward_kinematics");
-    expect_block(file, "J_ee", data->J_ee, "point_jacobians");
-    expect_block(file, "dJv_ee", data->dJv_ee.transpose(), "point_jacobians_dot_times_v");
+    expect_frame_blocks(file, *data, "forward_kinematics", "point_jacobians", "point_jacobians_dot_times_v");
 
     // The one-pass tick, on a fresh workspace, must give the same blocks.
     auto tick = std::make_unique<dyn::Data>();
     dyn::compute_tick(model, *tick, in.q, in.v);
     expect_block(file, "M", tick->M, "compute_tick");
     expect_block(file, "h", tick->nle.transpose(), "compute_tick");
-    for (int f = 0; f < kFeet; ++f) {
-      const std::string name = feet[f];
-      expect_block(file, "p_" + name, tick->frames[kFootFrames[f]].translation.transpose(), "compute_tick");
-      expect_block(file, "J_" + name, tick->J_feet[f], "compute_tick");
-      expect_block(file, "dJv_" + name, tick->dJv_feet[f].transpose(), "compute_tick");
-    }
-    expect_block(file, "p_ee", tick->frames[kEeFrame].translation.transpose(), "compute_tick");
-    expect_block(file, "R_ee", tick->frames[kEeFrame].rotation, "compute_tick");
-    expect_block(file, "J_ee", tick->J_ee, "compute_tick");
-    expect_block(file, "dJv_ee", tick->dJv_ee.transpose(), "compute_tick");
+    expect_frame_blocks(file, *tick, "compute_tick", "compute_tick", "compute_tick");
   }
 }
 

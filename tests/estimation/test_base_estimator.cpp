@@ -71,6 +71,13 @@ hal::Measurements measure(const dyn::Model& model, dyn::Data& data, const VecNq&
   return m;
 }
 
+// The measurements of the robot at rest at the stance, its trunk 0.6 m above the origin in `orientation`.
+hal::Measurements at_rest(const Quat& orientation = Quat::Identity()) {
+  const dyn::Model model;
+  auto data = std::make_unique<dyn::Data>();
+  return measure(model, *data, make_q(Vec3(0, 0, 0.6), orientation, kStance), VecNv::Zero());
+}
+
 TEST(BaseEstimator, ImuMountingIsRemoved) {
   const dyn::Model model;
   auto data = std::make_unique<dyn::Data>();
@@ -150,10 +157,7 @@ TEST(BaseEstimator, ResetPutsTheTrunkAboveTheFeetOnTheGround) {
 }
 
 TEST(BaseEstimator, StandingStillStaysStillAndDoesNotAllocate) {
-  const dyn::Model model;
-  auto data = std::make_unique<dyn::Data>();
-  const VecNq q = make_q(Vec3(0, 0, 0.6), Quat(Eigen::AngleAxisd(0.1, Vec3::UnitY())), kStance);
-  const hal::Measurements m = measure(model, *data, q, VecNv::Zero());
+  const hal::Measurements m = at_rest(Quat(Eigen::AngleAxisd(0.1, Vec3::UnitY())));
   est::BaseEstimator estimator;
   const Stance all{true, true, true, true};
   ASSERT_EQ(estimator.reset(m, all, Eigen::Vector2d::Zero()), est::EstimateStatus::ok);
@@ -217,10 +221,7 @@ TEST(BaseEstimator, MovingTrunkOverStillFeetIsTracked) {
 }
 
 TEST(BaseEstimator, BadInputHoldsTheLastEstimateAndSaysSo) {
-  const dyn::Model model;
-  auto data = std::make_unique<dyn::Data>();
-  const VecNq q = make_q(Vec3(0, 0, 0.6), Quat::Identity(), kStance);
-  hal::Measurements good = measure(model, *data, q, VecNv::Zero());
+  const hal::Measurements good = at_rest();
   est::BaseEstimator estimator;
   const Stance all{true, true, true, true};
   EXPECT_EQ(estimator.update(good, all, 0.001).status, est::EstimateStatus::not_reset);
@@ -248,10 +249,7 @@ TEST(BaseEstimator, BadInputHoldsTheLastEstimateAndSaysSo) {
 }
 
 TEST(BaseEstimator, WithoutStanceTheImuAlonePredicts) {
-  const dyn::Model model;
-  auto data = std::make_unique<dyn::Data>();
-  const VecNq q = make_q(Vec3(0, 0, 0.6), Quat::Identity(), kStance);
-  hal::Measurements m = measure(model, *data, q, VecNv::Zero());
+  hal::Measurements m = at_rest();
   est::BaseEstimator estimator;
   ASSERT_EQ(estimator.reset(m, {true, true, true, true}, Eigen::Vector2d::Zero()), est::EstimateStatus::ok);
   const double z0 = estimator.estimate().q[2];

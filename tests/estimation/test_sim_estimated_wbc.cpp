@@ -22,11 +22,9 @@ std::string scenario(const std::string& estimator) {
 TEST(SimEstimatedWbc, StepWithTheEstimatedBaseState) {
   const fs::path dir = scratch("wbc_estimated");
   std::ofstream(dir / "s.yaml") << scenario("{velocity_gain: 30, position_gain: 10}");
-  const CliResult r = run((dir / "s.yaml").string(), dir / "out");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string json = slurp(dir / "out" / "summary.json");
-  EXPECT_FALSE(json_true(json, "fell"));
-  EXPECT_EQ(json_number(json, "qp_failures"), 0.0);
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary((dir / "s.yaml").string(), dir / "out", json));
+  expect_upright_and_solved(json);
   EXPECT_TRUE(json_true(json.substr(json.find("\"estimator\":")), "all_ok")) << json;
   // Measured: 0.11 mm/s rms and 0.04 mm (a foot creeping on the ground, which leg odometry
   // cannot see, shows up here: a ground-plane bounding box that dropped hovering contact

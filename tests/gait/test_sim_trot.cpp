@@ -24,9 +24,8 @@ std::string scenario(const std::string& gait) {
 TEST(SimTrot, TrotsInPlace) {
   const fs::path dir = scratch("trot");
   std::ofstream(dir / "s.yaml") << scenario("{step_frequency: 1.4, duty_factor: 0.65, step_height: 0.08}");
-  const CliResult r = run((dir / "s.yaml").string(), dir / "out");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string json = slurp(dir / "out" / "summary.json");
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary((dir / "s.yaml").string(), dir / "out", json));
   EXPECT_FALSE(json_true(json, "fell")) << json;
   // 2 s of trot at 1.4 Hz: each foot lifts off and touches down 2.8 times (2 changes per cycle).
   const double changes = json_number(json.substr(json.find("\"gait\":")), "stance_changes");
@@ -162,11 +161,9 @@ TrunkExcursion trunk_excursion(const fs::path& log) {
 // at lift-off a 0.43 Hz sideways sway grew from the start until it fell at 10.1 s.
 TEST(SimTrot, DutyFactor055TrotsThroughThePushFor30s) {
   const fs::path dir = scratch("trot_gp1");
-  const CliResult r = run(kScenarios + "trot_me10_gp1.yaml", dir / "out");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string json = slurp(dir / "out" / "summary.json");
-  EXPECT_FALSE(json_true(json, "fell")) << json;
-  EXPECT_EQ(json_number(json, "qp_failures"), 0.0) << json;
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary(kScenarios + "trot_me10_gp1.yaml", dir / "out", json));
+  expect_upright_and_solved(json);
   const TrunkExcursion e = trunk_excursion(dir / "out" / "log.csv");
   EXPECT_EQ(e.rows, 29500);  // 29.5 s of WBC ticks at 1 kHz
   EXPECT_LT(e.max_tilt_deg, 4.0);  // measured 2.5 deg
@@ -183,11 +180,9 @@ TEST(SimTrot, DutyFactor055TrotsThroughThePushFor30s) {
 // hand at 8 s), 30 s: the trunk's mean velocity over the last 3 s within 10 % of the command.
 TEST(SimWalk, FollowsTheCommandedVelocity) {
   const fs::path dir = scratch("walk_forward");
-  const CliResult r = run(kScenarios + "walk_forward.yaml", dir / "out");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string json = slurp(dir / "out" / "summary.json");
-  EXPECT_FALSE(json_true(json, "fell")) << json;
-  EXPECT_EQ(json_number(json, "qp_failures"), 0.0) << json;
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary(kScenarios + "walk_forward.yaml", dir / "out", json));
+  expect_upright_and_solved(json);
   const std::string mean = json.substr(json.find("\"mean_velocity\""));
   EXPECT_NEAR(json_number(mean, "x"), 0.5, 0.05) << json;  // measured 0.500
   EXPECT_NEAR(json_number(mean, "y"), 0.0, 0.03) << json;
@@ -204,9 +199,8 @@ TEST(SimWalk, AVelocityScheduleChangesTheCommand) {
   std::ofstream(dir / "s.yaml") << scenario(
       "{step_frequency: 1.4, duty_factor: 0.65, velocity: [0.2, 0, 0],\n"
       "           velocity_schedule: [{at_s: 1.5, velocity: [0, 0.1, 0]}, {at_s: 2.0, velocity: [0, 0, 0.3]}]}");
-  const CliResult r = run((dir / "s.yaml").string(), dir / "out");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string json = slurp(dir / "out" / "summary.json");
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary((dir / "s.yaml").string(), dir / "out", json));
   EXPECT_FALSE(json_true(json, "fell")) << json;
   const std::string command = json.substr(json.find("\"commanded_velocity\""));
   EXPECT_EQ(json_number(command, "x"), 0.0) << json;
@@ -285,11 +279,9 @@ TEST(SimTrot, StandsAHeldPushOnTheTrunk) {
   yaml.replace(at, hand_push.size(), "{frame: trunk, axis: [0, 1, 0], profile: step, amplitude: 150, start_s: 2.0}");
   const fs::path dir = scratch("trot_trunk_push");
   std::ofstream(dir / "s.yaml") << yaml;
-  const CliResult r = run((dir / "s.yaml").string(), dir / "out");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string json = slurp(dir / "out" / "summary.json");
-  EXPECT_FALSE(json_true(json, "fell")) << json;
-  EXPECT_EQ(json_number(json, "qp_failures"), 0.0);
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary((dir / "s.yaml").string(), dir / "out", json));
+  expect_upright_and_solved(json);
   EXPECT_LT(member(json, "rms_error", "base_rx"), 0.03);
   EXPECT_LT(member(json, "rms_error", "base_ry"), 0.03);
 }

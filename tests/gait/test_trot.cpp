@@ -23,6 +23,18 @@ std::array<Vec3, kFeet> nominal() {
   return {Vec3(0.37, 0.3, -0.6), Vec3(0.37, -0.3, -0.6), Vec3(-0.37, 0.3, -0.6), Vec3(-0.37, -0.3, -0.6)};
 }
 
+// Trot parameters at step frequency `fs` and duty factor `df`; the swing's step height and
+// touch-down depth given, or the defaults.
+gait::TrotParams trot_params(double fs, double df, double step_height_m = gait::TrotParams{}.step_height_m,
+                             double touchdown_depth_m = gait::TrotParams{}.touchdown_depth_m) {
+  gait::TrotParams p;
+  p.step_frequency_hz = fs;
+  p.duty_factor = df;
+  p.step_height_m = step_height_m;
+  p.touchdown_depth_m = touchdown_depth_m;
+  return p;
+}
+
 TEST(Trot, ProfilesMatchTheirDerivativesAndEndConditions) {
   for (auto profile : {&gait::quintic_blend, &gait::swing_bump}) {
     const double h = 1e-6;
@@ -44,10 +56,7 @@ TEST(Trot, ProfilesMatchTheirDerivativesAndEndConditions) {
 
 TEST(Trot, ScheduleKeepsTheDutyFactorAndTheDiagonals) {
   for (const auto& [fs, df] : std::vector<std::pair<double, double>>{{1.4, 0.55}, {1.4, 0.65}, {1.8, 0.55}, {1.8, 0.65}}) {
-    gait::TrotParams p;
-    p.step_frequency_hz = fs;
-    p.duty_factor = df;
-    gait::TrotGait trot(p);
+    gait::TrotGait trot(trot_params(fs, df));
     trot.start(nominal());
     const double dt = 1e-4, duration = 10.0 / fs;  // ten whole cycles
     std::array<int, kFeet> stance_ticks{};
@@ -66,11 +75,7 @@ TEST(Trot, ScheduleKeepsTheDutyFactorAndTheDiagonals) {
 }
 
 TEST(Trot, SwingGoesFromLiftOffToTheFootholdSmoothly) {
-  gait::TrotParams p;
-  p.step_frequency_hz = 1.4;
-  p.duty_factor = 0.6;
-  p.step_height_m = 0.1;
-  p.touchdown_depth_m = 0.004;
+  const gait::TrotParams p = trot_params(1.4, 0.6, 0.1, 0.004);
   gait::TrotGait trot(p);
   trot.start(nominal());
   std::array<Vec3, kFeet> feet = nominal();
@@ -110,11 +115,7 @@ TEST(Trot, SwingGoesFromLiftOffToTheFootholdSmoothly) {
 // horizontal frame H: the foothold is nominal + s (minus the touch-down depth) in H,
 // the bump is along H's z, and the references handed out are R_t^T times those.
 TEST(Trot, FootholdsShiftAndTiltLiveInTheHorizontalFrame) {
-  gait::TrotParams p;
-  p.step_frequency_hz = 1.4;
-  p.duty_factor = 0.55;
-  p.step_height_m = 0.08;
-  p.touchdown_depth_m = 0.005;
+  const gait::TrotParams p = trot_params(1.4, 0.55, 0.08, 0.005);
   gait::TrotGait trot(p);
   trot.start(nominal());
   EXPECT_LT(trot.nominal_centre_h().head<2>().norm(), 1e-12);
@@ -196,12 +197,8 @@ struct Scripted {
   gait::TrotGait trot;
   double t_s = 0.0;
   static constexpr double kDt = 1e-3;
-  explicit Scripted(double fs = 1.4, double df = 0.55) : params(make(fs, df)), trot(params) { trot.start(nominal()); }
-  static gait::TrotParams make(double fs, double df) {
-    gait::TrotParams p;
-    p.step_frequency_hz = fs;
-    p.duty_factor = df;
-    return p;
+  explicit Scripted(double fs = 1.4, double df = 0.55) : params(trot_params(fs, df)), trot(params) {
+    trot.start(nominal());
   }
   bool scheduled_stance(int f, double t) const {
     static constexpr std::array<double, kFeet> offset{0.0, 0.5, 0.5, 0.0};

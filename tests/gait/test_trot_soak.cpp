@@ -31,9 +31,8 @@ TEST_P(TrotSoak, StandsSixtySecondsOfRandomPushes) {
   const std::string name = GetParam();
   const fs::path dir = scratch("soak_" + name);
   std::ofstream(dir / "s.yaml") << with_pushes(name, 60.0, 7);
-  const CliResult r = run((dir / "s.yaml").string(), dir / "out");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string json = slurp(dir / "out" / "summary.json");
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary((dir / "s.yaml").string(), dir / "out", json));
   std::printf("soak %s: fell %s at %g s, qp_failures %g, max tau/limit %g\n", name.c_str(),
               json_true(json, "fell") ? "yes" : "no", json_number(json, "fell_time_s"), json_number(json, "qp_failures"),
               json_number(json, "max_torque_ratio"));

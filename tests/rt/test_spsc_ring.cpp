@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <thread>
 
@@ -56,24 +57,46 @@ TEST(SpscRing, TwoThreadsLoseNothingButCountedDrops) {
   EXPECT_GT(received, 0u);
 }
 
+// A FILE* that writes to memory (open_memstream); text() closes it and gives what was written.
+class MemoryFile {
+ public:
+  MemoryFile() : file_(open_memstream(&text_, &size_)) {}
+  MemoryFile(const MemoryFile&) = delete;
+  MemoryFile& operator=(const MemoryFile&) = delete;
+  ~MemoryFile() {
+    close();
+    std::free(text_);
+  }
+  std::FILE* get() const { return file_; }
+  std::string text() {
+    close();
+    return std::string(text_, size_);
+  }
+
+ private:
+  void close() {
+    if (file_ != nullptr) std::fclose(file_);
+    file_ = nullptr;
+  }
+  char* text_ = nullptr;
+  std::size_t size_ = 0;
+  std::FILE* file_;
+};
+
 TEST(LogDrainer, WritesEveryRecordAndReportsDrops) {
   auto ring = std::make_unique<LogRing>();
-  char* text = nullptr;
-  std::size_t size = 0;
-  std::FILE* out = open_memstream(&text, &size);
-  ASSERT_NE(out, nullptr);
+  MemoryFile out;
+  ASSERT_NE(out.get(), nullptr);
   // Fill beyond capacity before the drainer runs: exactly the overflow is dropped.
   for (std::uint64_t i = 0; i < LogRing::capacity() + 3; ++i) {
     ring->push(LogRecord{i, static_cast<std::int64_t>(i) * 1'000'000, LogEvent::overrun, 1, 2, 0.5});
   }
   {
-    LogDrainer drainer(*ring, out, 1);
+    LogDrainer drainer(*ring, out.get(), 1);
     drainer.stop();
     EXPECT_EQ(drainer.written(), LogRing::capacity());
   }
-  std::fclose(out);
-  const std::string s(text, size);
-  std::free(text);
+  const std::string s = out.text();
   EXPECT_NE(s.find("tick=0 t_ns=0 overrun a=1 b=2 x=0.5\n"), std::string::npos);
   EXPECT_NE(s.find("tick=4095 "), std::string::npos);
   EXPECT_EQ(s.find("tick=4096 "), std::string::npos);
@@ -82,21 +105,17 @@ TEST(LogDrainer, WritesEveryRecordAndReportsDrops) {
 
 TEST(LogDrainer, AppendsTheDescriptionOfARecord) {
   auto ring = std::make_unique<LogRing>();
-  char* text = nullptr;
-  std::size_t size = 0;
-  std::FILE* out = open_memstream(&text, &size);
-  ASSERT_NE(out, nullptr);
+  MemoryFile out;
+  ASSERT_NE(out.get(), nullptr);
   ring->push(LogRecord{7, 0, LogEvent::fault_latched, 256, 256, 0.0});
   ring->push(LogRecord{8, 0, LogEvent::overrun, 1, 2, 0.0});
   {
-    LogDrainer drainer(*ring, out, 1, [](const LogRecord& r) {
+    LogDrainer drainer(*ring, out.get(), 1, [](const LogRecord& r) {
       return r.event == LogEvent::fault_latched ? std::string("new=imu_lost") : std::string();
     });
     drainer.stop();
   }
-  std::fclose(out);
-  const std::string s(text, size);
-  std::free(text);
+  const std::string s = out.text();
   EXPECT_NE(s.find("tick=7 t_ns=0 fault_latched a=256 b=256 x=0 (new=imu_lost)\n"), std::string::npos) << s;
   EXPECT_NE(s.find("tick=8 t_ns=0 overrun a=1 b=2 x=0\n"), std::string::npos) << s;
 }

@@ -68,6 +68,14 @@ inline CliResult run(const std::string& scenario, const fs::path& out, const std
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(err)};
 }
 
+// springbok-sim on `scenario` into `out`, which must exit 0 (a fatal failure showing its stderr
+// otherwise); `json`: the run's summary.json.
+inline void run_to_summary(const std::string& scenario, const fs::path& out, std::string& json) {
+  const CliResult r = run(scenario, out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  json = slurp(out / "summary.json");
+}
+
 inline double json_number(const std::string& json, const std::string& key) {
   const auto at = json.find("\"" + key + "\":");
   if (at == std::string::npos) return std::nan("");
@@ -76,6 +84,12 @@ inline double json_number(const std::string& json, const std::string& key) {
 
 inline bool json_true(const std::string& json, const std::string& key) {
   return json.find("\"" + key + "\": true") != std::string::npos;
+}
+
+// A run's summary: the robot did not fall and every QP was solved.
+inline void expect_upright_and_solved(const std::string& json) {
+  EXPECT_FALSE(json_true(json, "fell")) << json;
+  EXPECT_EQ(json_number(json, "qp_failures"), 0.0) << json;
 }
 
 // The number at `key` inside the JSON object member `object`.

@@ -15,11 +15,9 @@ using namespace springbok::test;
 
 TEST(SimAnyRobot, RendersTheBaseStepOfItsRobotFile) {
   const fs::path dir = scratch("any_robot_base_step");
-  const CliResult r = run(kScenarios + "any_robot/base_step.yaml", dir / "out");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string json = slurp(dir / "out" / "summary.json");
-  EXPECT_FALSE(json_true(json, "fell")) << json;
-  EXPECT_EQ(json_number(json, "qp_failures"), 0.0);
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary(kScenarios + "any_robot/base_step.yaml", dir / "out", json));
+  expect_upright_and_solved(json);
   EXPECT_LE(json_number(json, "max_torque_ratio"), 1.0);
   EXPECT_LE(member(json, "nrmse", "base_x"), 0.08);
   EXPECT_LE(member(json, "nrmse", "ee_x"), 0.03);

@@ -74,9 +74,8 @@ TEST(SimCli, LockedMemoryTakesNoPageFaultsAndChangesNothingElse) {
 
 TEST(SimCli, DropLandsAndRestsOnItsWeight) {
   const fs::path dir = scratch("drop");
-  const CliResult r = run(kScenarios + "drop.yaml", dir / "out");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string summary = slurp(dir / "out" / "summary.json");
+  std::string summary;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary(kScenarios + "drop.yaml", dir / "out", summary));
   EXPECT_NEAR(json_number(summary, "contact_fz_over_weight"), 1.0, 0.01) << summary;
   // At rest: the base has not moved over the last 100 ms.
   const std::string log = slurp(dir / "out" / "log.csv");

@@ -34,11 +34,9 @@ fs::path write_file(const fs::path& dir, const std::string& name, const std::str
 TEST(SimWbc, StepRendersTheTemplate) {
   const fs::path dir = scratch("wbc_step");
   const fs::path out = dir / "base_step_mb4";
-  const CliResult r = run(write_file(dir, "step.yaml", step_scenario("4")).string(), out);
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string json = slurp(out / "summary.json");
-  EXPECT_FALSE(json_true(json, "fell"));
-  EXPECT_EQ(json_number(json, "qp_failures"), 0.0);
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary(write_file(dir, "step.yaml", step_scenario("4")).string(), out, json));
+  expect_upright_and_solved(json);
   EXPECT_LE(json_number(json, "max_torque_ratio"), 1.0);
   EXPECT_NE(json.find("\"joint_limit_hit\": null"), std::string::npos);
   EXPECT_LE(member(json, "nrmse", "base_x"), 0.08);
@@ -110,9 +108,8 @@ TEST(SimWbc, APushTheArmCannotHoldLeavesTheRobotStanding) {
         std::tuple{"bent_120n", kBentArm.c_str(), "120"}}) {
     const fs::path dir = scratch(std::string("wbc_overload_") + name);
     const std::string text = push_scenario(arm, "[1, 0, 0]", force, "", "4.0");
-    const CliResult r = run(write_file(dir, "push.yaml", text).string(), dir / "out");
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    const std::string json = slurp(dir / "out" / "summary.json");
+    std::string json;
+    ASSERT_NO_FATAL_FAILURE(run_to_summary(write_file(dir, "push.yaml", text).string(), dir / "out", json));
     expect_stood(json, name);
     EXPECT_GT(json_number(json, "arm_overloaded_s"), 1.0) << name << ": the arm could not hold it";
     EXPECT_LE(member(json, "peak_deviation", "base_x"), 0.1) << name;
@@ -148,9 +145,8 @@ TEST(SimWbc, APushTowardTippingLeavesTheRobotStanding) {
     const fs::path dir = scratch(std::string("wbc_tipping_") + name);
     const std::string text =
         push_scenario(arm, axis, std::to_string(force), margin, "5.0", frame, "    push_stepping: {enabled: false}\n");
-    const CliResult r = run(write_file(dir, "push.yaml", text).string(), dir / "out");
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    const std::string json = slurp(dir / "out" / "summary.json");
+    std::string json;
+    ASSERT_NO_FATAL_FAILURE(run_to_summary(write_file(dir, "push.yaml", text).string(), dir / "out", json));
     if (std::string(margin).empty()) {
       expect_stood(json, name);
       EXPECT_GT(json_number(json, "support_limited_s"), 0.5) << name << ": the limit held the base";
@@ -191,9 +187,8 @@ TEST(SimWbc, APushPastWhatStandingHoldsMakesTheRobotStep) {
         std::tuple{"trunk_y250_off", "trunk", "[0, 1, 0]", "250", "    push_stepping: {enabled: false}\n", "4.0"}}) {
     const fs::path dir = scratch(std::string("wbc_push_step_") + name);
     const std::string text = push_scenario(bent, axis, force, "", duration, frame, extra);
-    const CliResult r = run(write_file(dir, "push.yaml", text).string(), dir / "out");
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    const std::string json = slurp(dir / "out" / "summary.json");
+    std::string json;
+    ASSERT_NO_FATAL_FAILURE(run_to_summary(write_file(dir, "push.yaml", text).string(), dir / "out", json));
     if (std::string(extra).empty()) {
       expect_stood(json, name);
       EXPECT_GE(member(json, "push_stepping", "times"), 1.0) << name << ": it stepped";
@@ -228,9 +223,8 @@ TEST(SimWbc, ChirpGainIsScoredFallingAndAtAConstantFrequency) {
     t.replace(t.find("start_frequency_hz: 0, end_frequency_hz: 5"), 42, sweep);
     t.replace(t.find("duration_s: 10.0"), 16, std::string("duration_s: ") + duration);
     t.replace(t.find("duration_s: 11.5"), 16, "duration_s: " + std::to_string(std::stod(duration) + 1.2));
-    const CliResult r = run(write_file(dir, "chirp.yaml", t).string(), dir / "out");
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    const std::string json = slurp(dir / "out" / "summary.json");
+    std::string json;
+    ASSERT_NO_FATAL_FAILURE(run_to_summary(write_file(dir, "chirp.yaml", t).string(), dir / "out", json));
     EXPECT_FALSE(json_true(json, "fell")) << name;
     const double base_db = member(json, "chirp_gain_db_error", "base_x"), ee_db = member(json, "chirp_gain_db_error", "ee_x");
     EXPECT_TRUE(std::isfinite(base_db) && std::isfinite(ee_db)) << name << ": " << json;
@@ -245,11 +239,9 @@ TEST(SimWbc, TorqueStepRendersTheRotationalTemplate) {
   const auto at = text.find("duration_s: 6.0");
   ASSERT_NE(at, std::string::npos);
   text.replace(at, 15, "duration_s: 4.0");
-  const CliResult r = run(write_file(dir, "rot.yaml", text).string(), dir / "out");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string json = slurp(dir / "out" / "summary.json");
-  EXPECT_FALSE(json_true(json, "fell"));
-  EXPECT_EQ(json_number(json, "qp_failures"), 0.0);
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary(write_file(dir, "rot.yaml", text).string(), dir / "out", json));
+  expect_upright_and_solved(json);
   EXPECT_LE(member(json, "nrmse", "base_ry"), 0.05);
   EXPECT_LE(member(json, "nrmse", "ee_ry"), 0.05);
   EXPECT_LE(member(json, "steady_state_error", "base_ry"), 0.01);
@@ -272,11 +264,9 @@ TEST(SimWbc, TorqueStepRendersTheRotationalTemplate) {
 TEST(SimWbc, TheHandTurnsWithItsRestOrientationAndRendersTheTorqueAboutIt) {
   const fs::path dir = scratch("wbc_hand_turn");
   const std::string shipped = slurp(fs::path(SPRINGBOK_SOURCE_DIR) / "tools/scenarios/hand_turn.yaml");
-  const CliResult r = run(write_file(dir, "turn.yaml", shipped).string(), dir / "out");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string json = slurp(dir / "out" / "summary.json");
-  EXPECT_FALSE(json_true(json, "fell"));
-  EXPECT_EQ(json_number(json, "qp_failures"), 0.0);
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary(write_file(dir, "turn.yaml", shipped).string(), dir / "out", json));
+  expect_upright_and_solved(json);
   EXPECT_LE(member(json, "nrmse", "ee_rx"), 0.05);
   EXPECT_LE(member(json, "steady_state_error", "ee_rx"), 0.01);
   EXPECT_LE(member(json, "rms_error", "ee_ry"), 0.005);
@@ -309,11 +299,10 @@ TEST(SimWbc, NegativeMassIsRefusedNamingTheField) {
 // cannot reach in time are refused naming the key.
 TEST(SimWbc, TheHandFollowsAMovingRestPointAndRendersThePushOnIt) {
   const fs::path dir = scratch("wbc_hand_circle");
-  const CliResult r = run(std::string(SPRINGBOK_SOURCE_DIR) + "/tools/scenarios/hand_circle.yaml", dir / "out");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string json = slurp(dir / "out" / "summary.json");
-  EXPECT_FALSE(json_true(json, "fell"));
-  EXPECT_EQ(json_number(json, "qp_failures"), 0.0);
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(
+      run_to_summary(std::string(SPRINGBOK_SOURCE_DIR) + "/tools/scenarios/hand_circle.yaml", dir / "out", json));
+  expect_upright_and_solved(json);
   EXPECT_LE(member(json, "nrmse", "ee_x"), 0.03);
   EXPECT_LE(member(json, "rms_error", "ee_y"), 0.005);
   EXPECT_LE(member(json, "rms_error", "ee_z"), 0.005);

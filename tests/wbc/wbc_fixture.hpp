@@ -74,6 +74,14 @@ struct WbcFixture : ::testing::Test {
     return out;
   }
 
+  // One tick that must allocate nothing and solve its QP (a fatal failure otherwise); `out`: its output.
+  void tick_solved_without_allocating(wbc::WbcOutput& out) {
+    std::size_t allocations = 0;
+    out = tick_counting_allocations(allocations);
+    EXPECT_EQ(allocations, 0u);
+    ASSERT_EQ(out.qp_status, qp::Status::optimal);
+  }
+
   // Allocations over 20 ticks with a wrist wrench and changing stance sets (after a warm-up tick).
   std::size_t allocations_over_ticks() {
     tick();

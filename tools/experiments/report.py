@@ -248,6 +248,14 @@ WALK_HEADER = ["| scenario | command x, y, yaw | mean velocity x, y, yaw | NRMSE
                "|---|---|---|---|---|---|---|---|---|"]
 
 
+def add_rows(lines, checks, names, row_of):
+    """A table's rows: row_of(n) gives each of `names` its (row, check); the row goes to `lines`, the check to `checks`."""
+    for n in names:
+        row, check = row_of(n)
+        lines.append(row)
+        checks.append(check)
+
+
 def step_row(out, n, s):
     """A step run's table row and check: base_step_* scored on the base x, arm_step_* on the hand x."""
     if s is None:
@@ -347,6 +355,7 @@ def trot_study(out, trot_runs, trots, stance, checks):
                      f"{pct(s['nrmse']['ee_x'])} | {pct(s['steady_state_error']['base_x'])} | "
                      f"{pct(s['steady_state_error']['ee_x'])} | {num(s['base_wrench_error_rms']['fx_n'], '{:.1f}')} | "
                      f"{s['qp_failures']} | {fell} |")
+    ran = [(n, trots[n]) for n, *_ in trot_runs if trots[n] is not None]  # the runs with a summary
     lines += ["", "### Every axis (RMS error from the WBC start)", "",
               "Translations: measured minus the template driven by the measured wrist force; orientations: the "
               "rotation vector from the rest pose's orientation (the template is translational: nothing is rendered "
@@ -355,10 +364,7 @@ def trot_study(out, trot_runs, trots, stance, checks):
               "| scenario | base x / y / z [mm] | base roll / pitch / yaw [mrad] | EE x / y / z [mm] | "
               "EE rx / ry / rz [mrad] | rms(W_b^d - applied): F y, z [N], T x, y, z [N m] |",
               "|---|---|---|---|---|---|"]
-    for n, *_ in trot_runs:
-        s = trots[n]
-        if s is None:
-            continue
+    for n, s in ran:
         e, w = s["rms_error"], s["base_wrench_error_rms"]
         lines.append(f"| {n} | {' / '.join(mm(e['base_' + a]) for a in 'xyz')} | "
                      f"{' / '.join(mm(e['base_r' + a]) for a in 'xyz')} | {' / '.join(mm(e['ee_' + a]) for a in 'xyz')} | "
@@ -378,10 +384,7 @@ def trot_study(out, trot_runs, trots, stance, checks):
               "| scenario | max tau/limit | time with a joint >= 99 % of its torque limit [s] (most: joint, s) | "
               "max joint speed / limit (joint) | joint position limit | touch-downs early / late |",
               "|---|---|---|---|---|---|"]
-    for n, *_ in trot_runs:
-        s = trots[n]
-        if s is None:
-            continue
+    for n, s in ran:
         tl = s["torque_limit_s"]
         at_limit = f"{tl['any']:.3f} ({tl['most_joint']}, {tl['most']:.3f})" if tl["any"] > 0 else "0"
         lines.append(f"| {n} | {s['max_torque_ratio']:.3f} | {at_limit} | "
@@ -600,10 +603,7 @@ def robot_report(out, robot, present):
         if not names:
             continue
         lines += ["", f"## {title}", ""] + header
-        for n in names:
-            row, check = row_of(n)
-            lines.append(row)
-            checks.append(check)
+        add_rows(lines, checks, names, row_of)
     if steps:
         figs.append(plot_cases(out, f"{robot}: step responses", [(n, n) for n in steps],
                                [("base x", "base_dx_m", "template_base_x_m"), ("EE x", "ee_dx_m", "template_ee_x_m")],
@@ -673,19 +673,13 @@ def main():
               "the bus.", ""]
     lines += ["## Step responses", ""] + STEP_HEADER
     checks = []
-    for n in step_runs:
-        row, check = step_row(out, n, summaries[n])
-        lines.append(row)
-        checks.append(check)
+    add_rows(lines, checks, step_runs, lambda n: step_row(out, n, summaries[n]))
     lines += ["", "## Chirp responses (20 N, 0 to 5 Hz over 10 s)", "",
               "Gain error: short-time least-squares fits y ~ a sin(phi(t)) + b cos(phi(t)) + c at the chirp's own "
               "phase phi(t), over windows one local period long centred at local frequencies from 0.25 Hz to 3 Hz "
               "(each centre 25 % above the previous); the reported number is the largest |20 log10(A_measured / "
               "A_template)| over those windows.", ""] + CHIRP_HEADER
-    for n in chirp_runs:
-        row, check = chirp_row(n, summaries[n])
-        lines.append(row)
-        checks.append(check)
+    add_rows(lines, checks, chirp_runs, lambda n: chirp_row(n, summaries[n]))
 
     trot_runs = [(f"trot_me{a}_{g}", m, g, fs, df) for a, m in TROT_ARMS for g, fs, df in TROT_GAITS]
     trots = {n: load_summary(out, n) for n, *_ in trot_runs}
@@ -703,10 +697,7 @@ def main():
                   "follow the hips' velocity. Mean velocity: the trunk's, over the last 3 s, in its horizontal frame. "
                   "Rendering: displacements from the walking rest pose against the template driven by the measured "
                   "force.", ""] + WALK_HEADER
-        for n in walk_runs:
-            row, check = walk_row(n, walks[n])
-            lines.append(row)
-            checks.append(check)
+        add_rows(lines, checks, walk_runs, lambda n: walk_row(n, walks[n]))
         lines += ["", "- Walking adds the gait's own motion to the scored displacements: the trunk rolls and yaws at "
                   "the step frequency (the hand, 0.65 m above the trunk, sways with it), and the base lags its "
                   "walking rest pose by a few millimetres (the steady-state column, relative to F/K). Both count as "

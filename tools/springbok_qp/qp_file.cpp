@@ -102,12 +102,39 @@ bool valid_name(const std::string& name) {
   return true;
 }
 
+// `parse` reads a value of `T` from the cursor over `text`; then the file must say `end` and
+// nothing after it. A failure leaves nullopt and sets `error` to "origin:line: what (token '...')".
+template <class T, class Parse>
+std::optional<T> parse_file(const std::string& text, const std::string& origin, std::string& error, Parse&& parse) {
+  Cursor in(tokenize(text));
+  try {
+    T value = parse(in);
+    in.keyword("end");
+    if (!in.at_end()) throw ParseFailure(in.peek().line, in.peek().text, "trailing data after 'end'");
+    return value;
+  } catch (const ParseFailure& f) {
+    error = origin + ":" + std::to_string(f.line) + ": " + f.what() + " (token '" + f.token + "')";
+    return std::nullopt;
+  }
+}
+
+// The whole file at `path`; nullopt with `error` set when it cannot be opened.
+std::optional<std::string> read_text(const std::string& path, std::string& error) {
+  std::ifstream file(path);
+  if (!file) {
+    error = path + ": cannot open";
+    return std::nullopt;
+  }
+  std::ostringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
 }  // namespace
 
 std::optional<Instance> parse_instance(const std::string& text, const std::string& origin, std::string& error) {
-  Cursor in(tokenize(text));
-  Instance q;
-  try {
+  return parse_file<Instance>(text, origin, error, [](Cursor& in) {
+    Instance q;
     in.keyword("springbok-qp");
     {
       const Token& v = in.next("version");
@@ -163,24 +190,14 @@ std::optional<Instance> parse_instance(const std::string& text, const std::strin
       in.keyword("kkt");
       for (auto& v : q.kkt) v = in.number("kkt");
     }
-    in.keyword("end");
-    if (!in.at_end()) throw ParseFailure(in.peek().line, in.peek().text, "trailing data after 'end'");
-  } catch (const ParseFailure& f) {
-    error = origin + ":" + std::to_string(f.line) + ": " + f.what() + " (token '" + f.token + "')";
-    return std::nullopt;
-  }
-  return q;
+    return q;
+  });
 }
 
 std::optional<Instance> read_instance(const std::string& path, std::string& error) {
-  std::ifstream file(path);
-  if (!file) {
-    error = path + ": cannot open";
-    return std::nullopt;
-  }
-  std::ostringstream text;
-  text << file.rdbuf();
-  return parse_instance(text.str(), path, error);
+  const std::optional<std::string> text = read_text(path, error);
+  if (!text) return std::nullopt;
+  return parse_instance(*text, path, error);
 }
 
 const char* status_word(qp::Status status) {
@@ -215,16 +232,10 @@ bool write_solution(const std::string& dir, const Solution& s) {
 }
 
 std::optional<Solution> read_solution(const std::string& path, int n, int meq, int mi, std::string& error) {
-  std::ifstream file(path);
-  if (!file) {
-    error = path + ": cannot open";
-    return std::nullopt;
-  }
-  std::ostringstream text;
-  text << file.rdbuf();
-  Cursor in(tokenize(text.str()));
-  Solution s;
-  try {
+  const std::optional<std::string> text = read_text(path, error);
+  if (!text) return std::nullopt;
+  return parse_file<Solution>(*text, path, error, [&](Cursor& in) {
+    Solution s;
     in.keyword("springbok-qp-solution");
     in.keyword("1");
     in.keyword("name");
@@ -236,13 +247,8 @@ std::optional<Solution> read_solution(const std::string& path, int n, int meq, i
       s.lambda_eq = in.numbers("lambda_eq", static_cast<std::size_t>(meq));
       s.lambda_in = in.numbers("lambda_in", static_cast<std::size_t>(mi));
     }
-    in.keyword("end");
-    if (!in.at_end()) throw ParseFailure(in.peek().line, in.peek().text, "trailing data after 'end'");
-  } catch (const ParseFailure& f) {
-    error = path + ":" + std::to_string(f.line) + ": " + f.what() + " (token '" + f.token + "')";
-    return std::nullopt;
-  }
-  return s;
+    return s;
+  });
 }
 
 }  // namespace springbok::qpfile

@@ -369,29 +369,33 @@ void fill_sensor_status(const SensorDiagnostics& d, bool usable, std::int64_t st
   out.age_ticks = static_cast<std::uint32_t>(std::min<std::uint64_t>(d.age_ticks, 0xFFFFFFFFu));
   out.stamp_ns = stamp_ns;
 }
+
+// A sensor brought up to `tick` (its staleness), its status into `out`, `ready` from its
+// diagnostics (the IMU's converged, the F/T's bias taken), and its newest reading through
+// `fill_reading` when it is usable. rt: no alloc
+template <class Decoder, class Sensor, class FillReading>
+void fill_sensor(Decoder& sensor, std::uint64_t tick, std::int64_t stamp_ns, Sensor& out, bool& ready,
+                 FillReading&& fill_reading) noexcept {
+  sensor.update(tick);
+  fill_sensor_status(sensor.diagnostics(), sensor.usable(), stamp_ns, out);
+  ready = !sensor.diagnostics().not_ready;
+  if (out.valid) fill_reading(sensor.reading());
+}
 }  // namespace
 
 void CanHardware::fill_sensors(hal::Measurements& out) noexcept {
   if (config_.sensors.imu.enabled) {
-    imu_.update(tick_);
-    fill_sensor_status(imu_.diagnostics(), imu_.usable(), imu_stamp_ns_, out.imu);
-    out.imu.converged = !imu_.diagnostics().not_ready;
-    if (out.imu.valid) {
-      const ImuReading r = imu_.reading();
+    fill_sensor(imu_, tick_, imu_stamp_ns_, out.imu, out.imu.converged, [&out](const ImuReading& r) noexcept {
       out.imu.orientation = r.orientation;
       out.imu.angular_rate_rad_s = r.angular_rate_rad_s;
       out.imu.linear_accel_m_s2 = r.linear_accel_m_s2;
-    }
+    });
   }
   if (config_.sensors.wrist_ft.enabled) {
-    ft_.update(tick_);
-    fill_sensor_status(ft_.diagnostics(), ft_.usable(), ft_stamp_ns_, out.wrist);
-    out.wrist.bias_taken = !ft_.diagnostics().not_ready;
-    if (out.wrist.valid) {
-      const FtReading r = ft_.reading();
+    fill_sensor(ft_, tick_, ft_stamp_ns_, out.wrist, out.wrist.bias_taken, [&out](const FtReading& r) noexcept {
       out.wrist.force_n = r.force_n;
       out.wrist.torque_nm = r.torque_nm;
-    }
+    });
   }
 }
 

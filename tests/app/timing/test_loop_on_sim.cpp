@@ -80,17 +80,34 @@ TEST(LoopOnSim, IdleDampsSoTheCrouchedRobotSettlesWithoutAJointLimitFault) {
   EXPECT_GT(limp.final_max_speed_rad_s, 2.0) << "not settled";
 }
 
-TEST(LoopOnSim, StandsUpFromACrouchAndHolds) {
-  rt::SteppedClock clock(0);
-  SteppedBulletRobot robot(crouched_sim_config(1000));
+// The simulated robot's drives configured and active.
+void power_on(SteppedBulletRobot& robot) {
   ASSERT_TRUE(robot.configure().ok);
   ASSERT_TRUE(robot.activate().ok);
-  AppConfig config = test_config();
+}
+
+// `config` standing up from a crouch in 1 s, within 0.15 rad of the posture (a joint PD without
+// gravity compensation sags under 95 kg).
+AppConfig quick_stand_up(AppConfig config) {
   config.stand_up_duration_s = 1.0;
-  config.stand_tolerance_rad = 0.15;  // joint PD without gravity compensation sags under 95 kg
+  config.stand_tolerance_rad = 0.15;
+  return config;
+}
+
+// The test config standing up quickly on stiff leg gains (control mode: the same).
+AppConfig stand_up_config() {
+  AppConfig config = quick_stand_up(test_config());
   config.stand_gains.kp_nm_per_rad.head<kFirstArmJoint>().setConstant(1000.0);
   config.stand_gains.kd_nms_per_rad.head<kFirstArmJoint>().setConstant(20.0);
   config.control_gains = config.stand_gains;
+  return config;
+}
+
+TEST(LoopOnSim, StandsUpFromACrouchAndHolds) {
+  rt::SteppedClock clock(0);
+  SteppedBulletRobot robot(crouched_sim_config(1000));
+  ASSERT_NO_FATAL_FAILURE(power_on(robot));
+  AppConfig config = stand_up_config();
   auto rig = std::make_unique<Rig>(clock, robot, config);
   rig->executive->run_ticks(10);
   ASSERT_EQ(rig->command(safety::OperatorCommand::start), safety::Verdict::accepted);
@@ -113,14 +130,8 @@ TEST(LoopOnSim, StandsUpFromACrouchAndHolds) {
 TEST(LoopOnSim, ControlModeRunsTheWholeBodyControllerOnTheEstimatedState) {
   rt::SteppedClock clock(0);
   SteppedBulletRobot robot(crouched_sim_config(1000));
-  ASSERT_TRUE(robot.configure().ok);
-  ASSERT_TRUE(robot.activate().ok);
-  AppConfig config = test_config();
-  config.stand_up_duration_s = 1.0;
-  config.stand_tolerance_rad = 0.15;
-  config.stand_gains.kp_nm_per_rad.head<kFirstArmJoint>().setConstant(1000.0);
-  config.stand_gains.kd_nms_per_rad.head<kFirstArmJoint>().setConstant(20.0);
-  config.control_gains = config.stand_gains;
+  ASSERT_NO_FATAL_FAILURE(power_on(robot));
+  AppConfig config = stand_up_config();
   config.stand_posture_rad.tail<kArmJoints>() << 0.0, 0.6, 0.0, 1.9, 0.0, 0.9, 0.0;  // arm bent, off singularity
   config.control_mode = ControlModeKind::wbc;
   config.wbc.template_params.mass_base_kg.setConstant(4.0);  // fast: settles within a second
@@ -160,9 +171,7 @@ TEST(LoopOnSim, ControlModeRunsTheWholeBodyControllerOnTheEstimatedState) {
 AppConfig shipped_wbc_config() {
   const ConfigResult loaded = load_config_file(SPRINGBOK_APP_CONFIG);
   EXPECT_TRUE(loaded.ok);
-  AppConfig config = loaded.config;
-  config.stand_up_duration_s = 1.0;
-  config.stand_tolerance_rad = 0.15;
+  AppConfig config = quick_stand_up(loaded.config);
   config.wrist_tare_samples = 300;
   return config;
 }
@@ -174,8 +183,7 @@ AppConfig shipped_wbc_config() {
 TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
   rt::SteppedClock clock(0);
   SteppedBulletRobot robot(crouched_sim_config(1000));
-  ASSERT_TRUE(robot.configure().ok);
-  ASSERT_TRUE(robot.activate().ok);
+  ASSERT_NO_FATAL_FAILURE(power_on(robot));
   const AppConfig config = shipped_wbc_config();
   ASSERT_EQ(config.control_mode, ControlModeKind::wbc);
   auto rig = std::make_unique<LoopRig<SteppedBulletRobot, ControlMode>>(clock, robot, config);
