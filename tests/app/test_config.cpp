@@ -60,9 +60,9 @@ TEST(AppConfig, TheShippedFileLoads) {
   EXPECT_EQ(c.stand_posture_rad[8], 1.4);  // lh knee
   EXPECT_EQ(c.operator_socket, "/run/springbok/operator.sock");
   EXPECT_EQ(c.control_mode, ControlModeKind::wbc);
-  EXPECT_EQ(c.wbc.template_params.mass_base_kg.x(), 92.0);
-  EXPECT_EQ(c.estimator.velocity_gain_per_s, 30.0);
-  EXPECT_EQ(c.estimator.tilt_gain_per_s, 1.0);  // the CAN IMU's pitch is not on the wire: aided
+  EXPECT_EQ(c.control.wbc.template_params.mass_base_kg.x(), 92.0);
+  EXPECT_EQ(c.control.estimator.velocity_gain_per_s, 30.0);
+  EXPECT_EQ(c.control.estimator.tilt_gain_per_s, 1.0);  // the CAN IMU's pitch is not on the wire: aided
   EXPECT_FALSE(c.stand_weight_feed_forward);
 }
 
@@ -101,26 +101,26 @@ TEST(AppConfig, ControlSectionErrorsNameTheField) {
   const std::string without_estimator = text.substr(0, est_at) + text.substr(text.find('\n', est_at) + 1);
   const ConfigResult defaults = load_config_text(without_estimator);
   ASSERT_TRUE(defaults.ok) << defaults.errors.front();
-  EXPECT_EQ(defaults.config.estimator.velocity_gain_per_s, est::EstimatorParams{}.velocity_gain_per_s);
-  EXPECT_EQ(defaults.config.gait.kind, control::GaitKind::stand);  // no control.gait: the control mode stands
+  EXPECT_EQ(defaults.config.control.estimator.velocity_gain_per_s, est::EstimatorParams{}.velocity_gain_per_s);
+  EXPECT_EQ(defaults.config.control.gait.kind, control::GaitKind::stand);  // no control.gait: the control mode stands
   // control.gait: the trot the control mode engages with, read as the scenario's gait: map.
   const std::string estimator_line = text.substr(est_at, text.find('\n', est_at) - est_at);
   const ConfigResult trot =
       load_config_text(with(estimator_line, estimator_line + "\n  gait: {step_frequency: 1.2, duty_factor: 0.7}"));
   ASSERT_TRUE(trot.ok) << trot.errors.front();
-  EXPECT_EQ(trot.config.gait.kind, control::GaitKind::trot);
-  EXPECT_EQ(trot.config.gait.trot.step_frequency_hz, 1.2);
-  EXPECT_EQ(trot.config.gait.trot.duty_factor, 0.7);
+  EXPECT_EQ(trot.config.control.gait.kind, control::GaitKind::trot);
+  EXPECT_EQ(trot.config.control.gait.trot.step_frequency_hz, 1.2);
+  EXPECT_EQ(trot.config.control.gait.trot.duty_factor, 0.7);
   EXPECT_EQ(only_error(load_config_text(with(estimator_line, estimator_line + "\n  gait: {duty_factor: 0.3}"))),
             "control.gait.duty_factor: must be in [0.5, 0.95], got 0.3");
   // control.push_stepping: optional, on by default; what the control mode's controller gets.
-  EXPECT_TRUE(defaults.config.push_stepping.enabled);
+  EXPECT_TRUE(defaults.config.control.push_stepping.enabled);
   const ConfigResult off =
       load_config_text(with(estimator_line, estimator_line + "\n  push_stepping: {enabled: false, delay: 0.1}"));
   ASSERT_TRUE(off.ok) << off.errors.front();
-  EXPECT_FALSE(off.config.push_stepping.enabled);
-  EXPECT_EQ(off.config.push_stepping.delay_s, 0.1);
-  EXPECT_FALSE(springbok::app::control_params(off.config).push_stepping.enabled);
+  EXPECT_FALSE(off.config.control.push_stepping.enabled);
+  EXPECT_EQ(off.config.control.push_stepping.delay_s, 0.1);
+  EXPECT_FALSE(off.config.control.push_stepping.enabled);
   EXPECT_EQ(only_error(load_config_text(with(estimator_line, estimator_line + "\n  push_stepping: {settle: -1}"))),
             "control.push_stepping.settle: must be in [0, 60], got -1");
 }

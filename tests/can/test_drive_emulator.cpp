@@ -16,6 +16,7 @@
 #include "springbok/drive_emulator/sensors.hpp"
 
 #include "frame_util.hpp"
+#include "run_command.hpp"
 
 namespace springbok::emu {
 namespace {
@@ -291,12 +292,9 @@ TEST(SensorEmulator, FaultScriptSensorEntries) {
 }
 
 int run(const std::string& args, std::string& output) {
-  const std::string cmd = std::string(SPRINGBOK_BIN_DIR) + "/drive_emulator " + args + " 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p) != nullptr) output += buf;
-  const int status = ::pclose(p);
-  return WEXITSTATUS(status);
+  const springbok::test::CommandRun r = springbok::test::run_program("", "drive_emulator", args);
+  output += r.out;
+  return r.exit_code;
 }
 // ---- CiA 402 start-up properties the host must not assume (CAN.md 2.4, 4.3) ------------------
 // One SDO request to node `n` at `now_ns`; the frames the drive sent back.

@@ -118,7 +118,7 @@ void expect_firmware_replays_the_tool(bool trot) {
   const ToolRun tool = run_tool(file);
   std::filesystem::remove_all(dir);
   ASSERT_EQ(tool.config.control_mode, app::ControlModeKind::wbc);
-  ASSERT_EQ(tool.config.gait.kind, trot ? control::GaitKind::trot : control::GaitKind::stand);
+  ASSERT_EQ(tool.config.control.gait.kind, trot ? control::GaitKind::trot : control::GaitKind::stand);
 
   PlaybackHardware playback(tool.ticks);
   app::Firmware firmware(playback, tool.config, nullptr);

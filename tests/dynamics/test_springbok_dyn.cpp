@@ -11,6 +11,7 @@
 #include <string>
 
 #include "reference_states.hpp"
+#include "run_command.hpp"
 #include "springbok/model/model.hpp"
 
 namespace {
@@ -19,20 +20,8 @@ using springbok::test::block_error;
 using springbok::test::kReferenceTolerance;
 using springbok::test::to_matrix;
 
-struct ToolRun {
-  int status;
-  std::string output;
-};
-
-ToolRun run_tool(const std::string& in, const std::string& out) {
-  const std::string cmd = std::string(SPRINGBOK_BIN_DIR) + "/springbok-dyn '" + in + "' '" + out + "' 2>&1";
-  ToolRun r{-1, {}};
-  std::FILE* p = ::popen(cmd.c_str(), "r");
-  if (p == nullptr) return r;
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p) != nullptr) r.output += buf;
-  r.status = ::pclose(p);
-  return r;
+springbok::test::CommandRun run_tool(const std::string& in, const std::string& out) {
+  return springbok::test::run_program("", "springbok-dyn", "'" + in + "' '" + out + "'");
 }
 
 std::string slurp(const std::string& path) {
@@ -57,9 +46,9 @@ class SpringbokDyn : public ::testing::Test {
   void expect_rejected(const std::string& text, const std::string& needle) {
     const std::string in = (dir_ / "broken.txt").string(), out = (dir_ / "out.txt").string();
     std::ofstream(in) << text;
-    const ToolRun r = run_tool(in, out);
-    EXPECT_NE(r.status, 0) << r.output;
-    EXPECT_NE(r.output.find(needle), std::string::npos) << "message: " << r.output << "expected: " << needle;
+    const springbok::test::CommandRun r = run_tool(in, out);
+    EXPECT_NE(r.exit_code, 0) << r.out;
+    EXPECT_NE(r.out.find(needle), std::string::npos) << "message: " << r.out << "expected: " << needle;
     EXPECT_FALSE(fs::exists(out));
     for (const auto& e : fs::directory_iterator(dir_))  // no temporary left behind
       EXPECT_EQ(e.path().filename().string().find("out.txt.tmp"), std::string::npos) << e.path();
@@ -89,8 +78,8 @@ class SpringbokDyn : public ::testing::Test {
 // `inputs_as_given` (then not compared: the input file differs from the reference).
 void expect_reference_blocks(const std::string& in, const std::string& out, const std::string& reference,
                              bool inputs_as_given = false) {
-  const ToolRun r = run_tool(in, out);
-  ASSERT_EQ(r.status, 0) << r.output;
+  const springbok::test::CommandRun r = run_tool(in, out);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
   const auto mine = springbok::state_file::read(out);
   const auto ref = springbok::state_file::read(reference);
   ASSERT_EQ(mine.blocks.size(), ref.blocks.size());
@@ -182,9 +171,9 @@ TEST_F(SpringbokDyn, RejectsTruncatedAndMissingFiles) {
   std::string line, text;
   for (int n = 1; std::getline(in, line) && n <= 20; ++n) text += line + "\n";
   expect_rejected(text, ":20: end of file inside block 'M' (declared at line 10)");
-  const ToolRun r = run_tool((dir_ / "does_not_exist.txt").string(), (dir_ / "out.txt").string());
-  EXPECT_NE(r.status, 0);
-  EXPECT_NE(r.output.find("cannot open"), std::string::npos) << r.output;
+  const springbok::test::CommandRun r = run_tool((dir_ / "does_not_exist.txt").string(), (dir_ / "out.txt").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.out.find("cannot open"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(dir_ / "out.txt"));
 }
 

@@ -401,7 +401,7 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
 
   // 1: the push, rendered. Displacements from the pose just before it; the template driven by
   // the force on the hand (what the tared F/T measures), integrated here from rest.
-  springbok::test::PushScore score(springbok::test::template_axis_x(config.wbc.template_params), kPushStart_s,
+  springbok::test::PushScore score(springbok::test::template_axis_x(config.control.wbc.template_params), kPushStart_s,
                                    kPushEnd_s, 0.5);
   double base0 = 0.0, hand0 = 0.0;
   int n0 = 0;

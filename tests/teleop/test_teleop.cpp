@@ -4,7 +4,6 @@
 // the pad unplugged mid-walk.
 #include <sys/socket.h>
 #include <sys/un.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -20,6 +19,7 @@
 #include <gtest/gtest.h>
 
 #include "event_source.hpp"
+#include "run_command.hpp"
 #include "springbok/app/operator.hpp"
 #include "springbok/gait/trot.hpp"
 #include "teleop.hpp"
@@ -243,23 +243,8 @@ class RecordingServer {
   Lines lines_;
 };
 
-struct ProgramRun {
-  int exit_code = -1;
-  std::string out;
-};
-
-ProgramRun teleop_program(const std::string& args) {
-  ProgramRun r;
-  const std::string emulator = SPRINGBOK_TEST_EMULATOR;
-  const std::string cmd =
-      (emulator.empty() ? "" : emulator + " ") + std::string(SPRINGBOK_BIN_DIR) + "/springbok-teleop " + args + " 2>&1";
-  std::FILE* p = ::popen(cmd.c_str(), "r");
-  if (p == nullptr) return r;
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p) != nullptr) r.out += buf;
-  const int status = ::pclose(p);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+test::CommandRun teleop_program(const std::string& args) {
+  return test::run_program(SPRINGBOK_TEST_EMULATOR, "springbok-teleop", args);
 }
 
 // The program with a recorded pad: start, mode control, trot, walk forward with the dead-man
@@ -280,7 +265,7 @@ TEST(Teleop, TheProgramWalksTheRobotAndStopsItWhenThePadIsUnpluggedMidWalk) {
     f << "0.85 unplug\n";
   }
   RecordingServer server(socket);
-  const ProgramRun run = teleop_program("--events " + events.string() + " --socket " + socket);
+  const test::CommandRun run = teleop_program("--events " + events.string() + " --socket " + socket);
   EXPECT_EQ(run.exit_code, 0) << run.out;
   EXPECT_NE(run.out.find("is gone"), std::string::npos) << run.out;
   const Lines got = server.lines();
@@ -302,10 +287,10 @@ TEST(Teleop, TheProgramRefusesABadStreamAndAMissingDevice) {
   TempDir dir;
   const auto events = dir.path / "pad.txt";
   std::ofstream(events) << "0.1 EV_KEY BTN_TL\n";
-  ProgramRun bad = teleop_program("--events " + events.string() + " --socket " + (dir.path / "none.sock").string());
+  test::CommandRun bad = teleop_program("--events " + events.string() + " --socket " + (dir.path / "none.sock").string());
   EXPECT_EQ(bad.exit_code, 2) << bad.out;
   EXPECT_NE(bad.out.find("pad.txt:1: expected 'TYPE CODE VALUE'"), std::string::npos) << bad.out;
-  ProgramRun missing = teleop_program("--device " + (dir.path / "event99").string());
+  test::CommandRun missing = teleop_program("--device " + (dir.path / "event99").string());
   EXPECT_EQ(missing.exit_code, 2) << missing.out;
   EXPECT_NE(missing.out.find("cannot open"), std::string::npos) << missing.out;
 }

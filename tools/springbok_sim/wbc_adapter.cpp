@@ -75,7 +75,7 @@ WbcAdapter::WbcAdapter(const Scenario& s, const yaml::Field& params, sim::Bullet
     : dt_s_(s.sim.step_s), settle_s_(s.controller_settle_s),
       idle_columns_(static_cast<int>(std::ranges::count(csv_columns(), ','))),
       data_(std::make_unique<dyn::Data>()) {
-  control::ControlParams cp;
+  control::ControlParams& cp = config_.control;  // the firmware's controller, as the scenario sets it
   // `estimator`, `gait` and `push_stepping` are the controller's own parts, every other key the WBC's.
   if (params["estimator"].present()) {
     cp.estimator = params::read_estimator_params(params["estimator"]);
@@ -111,11 +111,6 @@ WbcAdapter::WbcAdapter(const Scenario& s, const yaml::Field& params, sim::Bullet
   // gains and the robot's weight as feed-forward until the operator's `mode control`.
   config_.rate_hz = static_cast<int>(std::lround(1.0 / dt_s_));
   config_.control_mode = app::ControlModeKind::wbc;
-  config_.wbc = cp.wbc;
-  config_.estimator = cp.estimator;
-  config_.gait = cp.gait;
-  config_.push_stepping = cp.push_stepping;
-  config_.wrist_tare_samples = cp.tare_samples;
   config_.stand_posture_rad = s.sim.initial_q.tail<kNj>();
   config_.stand_up_duration_s = dt_s_;
   config_.stand_weight_feed_forward = true;

@@ -114,16 +114,16 @@ AppConfig read_config(const Field& root) {
       c.safety.control_needs_wrist_ft = true;  // F_e, what the template renders
       if (!n["wbc"].present()) n["wbc"].fail("missing (control.controller is wbc)");
     }
-    if (n["wbc"].present()) c.wbc = params::read_wbc_params(n["wbc"]);
+    if (n["wbc"].present()) c.control.wbc = params::read_wbc_params(n["wbc"]);
     // optional: every key keeps its default
-    if (n["estimator"].present()) c.estimator = params::read_estimator_params(n["estimator"]);
+    if (n["estimator"].present()) c.control.estimator = params::read_estimator_params(n["estimator"]);
     // optional: the trot the control mode engages with (the scenario's gait: map); absent: stand
     if (n["gait"].present()) {
-      c.gait.kind = control::GaitKind::trot;
-      c.gait.trot = params::read_trot_params(n["gait"]);
+      c.control.gait.kind = control::GaitKind::trot;
+      c.control.gait.trot = params::read_trot_params(n["gait"]);
     }
     // optional: stepping to catch a push standing cannot hold (on by default)
-    if (n["push_stepping"].present()) c.push_stepping = params::read_push_stepping(n["push_stepping"]);
+    if (n["push_stepping"].present()) c.control.push_stepping = params::read_push_stepping(n["push_stepping"]);
   }
   if (const Field n = root["operator"]; section(n, {"socket"}) && need(n, "socket").text(c.operator_socket)) {
     constexpr std::size_t kMaxSocketPath = sizeof(sockaddr_un::sun_path) - 1;  // what bind(2) takes

@@ -7,20 +7,10 @@
 
 namespace springbok::app {
 
-control::ControlParams control_params(const AppConfig& config) {
-  control::ControlParams p;
-  p.wbc = config.wbc;
-  p.estimator = config.estimator;
-  p.gait = config.gait;
-  p.push_stepping = config.push_stepping;
-  p.tare_samples = config.wrist_tare_samples;
-  return p;
-}
-
 ControlMode::ControlMode(const AppConfig& config)
     : kind_(config.control_mode),
       hold_(config),
-      control_(std::make_unique<control::RobotController>(control_params(config))) {}
+      control_(std::make_unique<control::RobotController>(config.control)) {}
 
 ControlMode::~ControlMode() = default;
 

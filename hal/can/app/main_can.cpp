@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
         if (errors_before != 0) return nullptr;
         for (std::string& e : app::check_drive_gains(config, gain_ranges(can_config))) root.errors().add_line(std::move(e));
         if (root.errors().size() != errors_before) return nullptr;
-        config.wrist_tare_samples = can_config.sensors.wrist_ft.tare_samples;
+        config.control.tare_samples = can_config.sensors.wrist_ft.tare_samples;
         return std::make_unique<can::CanHardware>(std::move(can_config));
       });
 }

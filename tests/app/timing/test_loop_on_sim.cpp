@@ -134,8 +134,8 @@ TEST(LoopOnSim, ControlModeRunsTheWholeBodyControllerOnTheEstimatedState) {
   AppConfig config = stand_up_config();
   config.stand_posture_rad.tail<kArmJoints>() << 0.0, 0.6, 0.0, 1.9, 0.0, 0.9, 0.0;  // arm bent, off singularity
   config.control_mode = ControlModeKind::wbc;
-  config.wbc.template_params.mass_base_kg.setConstant(4.0);  // fast: settles within a second
-  config.wbc.template_params.damping_base_ns_per_m.setConstant(126.5);
+  config.control.wbc.template_params.mass_base_kg.setConstant(4.0);  // fast: settles within a second
+  config.control.wbc.template_params.damping_base_ns_per_m.setConstant(126.5);
   auto rig = std::make_unique<LoopRig<SteppedBulletRobot, ControlMode>>(clock, robot, config);
   rig->executive->run_ticks(10);
   ASSERT_EQ(rig->command(safety::OperatorCommand::start), safety::Verdict::accepted);
@@ -172,7 +172,7 @@ AppConfig shipped_wbc_config() {
   const ConfigResult loaded = load_config_file(SPRINGBOK_APP_CONFIG);
   EXPECT_TRUE(loaded.ok);
   AppConfig config = quick_stand_up(loaded.config);
-  config.wrist_tare_samples = 300;
+  config.control.tare_samples = 300;
   return config;
 }
 
@@ -207,7 +207,7 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
   EXPECT_EQ(rig->control.controller().tare().completed, 1u) << "tared in stand";
   EXPECT_EQ(rig->request(tare), nullptr);  // a second tare, in stand: collected now
   EXPECT_TRUE(rig->control.controller().tare().running);
-  rig->executive->run_ticks(config.wrist_tare_samples + 10);
+  rig->executive->run_ticks(config.control.tare_samples + 10);
   EXPECT_EQ(rig->control.controller().tare().completed, 2u);
 
   ASSERT_EQ(rig->command(safety::OperatorCommand::mode_control), safety::Verdict::accepted);
@@ -249,7 +249,7 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
   EXPECT_EQ(rig->request(tune), nullptr);
   rig->executive->run_ticks(250);
   EXPECT_NEAR(rig->control.controller().wbc().params().template_params.stiffness_base_n_per_m.x(),
-              0.5 * (config.wbc.template_params.stiffness_base_n_per_m.x() + 1500.0), 5.0);
+              0.5 * (config.control.wbc.template_params.stiffness_base_n_per_m.x() + 1500.0), 5.0);
   rig->executive->run_ticks(300);
   EXPECT_EQ(rig->control.controller().wbc().params().template_params.stiffness_base_n_per_m, Vec3::Constant(1500.0));
   tune.tune.value[control::TuningRequest::base_stiffness] = {0.0, 1500.0, 1500.0};
@@ -289,7 +289,7 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
 
   // Leaving the control mode ends the operator's gait: the next engagement stands.
   ASSERT_EQ(rig->command(safety::OperatorCommand::mode_stand), safety::Verdict::accepted);
-  rig->executive->run_ticks(config.wrist_tare_samples + 10);
+  rig->executive->run_ticks(config.control.tare_samples + 10);
   EXPECT_EQ(rig->control.controller().tare().completed, 3u);
   EXPECT_STREQ(rig->request(trot), "gait changes need mode control");
   EXPECT_STREQ(rig->request(tune), "tuning needs mode control");
@@ -444,7 +444,7 @@ void render_push_then_trot(double push_start_s, const sim::ImuNoise& imu = {}) {
   const ConfigResult loaded = load_config_file(SPRINGBOK_HIL_WBC_CONFIG);
   ASSERT_TRUE(loaded.ok) << (loaded.errors.empty() ? "" : loaded.errors.front());
   AppConfig config = loaded.config;
-  config.wrist_tare_samples = 200;  // the file's can.sensors.wrist_ft.tare_samples (read by the CAN backend)
+  config.control.tare_samples = 200;  // the file's can.sensors.wrist_ft.tare_samples (read by the CAN backend)
   ASSERT_EQ(config.control_mode, ControlModeKind::wbc);
   const can::ConfigResult can_config = can::load_can_config_file(SPRINGBOK_HIL_WBC_CONFIG);
   ASSERT_TRUE(can_config.ok) << can_config.error;
@@ -469,7 +469,7 @@ void render_push_then_trot(double push_start_s, const sim::ImuNoise& imu = {}) {
   const double t_control_s = now_s();
   ASSERT_EQ(rig->command(safety::OperatorCommand::mode_control), safety::Verdict::accepted);
 
-  springbok::test::PushScore score(springbok::test::template_axis_x(config.wbc.template_params), kPushStart_s,
+  springbok::test::PushScore score(springbok::test::template_axis_x(config.control.wbc.template_params), kPushStart_s,
                                    kPushEnd_s, 0.5);
   double base0_m = 0.0, hand0_m = 0.0;
   int n0 = 0;

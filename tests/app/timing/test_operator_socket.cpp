@@ -3,7 +3,6 @@
 // an error and change nothing, clients cannot block the server or the loop.
 #include <gtest/gtest.h>
 #include <sys/socket.h>
-#include <sys/wait.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -16,6 +15,7 @@
 #include <vector>
 
 #include "loop_fixture.hpp"
+#include "run_command.hpp"
 #include "springbok/app/operator_server.hpp"
 
 namespace springbok::app::test {
@@ -264,23 +264,10 @@ TEST_F(OperatorSocket, CommandsAndMalformedLines) {
 
 // springbokctl, the socket's command-line client, run: the reply on stdout and exit 0 when
 // ok, on stderr and exit 1 when an error, --field prints one value, exit 2 without a server.
-struct CliRun {
-  int exit_code = -1;
-  std::string out;  // stdout and stderr
-};
+using CliRun = springbok::test::CommandRun;
+// A cross-built client runs under the build's emulator (qemu-aarch64), as ctest runs this test.
 CliRun springbokctl(const std::string& args) {
-  CliRun r;
-  // A cross-built client runs under the build's emulator (qemu-aarch64), as ctest runs this test.
-  const std::string emulator = SPRINGBOK_TEST_EMULATOR;
-  const std::string cmd =
-      (emulator.empty() ? "" : emulator + " ") + std::string(SPRINGBOK_BIN_DIR) + "/springbokctl " + args + " 2>&1";
-  std::FILE* p = ::popen(cmd.c_str(), "r");
-  if (p == nullptr) return r;
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p) != nullptr) r.out += buf;
-  const int status = ::pclose(p);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  return springbok::test::run_program(SPRINGBOK_TEST_EMULATOR, "springbokctl", args);
 }
 
 TEST_F(OperatorSocket, SpringbokctlSendsOneCommandAndExitsWithItsVerdict) {

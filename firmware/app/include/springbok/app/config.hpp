@@ -49,11 +49,11 @@ struct AppConfig {
   bool stand_weight_feed_forward = false;
   JointGains control_gains;              // control mode with control.controller = joint_pd
   ControlModeKind control_mode = ControlModeKind::wbc;
-  wbc::WbcParams wbc;                    // control.wbc (wbc_config.hpp's YAML)
-  est::EstimatorParams estimator;        // control.estimator (every key optional)
-  control::GaitCommand gait;             // control.gait (optional trot map): the gait the control mode engages with
-  control::PushStepping push_stepping;   // control.push_stepping (optional)
-  std::uint32_t wrist_tare_samples = 500;  // the wrist F/T tare: the backend's (can.sensors.wrist_ft.tare_samples)
+  // The control mode's controller: control.wbc (controller_params.hpp's YAML), control.estimator
+  // (every key optional), control.gait (optional trot map: the gait the control mode engages
+  // with), control.push_stepping (optional); its tare_samples are the backend's
+  // (can.sensors.wrist_ft.tare_samples).
+  control::ControlParams control;
   std::string operator_socket;
   std::string log_path;                  // "-" = standard error
   TelemetryConfig telemetry;             // telemetry: (live UDP stream; telemetry.hpp)

@@ -19,9 +19,6 @@
 
 namespace springbok::app {
 
-// The configuration's part that the controller takes (start-up).
-control::ControlParams control_params(const AppConfig& config);
-
 class ControlMode {
  public:
   explicit ControlMode(const AppConfig& config);

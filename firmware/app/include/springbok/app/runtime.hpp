@@ -30,7 +30,7 @@ int run_firmware(hal::Hardware& hardware, const AppConfig& config, const RunOpti
 // backend's own section of the same document (e.g. `can:`, its problems added to root's
 // errors, whatever the app's sections held) and, when there is no problem at all, builds
 // the backend without touching any device; it may fill the config's backend fields
-// (wrist_tare_samples). Every problem of the file is printed, naming the field and line;
+// (control.tare_samples). Every problem of the file is printed, naming the field and line;
 // --check-config therefore also checks the backend's part.
 using MakeHardware = std::function<std::unique_ptr<hal::Hardware>(AppConfig& config, const yaml::Field& root)>;
 int firmware_main(int argc, char** argv, const char* program, const MakeHardware& make_hardware);
