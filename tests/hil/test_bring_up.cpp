@@ -268,6 +268,16 @@ TEST(Hil, MitDrivesBelowTheBusVoltageWarningAreFlaggedAndFollow) {
   bring_up_all_mit_reporting(19.0, 40.0 / 255.0, true);
 }
 
+// A start-up step that failed for one drive's fault: its message holds each of `parts` (the
+// drive, the cause), and the drive of `joint` is in fault with `code`.
+void expect_failed_for_drive_fault(const hal::LifecycleResult& r, HilRig& rig,
+                                   std::initializer_list<std::string_view> parts, int joint, int code) {
+  EXPECT_FALSE(r.ok);
+  for (const std::string_view part : parts) EXPECT_NE(r.message.find(part), std::string::npos) << part << " in " << r.message;
+  EXPECT_EQ(rig.hw.joint(joint).status.state, hal::DriveState::fault);
+  EXPECT_EQ(rig.hw.joint(joint).status.fault_code, code);
+}
+
 // Below the fault threshold a drive is about to brown out: start-up fails naming the drive and
 // its voltage, the drive fault latched (as a vendor error code is).
 TEST(Hil, MitStartUpFailsOnADriveBelowTheBusVoltageFault) {
@@ -277,14 +287,10 @@ TEST(Hil, MitStartUpFailsOnADriveBelowTheBusVoltageFault) {
   cfg.mit_bus_voltage_fault_v = 18.0;
   HilRig rig("mit_classic7.yaml", cfg, "", {"--mit-reply-dlc", "7", "--mit-bus-voltage-v", "17"});
   ASSERT_TRUE(rig.emu.ready());
-  const hal::LifecycleResult c = rig.hw.configure();
-  ASSERT_FALSE(c.ok);
-  EXPECT_NE(c.message.find("MIT start-up: drive 1 (joint lf_haa_joint, mit) on bus 'lf' (vcan0) reports a bus voltage "
-                           "of 16.94 V, below can.mit_bus_voltage_fault_v 18.00 V"),
-            std::string::npos)
-      << c.message;
-  EXPECT_EQ(rig.hw.joint(0).status.state, hal::DriveState::fault);
-  EXPECT_EQ(rig.hw.joint(0).status.fault_code, kFaultBusUndervoltage);
+  expect_failed_for_drive_fault(rig.hw.configure(), rig,
+                                {"MIT start-up: drive 1 (joint lf_haa_joint, mit) on bus 'lf' (vcan0) reports a bus "
+                                 "voltage of 16.94 V, below can.mit_bus_voltage_fault_v 18.00 V"},
+                                0, kFaultBusUndervoltage);
 }
 
 // A reply of a length CAN.md 1.4 does not allow is dropped and counted, and the failed start-up
@@ -518,12 +524,8 @@ TEST(Hil, Cia402EmcyDuringStartUpFailsItNamingTheDriveAndTheCode) {
   HilRig rig("cia402_classic7.yaml", cfg, "faults: [{kind: emcy, drive: 8, at_sdo: 3, param: 0x3210}]\n",
              kCia402DrivesUp);
   ASSERT_TRUE(rig.emu.ready());
-  const hal::LifecycleResult r = rig.start();
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.message.find("drive 8 (joint lh_hfe_joint, cia402) on bus 'lh' (vcan2)"), std::string::npos) << r.message;
-  EXPECT_NE(r.message.find("EMCY 0x3210"), std::string::npos) << r.message;
-  EXPECT_EQ(rig.hw.joint(7).status.state, hal::DriveState::fault);
-  EXPECT_EQ(rig.hw.joint(7).status.fault_code, 0x3210);
+  expect_failed_for_drive_fault(rig.start(), rig, {"drive 8 (joint lh_hfe_joint, cia402) on bus 'lh' (vcan2)", "EMCY 0x3210"},
+                                7, 0x3210);
 }
 
 // CAN.md 1.4 / 4.2: a vendor MIT drive (8-byte replies) reports an error code in byte 7; a
@@ -539,12 +541,8 @@ TEST(Hil, MitVendorErrorDuringStartUpFailsItNamingTheDriveAndTheCode) {
   HilRig rig("mit_classic7.yaml", cfg, "faults: [{kind: vendor_error, drive: 8, param: 0x15}]\n",
              {"--mit-reply-dlc", "8"});
   ASSERT_TRUE(rig.emu.ready());
-  const hal::LifecycleResult r = rig.start();
-  EXPECT_FALSE(r.ok);
-  EXPECT_NE(r.message.find("drive 8 (joint lh_hfe_joint, mit) on bus 'lh' (vcan2)"), std::string::npos) << r.message;
-  EXPECT_NE(r.message.find("error code 0x15"), std::string::npos) << r.message;
-  EXPECT_EQ(rig.hw.joint(7).status.state, hal::DriveState::fault);
-  EXPECT_EQ(rig.hw.joint(7).status.fault_code, 0x15);
+  expect_failed_for_drive_fault(rig.start(), rig, {"drive 8 (joint lh_hfe_joint, mit) on bus 'lh' (vcan2)", "error code 0x15"},
+                                7, 0x15);
 }
 
 // CAN.md 4.4 step 2 after a failed activate(): drive 10 (bus rh, vcan3) is unplugged after the

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 namespace springbok::qp::test {
@@ -76,6 +77,19 @@ inline KktReport kkt_check(const DenseQp& q, const double* x, const double* le, 
   for (const ld v : grad) worst = std::max(worst, std::abs(v));
   r.stationarity = static_cast<double>(worst) / r.scale;
   return r;
+}
+
+// A solver of type S with a problem and a result of its sizes, each on the heap (fixed-size
+// objects too large for the stack): auto [solver, problem, result] = on_heap<S>();
+template <class S>
+struct OnHeap {
+  std::unique_ptr<S> solver = std::make_unique<S>();
+  std::unique_ptr<typename S::ProblemType> problem = std::make_unique<typename S::ProblemType>();
+  std::unique_ptr<typename S::ResultType> result = std::make_unique<typename S::ResultType>();
+};
+template <class S>
+OnHeap<S> on_heap() {
+  return {};
 }
 
 }  // namespace springbok::qp::test

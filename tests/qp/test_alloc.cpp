@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "alloc_trap.hpp"
+#include "kkt_check.hpp"
 #include "qp_file.hpp"
 #include "springbok/qp/solver.hpp"
 #include "test_data.hpp"
@@ -21,9 +22,7 @@ void expect_no_allocation(const std::string& file) {
   std::string error;
   const auto in = springbok::qpfile::read_instance(springbok::test::qp_instance(file), error);
   ASSERT_TRUE(in.has_value()) << error;
-  auto solver = std::make_unique<S>();
-  auto problem = std::make_unique<typename S::ProblemType>();
-  auto result = std::make_unique<typename S::ResultType>();
+  auto [solver, problem, result] = springbok::qp::test::on_heap<S>();
   auto warm = std::make_unique<springbok::qp::ActiveSet<MI>>();
   ASSERT_TRUE(springbok::qpfile::load_problem(*in, *problem));
   typename S::Hint hint;

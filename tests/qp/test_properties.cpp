@@ -474,9 +474,7 @@ TEST_F(QpProperties, RandomBadInputsNeverCrash) {
 // x* = (1, 1, 2), the first two rows active with multipliers 1.
 TEST(QpHint, AHintOneRowOffIsRepairedInTheShortcut) {
   using Small = springbok::qp::Solver<3, 0, 4>;
-  auto solver = std::make_unique<Small>();
-  auto problem = std::make_unique<Small::ProblemType>();
-  auto result = std::make_unique<Small::ResultType>();
+  auto [solver, problem, result] = springbok::qp::test::on_heap<Small>();
   problem->resize(3, 0, 4);
   for (int i = 0; i < 3; ++i) problem->H()(i, i) = 1.0;
   problem->g() << -2.0, -2.0, -2.0;
@@ -528,9 +526,7 @@ TEST(QpHint, AHintOneRowOffIsRepairedInTheShortcut) {
 TEST(QpHint, AHintFurtherThanTheRepairsGoesToTheFullMethod) {
   using Six = springbok::qp::Solver<6, 0, 6>;
   static_assert(Six::kShortcutRepairs < 6, "the empty hint must be more repairs away than the shortcut makes");
-  auto solver = std::make_unique<Six>();
-  auto problem = std::make_unique<Six::ProblemType>();
-  auto result = std::make_unique<Six::ResultType>();
+  auto [solver, problem, result] = springbok::qp::test::on_heap<Six>();
   problem->resize(6, 0, 6);
   for (int i = 0; i < 6; ++i) {
     problem->H()(i, i) = 1.0;
@@ -555,9 +551,7 @@ TEST(QpHint, AHintFurtherThanTheRepairsGoesToTheFullMethod) {
 // dependence (or the lack of room) and leave it to the full method, which skips repeats.
 TEST(QpHint, RepeatedRowsInTheHintAreHarmless) {
   using Tiny = springbok::qp::Solver<4, 1, 2>;
-  auto solver = std::make_unique<Tiny>();
-  auto problem = std::make_unique<Tiny::ProblemType>();
-  auto result = std::make_unique<Tiny::ResultType>();
+  auto [solver, problem, result] = springbok::qp::test::on_heap<Tiny>();
   problem->resize(4, 1, 2);
   for (int i = 0; i < 4; ++i) problem->H()(i, i) = 1.0 + i;
   problem->g() << 1.0, -2.0, 0.5, 3.0;

@@ -176,14 +176,17 @@ std::string stream_error(const std::string& text) {
 }
 
 TEST(Teleop, ABadRecordedStreamIsRefusedNamingItsLine) {
-  EXPECT_EQ(stream_error("0.1 EV_KEY BTN_NOPE 1\n"), "1: unknown EV_KEY code 'BTN_NOPE'");
-  EXPECT_EQ(stream_error("# pad\n0.1 EV_KEY BTN_TL\n"), "2: expected 'TYPE CODE VALUE'");
-  EXPECT_EQ(stream_error("0.2 EV_SYN SYN_REPORT 0\n0.1 EV_SYN SYN_REPORT 0\n"), "2: times must not decrease");
-  EXPECT_EQ(stream_error("nan EV_SYN SYN_REPORT 0\n"), "1: expected a time in seconds (0 to 1e6), got 'nan'");
-  EXPECT_EQ(stream_error("axis ABS_Q 0 1\n"), "1: unknown axis 'ABS_Q'");
-  EXPECT_EQ(stream_error("axis ABS_X 5 5\n"), "1: the axis's MIN must be below its MAX");
-  EXPECT_EQ(stream_error("1.0 unplug now\n"), "1: nothing may follow 'unplug'");
-  EXPECT_EQ(stream_error("0.1 EV_BOGUS X 1\n"), "1: unknown event type 'EV_BOGUS'");
+  const std::pair<const char*, const char*> cases[] = {
+      {"0.1 EV_KEY BTN_NOPE 1\n", "1: unknown EV_KEY code 'BTN_NOPE'"},
+      {"# pad\n0.1 EV_KEY BTN_TL\n", "2: expected 'TYPE CODE VALUE'"},
+      {"0.2 EV_SYN SYN_REPORT 0\n0.1 EV_SYN SYN_REPORT 0\n", "2: times must not decrease"},
+      {"nan EV_SYN SYN_REPORT 0\n", "1: expected a time in seconds (0 to 1e6), got 'nan'"},
+      {"axis ABS_Q 0 1\n", "1: unknown axis 'ABS_Q'"},
+      {"axis ABS_X 5 5\n", "1: the axis's MIN must be below its MAX"},
+      {"1.0 unplug now\n", "1: nothing may follow 'unplug'"},
+      {"0.1 EV_BOGUS X 1\n", "1: unknown event type 'EV_BOGUS'"},
+  };
+  for (const auto& [text, error] : cases) EXPECT_EQ(stream_error(text), error) << text;
 }
 
 // An operator socket that keeps every line, answering "ok" to what the firmware's parser takes.

@@ -52,22 +52,7 @@ const char* ControlMode::request(const ControllerRequest& r, safety::Mode mode) 
 void ControlMode::publish(rt::LatestValue<ControllerSnapshot>& out) noexcept {
   ControllerSnapshot s;
   s.wbc = kind_ == ControlModeKind::wbc;
-  if (s.wbc) {
-    const control::TickReport& r = control_->report();
-    s.engaged = r.engaged;
-    s.gait = r.gait;
-    s.stepping_for_push = r.stepping_for_push;
-    s.trot = r.trot;
-    s.last_tick = r.status;
-    s.stance = r.stance;
-    s.failed_ticks = r.failed_ticks;
-    s.stance_changes = r.stance_changes;
-    s.tare = r.tare;
-    s.wrist_force_n = r.wrist_force_n;
-    s.base_position_m = r.base_pose.head<3>();
-    s.base_velocity_m_s = Quat(r.base_pose[6], r.base_pose[3], r.base_pose[4], r.base_pose[5]).normalized() *
-                          Vec3(r.base_twist.head<3>());
-  }
+  if (s.wbc) s.report = control_->report();
   out.publish(s);
 }
 

@@ -116,9 +116,13 @@ static std::string stance_list(const Stance& stance) {
 }
 
 std::string OperatorServer::controller_line() {
-  ControllerSnapshot c;
-  if (!status_.controller.read(c)) return "error: controller: no state published yet";
-  if (!c.wbc) return "ok controller controller=joint_pd";
+  ControllerSnapshot snapshot;
+  if (!status_.controller.read(snapshot)) return "error: controller: no state published yet";
+  if (!snapshot.wbc) return "ok controller controller=joint_pd";
+  const control::TickReport& c = snapshot.report;
+  // The base estimate's position and its velocity in world axes.
+  const Quat orientation = Quat(c.base_pose[6], c.base_pose[3], c.base_pose[4], c.base_pose[5]).normalized();
+  const Vec3 p = c.base_pose.head<3>(), v = orientation * c.base_twist.head<3>();
   char text[640];
   const control::Tare& t = c.tare;
   std::snprintf(
@@ -128,11 +132,10 @@ std::string OperatorServer::controller_line() {
       "wrist_force_n=%.3f,%.3f,%.3f base_position_m=%.4f,%.4f,%.4f base_velocity_m_s=%.4f,%.4f,%.4f "
       "stepping_for_push=%d",
       c.engaged ? 1 : 0, control::to_string(c.gait), c.trot.step_frequency_hz, c.trot.duty_factor,
-      stance_list(c.stance).c_str(), control::to_string(c.last_tick), static_cast<unsigned long long>(c.failed_ticks),
+      stance_list(c.stance).c_str(), control::to_string(c.status), static_cast<unsigned long long>(c.failed_ticks),
       static_cast<unsigned long long>(c.stance_changes), t.running ? "collecting" : (t.completed > 0 ? "done" : "none"),
       t.completed, t.force_n.x(), t.force_n.y(), t.force_n.z(), c.wrist_force_n.x(), c.wrist_force_n.y(),
-      c.wrist_force_n.z(), c.base_position_m.x(), c.base_position_m.y(), c.base_position_m.z(),
-      c.base_velocity_m_s.x(), c.base_velocity_m_s.y(), c.base_velocity_m_s.z(), c.stepping_for_push ? 1 : 0);
+      c.wrist_force_n.z(), p.x(), p.y(), p.z(), v.x(), v.y(), v.z(), c.stepping_for_push ? 1 : 0);
   return text;
 }
 

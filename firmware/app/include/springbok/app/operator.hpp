@@ -105,18 +105,7 @@ struct OperatorMailbox {
 // The control mode's controller as `controller` reports it (published every tick).
 struct ControllerSnapshot {
   bool wbc = false;  // control.controller is wbc (joint_pd: nothing else is meaningful)
-  bool engaged = false;
-  control::GaitState gait = control::GaitState::stand;
-  bool stepping_for_push = false;  // the trot is one to catch a push (control::PushStepping)
-  gait::TrotParams trot;  // of the running (or last) trot
-  control::TickStatus last_tick = control::TickStatus::ok;
-  Stance stance = kAllFeet;
-  std::uint64_t failed_ticks = 0;
-  std::uint64_t stance_changes = 0;
-  control::Tare tare;
-  Vec3 wrist_force_n = Vec3::Zero();  // tared, EE frame, as the controller used it
-  Vec3 base_position_m = Vec3::Zero();
-  Vec3 base_velocity_m_s = Vec3::Zero();  // world axes
+  control::TickReport report;  // the controller's last tick
 };
 
 // What the loop publishes every tick for `status` (read by the server thread).
