@@ -89,12 +89,12 @@ std::string FlightRecorder::write(DumpReason reason, std::string& error) {
   chunk.reserve(1 << 20);
   for (std::size_t i = 0; i < n; ++i) {
     append_telemetry_csv_row(chunk, copy_[i]);
-    if (chunk.size() > (1 << 20) - 8192 || i + 1 == n) {
+    if (chunk.size() > (1 << 20) - 8192) {
       std::fwrite(chunk.data(), 1, chunk.size(), f);
       chunk.clear();
     }
   }
-  if (n == 0) std::fwrite(chunk.data(), 1, chunk.size(), f);
+  std::fwrite(chunk.data(), 1, chunk.size(), f);  // the rest (the header alone of an empty ring)
   const bool ok = std::fflush(f) == 0 && std::ferror(f) == 0;
   std::fclose(f);
   if (!ok) {
