@@ -808,6 +808,16 @@ def main():
 def write_report(out, lines, figs, checks, present, require):
     """Writes OUT_DIR/report.md (with its targets' verdicts) and returns the exit status for --require."""
     lines += ["", "## Figures", ""] + [f"![{f}]({f})" for f in figs]
+    # springbok-view's pages (tools/experiments/run_all): each run in 3D, opened from the file.
+    views = sorted(n for n in present if os.path.isfile(os.path.join(out, n, "view.html")))
+    if views:
+        lines += ["", "## The runs in 3D", "",
+                  "Each run's page (springbok-view: the robot, its feet's ground forces, the template's rest "
+                  "points and masses, the wrist force; play, pause, seek, speed). Open it in a browser; no server.", ""]
+        lines += [" · ".join(f"[{n}]({n}/view.html)" for n in views)]
+        shots = sorted(f for f in os.listdir(os.path.join(out, "views")) if f.endswith(".png")) \
+            if os.path.isdir(os.path.join(out, "views")) else []
+        lines += [""] + [f"![{f}](views/{f})" for f in shots]
     with open(os.path.join(out, "report.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     print(f"report.py: wrote {os.path.join(out, 'report.md')} ({len(present)} runs)")

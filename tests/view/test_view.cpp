@@ -1,0 +1,309 @@
+// springbok-view: the replay page of a springbok-sim run loaded in a real browser (headless
+// Chromium), seeked, and the joint angles and base position it shows read back from its scene
+// and compared with log.csv; a screenshot kept as the test's artefact; a flight-recorder file
+// replayed; the live mode's page, WebSocket handshake (RFC 6455's own example) and relay of a
+// telemetry datagram; refusals of bad input.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "browser.hpp"
+#include "live_server.hpp"
+#include "run_command.hpp"
+#include "springbok/app/telemetry.hpp"
+#include "springbok/model/model.hpp"
+#include "view_page.hpp"
+
+namespace {
+using namespace springbok;
+namespace fs = std::filesystem;
+
+const fs::path kOut = fs::path(SPRINGBOK_BIN_DIR).parent_path() / "artefacts" / "view";
+
+// A log.csv as rows of named columns (the first column of a repeated name, as springbok-sim's
+// simulator columns come first).
+struct Log {
+  std::vector<std::string> names;
+  std::vector<std::vector<std::string>> rows;
+  int column(const std::string& name) const {
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      if (names[i] == name) return static_cast<int>(i);
+    }
+    ADD_FAILURE() << "no column " << name;
+    return 0;
+  }
+  double at(std::size_t row, const std::string& name) const { return std::stod(rows[row][static_cast<std::size_t>(column(name))]); }
+};
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> cells;
+  std::stringstream ss(line);
+  for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);
+  return cells;
+}
+
+Log read_log(const fs::path& path) {
+  Log log;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  log.names = split(line);
+  while (std::getline(in, line)) log.rows.push_back(split(line));
+  return log;
+}
+
+// One springbok-sim run of the robot file's own base step (any robot), made once.
+const fs::path& sim_run() {
+  static const fs::path dir = [] {
+    const fs::path d = kOut / "base_step";
+    fs::create_directories(kOut);
+    const auto r = test::run_program("", "springbok-sim",
+                                     std::string(SPRINGBOK_SOURCE_DIR) + "/tools/scenarios/any_robot/base_step.yaml --out " +
+                                         d.string());
+    EXPECT_EQ(r.exit_code, 0) << r.out;
+    return d;
+  }();
+  return dir;
+}
+
+// The numbers after `"key":` in the page's readback (a flat JSON object but for `base`, `joints`).
+double number_after(const std::string& text, const std::string& key) {
+  const std::size_t at = text.find("\"" + key + "\":");
+  if (at == std::string::npos) {
+    ADD_FAILURE() << "no " << key << " in " << text.substr(0, 300);
+    return NAN;
+  }
+  return std::stod(text.substr(at + key.size() + 3));
+}
+
+std::string readback_of(const std::string& dom) {
+  const std::size_t start = dom.find("<pre id=\"readback\">");
+  const std::size_t end = dom.find("</pre>", start);
+  if (start == std::string::npos || end == std::string::npos) return {};
+  return dom.substr(start + 19, end - start - 19);
+}
+
+TEST(ViewInBrowser, ShowsTheLoggedJointAnglesAtTheSeekedTime) {
+  const fs::path& run = sim_run();
+  const auto page = test::run_program("", "springbok-view", run.string());
+  ASSERT_EQ(page.exit_code, 0) << page.out;
+  ASSERT_TRUE(fs::is_regular_file(run / "view.html"));
+  const Log log = read_log(run / "log.csv");
+  ASSERT_GT(log.rows.size(), 1000u);
+  view::BrowserRun b;
+  b.browser = view::find_browser("");
+  // Before the push, in it, and at the last sample.
+  for (const double seek_s : {0.5, 1.37, 7.999}) {
+    const std::string readback = readback_of(view::dump_dom(b, run / "view.html", "t=" + std::to_string(seek_s)));
+    ASSERT_FALSE(readback.empty()) << "the page wrote no readback at t=" << seek_s;
+    const double shown_s = number_after(readback, "time_s");
+    // The page shows the last sample at or before the time from the run's start (100 a second).
+    const double start_s = log.at(0, "time_s");
+    EXPECT_LE(shown_s - start_s, seek_s + 1e-6);
+    EXPECT_GT(shown_s - start_s, seek_s - 0.0101);
+    std::size_t row = 0;
+    while (row + 1 < log.rows.size() && std::abs(log.at(row, "time_s") - shown_s) > 5e-7) ++row;
+    ASSERT_NEAR(log.at(row, "time_s"), shown_s, 5e-7) << "no log row at the shown time";
+    for (const auto& joint : robot::kJoints) {
+      const std::string name(joint.name);
+      EXPECT_NEAR(number_after(readback, name), log.at(row, "q_" + name), 2e-6) << name << " at " << shown_s << " s";
+    }
+    const std::size_t base = readback.find("\"base\":[");
+    ASSERT_NE(base, std::string::npos);
+    std::stringstream xyz(readback.substr(base + 8));
+    double p[3];
+    char comma;
+    xyz >> p[0] >> comma >> p[1] >> comma >> p[2];
+    EXPECT_NEAR(p[0], log.at(row, "base_x_m"), 2e-6);
+    EXPECT_NEAR(p[1], log.at(row, "base_y_m"), 2e-6);
+    EXPECT_NEAR(p[2], log.at(row, "base_z_m"), 2e-6);
+  }
+}
+
+TEST(ViewInBrowser, WritesAScreenshotOfTheRunAtATime) {
+  const fs::path& run = sim_run();
+  const fs::path png = kOut / "base_step_at_2s.png";
+  const auto r = test::run_program("", "springbok-view", "--screenshot " + png.string() + " --at 2 " + run.string());
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  std::ifstream in(png, std::ios::binary);
+  char magic[8] = {};
+  in.read(magic, 8);
+  EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+  EXPECT_GT(fs::file_size(png), 20000u) << "a blank page's PNG is a few kB; the robot's scene is more";
+  std::printf("artefact: %s\n", png.c_str());
+}
+
+TEST(ViewPage, ReplaysAFlightRecorderFile) {
+  // A recorder file written with the recorder's own row format, from the run's log.
+  const Log log = read_log(sim_run() / "log.csv");
+  const fs::path file = kOut / "flight-test-1-dump.csv";
+  {
+    std::ofstream out(file);
+    out << app::telemetry_csv_header() << "\n";
+    std::string row;
+    for (std::size_t i = 0; i < 3000; ++i) {
+      app::TelemetryRecord r;
+      r.timestamp_s = 100.0 + log.at(i, "time_s");
+      r.base_position_m = {log.at(i, "base_x_m"), log.at(i, "base_y_m"), log.at(i, "base_z_m")};
+      for (int j = 0; j < kNj; ++j) {
+        r.q_rad[static_cast<std::size_t>(j)] = log.at(i, "q_" + std::string(robot::kJoints[static_cast<std::size_t>(j)].name));
+      }
+      row.clear();
+      app::append_telemetry_csv_row(row, r);
+      out << row;
+    }
+  }
+  const view::Run run = view::load_run(file, 100.0);
+  EXPECT_EQ(run.source, "flight recorder");
+  EXPECT_EQ(run.title, "flight-test-1-dump");
+  ASSERT_EQ(run.time_s.size(), 301u);  // 3 s at 100 per second, and the last row
+  const std::string knee = "q_" + std::string(robot::kJoints[2].name) + "_rad";
+  for (const auto& [name, values] : run.series) {
+    if (name != knee) continue;
+    for (std::size_t k = 0; k < 300; k += 37) {
+      EXPECT_NEAR(values[k], log.at(k * 10, "q_" + std::string(robot::kJoints[2].name)), 1e-6);
+    }
+  }
+  const auto r = test::run_program("", "springbok-view", file.string());
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_TRUE(fs::is_regular_file(kOut / "flight-test-1-dump.html"));
+}
+
+TEST(ViewPage, RefusesBadRunsNamingTheProblem) {
+  fs::create_directories(kOut);
+  const auto refused = [](const std::string& text, const std::string& message) {
+    const fs::path f = kOut / "bad.csv";
+    std::ofstream(f) << text;
+    try {
+      (void)view::load_run(f, 100.0);
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const view::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+  };
+  refused("", "empty");
+  refused("a,b\n1,2\n", "neither a springbok-sim log");
+  refused("time_s,base_x_m\n0,1\n", "no column 'base_y_m'");
+  std::string header = app::telemetry_csv_header();
+  refused(header + "\n1,2\n", "values, the header has");
+  const std::size_t width = static_cast<std::size_t>(std::count(header.begin(), header.end(), ',')) + 1;
+  std::string row = "1";
+  for (std::size_t i = 1; i < width; ++i) row += i == 20 ? ",nan?" : ",0";
+  refused(header + "\n" + row + "\n", "is no number");
+  EXPECT_THROW((void)view::load_run(kOut / "no-such-run", 100.0), view::Error);
+  const auto r = test::run_program("", "springbok-view", (kOut / "no-such-run").string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.out.find("cannot read"), std::string::npos) << r.out;
+  const auto no_at = test::run_program("", "springbok-view", "--screenshot x.png " + sim_run().string());
+  EXPECT_EQ(no_at.exit_code, 1);
+  EXPECT_NE(no_at.out.find("--at"), std::string::npos) << no_at.out;
+}
+
+// ---- live ----------------------------------------------------------------------------------
+
+int connect_to(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in at{};
+  at.sin_family = AF_INET;
+  at.sin_port = htons(static_cast<std::uint16_t>(port));
+  at.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  EXPECT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&at), sizeof at), 0);
+  timeval timeout{5, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  return fd;
+}
+
+std::string receive(int fd, std::size_t at_least, const std::string& until = "") {
+  std::string got;
+  char buf[65536];
+  while (got.size() < at_least || (!until.empty() && got.find(until) == std::string::npos)) {
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    got.append(buf, static_cast<std::size_t>(n));
+  }
+  return got;
+}
+
+TEST(ViewLive, WebSocketAcceptIsRfc6455s) {
+  EXPECT_EQ(view::websocket_accept("dGhlIHNhbXBsZSBub25jZQ=="), "s3pPLMBiTxaQ9kYGzzhZRbK+xOo=");  // RFC 6455 1.3
+}
+
+TEST(ViewLive, ServesThePageAndRelaysTelemetryToTheWebSocket) {
+  view::LiveServer server({"127.0.0.1", 0, "127.0.0.1", 0});
+  std::atomic<bool> stop{false};
+  std::thread serving([&] { server.serve(stop); });
+
+  const int page = connect_to(server.http_port());
+  const std::string get = "GET / HTTP/1.1\r\nHost: x\r\n\r\n";
+  ::send(page, get.data(), get.size(), 0);
+  const std::string html = receive(page, 1, "</html>");
+  EXPECT_NE(html.find("HTTP/1.1 200 OK"), std::string::npos);
+  EXPECT_NE(html.find("window.SPRINGBOK_LIVE"), std::string::npos);
+  EXPECT_NE(html.find("window.SPRINGBOK_ROBOT"), std::string::npos);
+  ::close(page);
+
+  const int ws = connect_to(server.http_port());
+  const std::string upgrade =
+      "GET /telemetry HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+      "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n";
+  ::send(ws, upgrade.data(), upgrade.size(), 0);
+  const std::string reply = receive(ws, 1, "\r\n\r\n");
+  EXPECT_NE(reply.find("101 Switching Protocols"), std::string::npos) << reply;
+  EXPECT_NE(reply.find("Sec-WebSocket-Accept: s3pPLMBiTxaQ9kYGzzhZRbK+xOo="), std::string::npos) << reply;
+
+  // The firmware's datagram, as its telemetry sender writes it.
+  app::TelemetryRecord record;
+  record.timestamp_s = 12.5;
+  record.q_rad[2] = -1.25;
+  const std::string json = app::telemetry_json(record);
+  ASSERT_GT(json.size(), 125u);  // a 16-bit length frame
+  const int udp = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(static_cast<std::uint16_t>(server.telemetry_port()));
+  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  // Until the page is registered as a WebSocket the server may not relay: send until a frame comes.
+  std::string frame;
+  for (int attempt = 0; attempt < 50 && frame.size() < 4 + json.size(); ++attempt) {
+    ::sendto(udp, json.data(), json.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to);
+    timeval shortwait{0, 100000};
+    ::setsockopt(ws, SOL_SOCKET, SO_RCVTIMEO, &shortwait, sizeof shortwait);
+    frame += receive(ws, 4 + json.size());
+  }
+  ASSERT_GE(frame.size(), 4 + json.size());
+  EXPECT_EQ(static_cast<unsigned char>(frame[0]), 0x81);  // FIN, text
+  EXPECT_EQ(static_cast<unsigned char>(frame[1]), 126);
+  EXPECT_EQ((static_cast<unsigned char>(frame[2]) << 8) | static_cast<unsigned char>(frame[3]), static_cast<int>(json.size()));
+  EXPECT_EQ(frame.substr(4, json.size()), json);
+  ::close(udp);
+  ::close(ws);
+  stop = true;
+  serving.join();
+  EXPECT_GE(server.counts().datagrams, 1);
+  EXPECT_GE(server.counts().frames_sent, 1);
+}
+
+TEST(ViewLive, TheToolRefusesAConfigWithoutTelemetry) {
+  fs::create_directories(kOut);
+  const fs::path config = kOut / "no_telemetry.yaml";
+  std::ofstream(config) << "telemetry: {enabled: false}\n";
+  const auto r = test::run_program("", "springbok-view", "--config " + config.string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.out.find("telemetry"), std::string::npos) << r.out;
+}
+
+}  // namespace
