@@ -1,7 +1,11 @@
 // HIL: the deployed binary (springbok) over CAN against the simulated robot behind the drive
 // emulator: standing, the whole-body controller with the trunk IMU and the wrist F/T, and what it
-// does when they fail; the bus round-trip time.
+// does when they fail, and the flight recorder's file of it; the bus round-trip time.
+#include <array>
+#include <filesystem>
+
 #include "hil_rig.hpp"
+#include "springbok/safety/supervisor.hpp"
 
 namespace springbok::can {
 namespace {
@@ -478,8 +482,78 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
 // Case 3: a sensor the controller needs, lost in the control mode: damping within
 // stale_ticks + kDampingSlackTicks steps, latched, logged with its name.
 // `detect_ticks`: how many samples the fault takes to be one (0: the sensors' stale_ticks).
+const std::string kRecorderDir = "/tmp/springbok_hil_recorder";  // recorder.dir of that config
+
+// The flight recorder's file written at the fault (`flight-*-fault.csv` in kRecorderDir) holds
+// the ticks up to the fault: contiguous, the control mode without a fault before it, at least a
+// second of them, then the fault and the damping it latched; it was written at the fault, so it
+// ends before the file written at the stop does.
+void expect_recorder_fault_file(const std::string& fault_name) {
+  std::vector<std::filesystem::path> fault_files, stop_files;
+  for (const auto& e : std::filesystem::directory_iterator(kRecorderDir)) {
+    const std::string name = e.path().filename().string();
+    if (name.ends_with("-fault.csv")) fault_files.push_back(e.path());
+    if (name.ends_with("-stop.csv")) stop_files.push_back(e.path());
+  }
+  ASSERT_EQ(fault_files.size(), 1u) << "one fault, one file";
+  ASSERT_EQ(stop_files.size(), 1u);
+  const auto read = [](const std::filesystem::path& path) {
+    std::ifstream in(path);
+    std::string line;
+    std::getline(in, line);
+    std::vector<std::string> names;
+    std::stringstream header(line);
+    for (std::string cell; std::getline(header, cell, ',');) names.push_back(cell);
+    const auto column = [&](const std::string& n) {
+      return static_cast<std::size_t>(std::find(names.begin(), names.end(), n) - names.begin());
+    };
+    const std::size_t tick = column("tick"), mode = column("mode"), faults = column("faults");
+    EXPECT_LT(faults, names.size()) << path;
+    std::vector<std::array<unsigned long long, 3>> rows;  // tick, mode, faults
+    while (std::getline(in, line)) {
+      std::vector<std::string> cells;
+      std::stringstream row(line);
+      for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+      if (cells.size() != names.size()) {
+        ADD_FAILURE() << path << ": a row of " << cells.size() << " values, the header has " << names.size();
+        break;
+      }
+      rows.push_back({std::stoull(cells[tick]), std::stoull(cells[mode]), std::stoull(cells[faults])});
+    }
+    return rows;
+  };
+  const auto rows = read(fault_files[0]);
+  const auto stop_rows = read(stop_files[0]);
+  ASSERT_FALSE(rows.empty());
+  ASSERT_FALSE(stop_rows.empty());
+  std::size_t gaps = 0, first_fault = rows.size();
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    if (i > 0 && rows[i][0] != rows[i - 1][0] + 1) ++gaps;
+    if (i > 0) {
+      ASSERT_GT(rows[i][0], rows[i - 1][0]) << "ticks in order";
+    }
+    if (first_fault == rows.size() && rows[i][2] != 0) first_fault = i;
+  }
+  std::printf("HIL recorder: %s: %zu ticks (%llu..%llu), %zu gaps; %s at tick %llu, %zu ticks before it; the stop's "
+              "file ends at tick %llu\n",
+              fault_files[0].filename().c_str(), rows.size(), rows.front()[0], rows.back()[0], gaps, fault_name.c_str(),
+              first_fault < rows.size() ? rows[first_fault][0] : 0ull, first_fault, stop_rows.back()[0]);
+  EXPECT_EQ(gaps, 0u) << "every tick up to the fault";
+  ASSERT_LT(first_fault, rows.size()) << "the fault is in its file";
+  EXPECT_GE(first_fault, 1000u) << "at least a second before the fault";
+  const auto control = static_cast<unsigned long long>(springbok::safety::Mode::control);
+  const auto damping = static_cast<unsigned long long>(springbok::safety::Mode::damping);
+  for (std::size_t i = first_fault - 200; i < first_fault; ++i) {
+    EXPECT_EQ(rows[i][1], control) << "tick " << rows[i][0] << " before the fault";
+  }
+  EXPECT_EQ(rows.back()[1], damping) << "the file holds the damping the fault latched";
+  for (std::size_t i = first_fault; i < rows.size(); ++i) EXPECT_NE(rows[i][2], 0u) << "latched";
+  EXPECT_LT(rows.back()[0], stop_rows.back()[0]) << "written at the fault, not at the stop";
+}
+
 void expect_sensor_loss_damps(const std::string& fault_yaml, unsigned long long fault_at, const std::string& fault_name,
                               std::uint32_t detect_ticks = 0) {
+  std::filesystem::remove_all(kRecorderDir);
   const int time_scale = hil_time_scale(20);
   ASSERT_GE(time_scale, 1);
   const double wall_per_sim_s = time_scale * 1.3 + 5.0;
@@ -519,6 +593,7 @@ void expect_sensor_loss_damps(const std::string& fault_yaml, unsigned long long 
   EXPECT_EQ(reset.rfind("error: mode control", 0), 0u) << "latched: " << reset;
   EXPECT_NE(fw_out.find("(new=" + fault_name + " latched=" + fault_name + ")"), std::string::npos) << fw_out;
   EXPECT_NE(fw_out.find("(control -> damping)"), std::string::npos) << fw_out;
+  expect_recorder_fault_file(fault_name);
 }
 
 // Case 3's corrupt quaternions and case 4: the first actuating steps damp (CAN.md 4.2 step 5),

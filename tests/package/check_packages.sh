@@ -33,7 +33,7 @@ grep -q 'springbok-sim\|springbok-on-sim' <<<"$list" && fail "$fw holds a simula
 simlist=""
 [[ $have_sim == 1 ]] && simlist=$(dpkg-deb -c "$sim" | awk '{print $6}')
 [[ $have_sim == 1 ]] && for f in ./usr/bin/springbok-on-sim ./usr/bin/springbok-sim ./usr/bin/drive_emulator ./usr/bin/springbok-dyn \
-         ./usr/bin/springbok-qp ./usr/bin/urdf2model ./usr/share/springbok/scenarios/base_step_mb92.yaml; do
+         ./usr/bin/springbok-qp ./usr/bin/urdf2model ./usr/bin/springbok-view ./usr/share/springbok/scenarios/base_step_mb92.yaml; do
   grep -qx "$f" <<<"$simlist" || fail "$sim lacks $f"
 done
 
@@ -86,4 +86,5 @@ case $arch in
 esac || fail "--version's kernels on $arch: $kernels"
 ver=$(head -n 1 <<<"$ver")
 [[ $have_sim == 0 ]] || "$root/usr/bin/springbok-sim" --help >/dev/null || fail "springbok-sim --help"
+[[ $have_sim == 0 ]] || "$root/usr/bin/springbok-view" --help >/dev/null || fail "springbok-view --help"
 echo "check_packages: $fw ($(wc -l <<<"$list") entries)$([[ $have_sim == 1 ]] && echo ", $sim ($(wc -l <<<"$simlist") entries)"): ok; $ver"
