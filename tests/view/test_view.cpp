@@ -8,7 +8,9 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -294,6 +296,44 @@ TEST(ViewLive, ServesThePageAndRelaysTelemetryToTheWebSocket) {
   stop = true;
   serving.join();
   EXPECT_GE(server.counts().datagrams, 1);
+  EXPECT_GE(server.counts().frames_sent, 1);
+}
+
+// The live page in the browser: served by the relay, fed the firmware's records over its
+// WebSocket, it draws the newest one; what it shows is read back from its scene.
+TEST(ViewInBrowser, TheLivePageShowsTheRelayedRecord) {
+  view::LiveServer server({"127.0.0.1", 0, "127.0.0.1", 0});
+  std::atomic<bool> stop{false};
+  std::thread serving([&] { server.serve(stop); });
+  app::TelemetryRecord record;
+  record.timestamp_s = 42.5;
+  record.base_position_m = {0.25, -0.5, 0.6};
+  for (int j = 0; j < kNj; ++j) record.q_rad[static_cast<std::size_t>(j)] = 0.01 * (j + 1) - 0.1;
+  const std::string json = app::telemetry_json(record);
+  std::thread feeding([&] {  // the firmware: a record every 10 ms
+    const int udp = ::socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in to{};
+    to.sin_family = AF_INET;
+    to.sin_port = htons(static_cast<std::uint16_t>(server.telemetry_port()));
+    to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    while (!stop) {
+      ::sendto(udp, json.data(), json.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to);
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    ::close(udp);
+  });
+  view::BrowserRun b;
+  b.browser = view::find_browser("");
+  const std::string readback = readback_of(view::dump_dom_url(b, "http://127.0.0.1:" + std::to_string(server.http_port()) + "/"));
+  stop = true;
+  feeding.join();
+  serving.join();
+  ASSERT_FALSE(readback.empty()) << "the live page drew no record";
+  EXPECT_NEAR(number_after(readback, "time_s"), 42.5, 1e-9);
+  for (int j = 0; j < kNj; ++j) {
+    const std::string name(robot::kJoints[static_cast<std::size_t>(j)].name);
+    EXPECT_NEAR(number_after(readback, name), 0.01 * (j + 1) - 0.1, 1e-9) << name;
+  }
   EXPECT_GE(server.counts().frames_sent, 1);
 }
 

@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdlib>
 #include <vector>
 
@@ -29,14 +30,17 @@ struct TempDir {
   TempDir& operator=(const TempDir&) = delete;
 };
 
-// Runs the browser headless on `page#fragment` with `extra` flags; its stdout is returned, its
-// stderr (WebGL's and the sandbox's chatter) dropped. Fails on a non-zero exit.
-std::string run_browser(const BrowserRun& b, const std::filesystem::path& page, const std::string& fragment,
-                        const std::vector<std::string>& extra) {
+std::string file_url(const std::filesystem::path& page, const std::string& fragment) {
   if (!std::filesystem::is_regular_file(page)) throw Error(fmt::format("{}: no such page", page.string()));
-  TempDir profile;
   std::string url = "file://" + std::filesystem::absolute(page).lexically_normal().string();
   if (!fragment.empty()) url += "#" + fragment;
+  return url;
+}
+
+// Runs the browser headless on `url` with `extra` flags; its stdout is returned, its stderr
+// (WebGL's and the sandbox's chatter) dropped. Fails on a non-zero exit.
+std::string run_browser(const BrowserRun& b, const std::string& url, const std::vector<std::string>& extra) {
+  TempDir profile;
   // Flags: headless WebGL through SwiftShader (no GPU), and none of the browser's own network
   // traffic (robots and CI machines are often offline).
   std::vector<std::string> args = {
@@ -117,14 +121,16 @@ void screenshot(const BrowserRun& b, const std::filesystem::path& page, const st
                 const std::filesystem::path& png) {
   std::error_code ignored;
   std::filesystem::remove(png, ignored);
-  run_browser(b, page, fragment, {"--screenshot=" + std::filesystem::absolute(png).string()});
+  run_browser(b, file_url(page, fragment), {"--screenshot=" + std::filesystem::absolute(png).string()});
   if (!std::filesystem::is_regular_file(png) || std::filesystem::file_size(png) == 0) {
     throw Error(fmt::format("{}: the browser wrote no screenshot", png.string()));
   }
 }
 
 std::string dump_dom(const BrowserRun& b, const std::filesystem::path& page, const std::string& fragment) {
-  return run_browser(b, page, fragment, {"--dump-dom"});
+  return run_browser(b, file_url(page, fragment), {"--dump-dom"});
 }
+
+std::string dump_dom_url(const BrowserRun& b, const std::string& url) { return run_browser(b, url, {"--dump-dom"}); }
 
 }  // namespace springbok::view

@@ -23,5 +23,7 @@ void screenshot(const BrowserRun& b, const std::filesystem::path& page, const st
 
 // Loads `page` headless and returns the DOM after its scripts ran (--dump-dom).
 std::string dump_dom(const BrowserRun& b, const std::filesystem::path& page, const std::string& fragment);
+// The same for a page served at `url` (the live page).
+std::string dump_dom_url(const BrowserRun& b, const std::string& url);
 
 }  // namespace springbok::view
