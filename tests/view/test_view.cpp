@@ -2,7 +2,8 @@
 // Chromium), seeked, and the joint angles and base position it shows read back from its scene
 // and compared with log.csv; a screenshot kept as the test's artefact; a flight-recorder file
 // replayed; the live mode's page, WebSocket handshake (RFC 6455's own example) and relay of a
-// telemetry datagram; refusals of bad input.
+// telemetry datagram, and the live page in the browser drawing the relayed record; refusals of
+// bad input.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -324,11 +325,12 @@ TEST(ViewInBrowser, TheLivePageShowsTheRelayedRecord) {
   });
   view::BrowserRun b;
   b.browser = view::find_browser("");
-  const std::string readback = readback_of(view::dump_dom_url(b, "http://127.0.0.1:" + std::to_string(server.http_port()) + "/"));
+  const std::string readback =
+      readback_of(view::dump_dom_url(b, "http://127.0.0.1:" + std::to_string(server.http_port()) + "/", 500));
   stop = true;
   feeding.join();
   serving.join();
-  ASSERT_FALSE(readback.empty()) << "the live page drew no record";
+  ASSERT_FALSE(readback.empty()) << "the live page drew no record; " << server.counts().frames_sent << " sent to it";
   EXPECT_NEAR(number_after(readback, "time_s"), 42.5, 1e-9);
   for (int j = 0; j < kNj; ++j) {
     const std::string name(robot::kJoints[static_cast<std::size_t>(j)].name);

@@ -47,8 +47,7 @@ std::string run_browser(const BrowserRun& b, const std::string& url, const std::
       b.browser.string(), "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
       "--disable-quic", "--no-first-run", "--disable-background-networking", "--disable-component-update",
       "--disable-sync", "--hide-scrollbars", "--mute-audio", "--allow-file-access-from-files",
-      "--user-data-dir=" + profile.path.string(), fmt::format("--window-size={},{}", b.width_px, b.height_px),
-      "--virtual-time-budget=10000"};
+      "--user-data-dir=" + profile.path.string(), fmt::format("--window-size={},{}", b.width_px, b.height_px)};
   args.insert(args.end(), extra.begin(), extra.end());
   args.push_back(url);
   std::vector<char*> argv;
@@ -121,16 +120,19 @@ void screenshot(const BrowserRun& b, const std::filesystem::path& page, const st
                 const std::filesystem::path& png) {
   std::error_code ignored;
   std::filesystem::remove(png, ignored);
-  run_browser(b, file_url(page, fragment), {"--screenshot=" + std::filesystem::absolute(png).string()});
+  run_browser(b, file_url(page, fragment),
+              {"--virtual-time-budget=10000", "--screenshot=" + std::filesystem::absolute(png).string()});
   if (!std::filesystem::is_regular_file(png) || std::filesystem::file_size(png) == 0) {
     throw Error(fmt::format("{}: the browser wrote no screenshot", png.string()));
   }
 }
 
 std::string dump_dom(const BrowserRun& b, const std::filesystem::path& page, const std::string& fragment) {
-  return run_browser(b, file_url(page, fragment), {"--dump-dom"});
+  return run_browser(b, file_url(page, fragment), {"--virtual-time-budget=10000", "--dump-dom"});
 }
 
-std::string dump_dom_url(const BrowserRun& b, const std::string& url) { return run_browser(b, url, {"--dump-dom"}); }
+std::string dump_dom_url(const BrowserRun& b, const std::string& url, int virtual_ms) {
+  return run_browser(b, url, {fmt::format("--virtual-time-budget={}", virtual_ms), "--dump-dom"});
+}
 
 }  // namespace springbok::view

@@ -23,7 +23,7 @@ void screenshot(const BrowserRun& b, const std::filesystem::path& page, const st
 
 // Loads `page` headless and returns the DOM after its scripts ran (--dump-dom).
 std::string dump_dom(const BrowserRun& b, const std::filesystem::path& page, const std::string& fragment);
-// The same for a page served at `url` (the live page).
-std::string dump_dom_url(const BrowserRun& b, const std::string& url);
+// The DOM of a page served at `url` (the live page), `virtual_ms` of the page's time after its load.
+std::string dump_dom_url(const BrowserRun& b, const std::string& url, int virtual_ms);
 
 }  // namespace springbok::view

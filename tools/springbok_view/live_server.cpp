@@ -22,6 +22,11 @@ namespace {
 constexpr std::size_t kMaxRequestBytes = 16 * 1024;
 constexpr std::size_t kMaxPendingBytes = 1 << 20;  // beyond this a page misses records
 constexpr const char* kTelemetryPath = "/telemetry";
+// The live page asks for it while loading; it is answered (204) when a page says, over its
+// WebSocket ("drawn"), that it has drawn a record: the page's load ends with the robot shown (a
+// headless browser that captures at the load, as the browser test's, then shows it).
+constexpr const char* kFirstRecordPath = "/first-record";
+constexpr const char* kNoContent = "HTTP/1.1 204 No Content\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n";
 
 in_addr parse_ipv4(const std::string& address, const char* what) {
   in_addr a{};
@@ -148,7 +153,7 @@ bool LiveServer::read_client(Client& c) {
     if (!c.websocket && c.in.size() > kMaxRequestBytes) return false;
   }
   if (c.websocket) {
-    // The page sends nothing but control frames; a close frame (opcode 8) ends it.
+    // The page sends "drawn" (a text frame) once, and control frames; a close frame ends it.
     while (c.in.size() >= 2) {
       const auto b0 = static_cast<unsigned char>(c.in[0]), b1 = static_cast<unsigned char>(c.in[1]);
       std::size_t length = b1 & 0x7f, header = 2;
@@ -162,6 +167,11 @@ bool LiveServer::read_client(Client& c) {
       if ((b1 & 0x80) != 0) header += 4;  // the mask
       if (c.in.size() < header + length) break;
       if ((b0 & 0x0f) == 0x8) return false;
+      if ((b0 & 0x0f) == 0x1 && (b1 & 0x80) != 0 && length == 5) {  // client frames are masked
+        std::string text = c.in.substr(header, length);
+        for (std::size_t i = 0; i < length; ++i) text[i] = static_cast<char>(text[i] ^ c.in[header - 4 + i % 4]);
+        if (text == "drawn") release_awaiting();
+      }
       c.in.erase(0, header + length);
     }
     return true;
@@ -188,6 +198,12 @@ bool LiveServer::read_client(Client& c) {
       c.websocket = true;
       return flush(c);
     }
+  } else if (path == kFirstRecordPath) {
+    if (!drawn_) {
+      c.awaiting_record = true;
+      return true;
+    }
+    c.out += kNoContent;
   } else if (path == "/" || path == "/index.html") {
     c.out += http_response("200 OK", "text/html; charset=utf-8", page_);
   } else {
@@ -220,6 +236,16 @@ void LiveServer::relay(const char* data, std::size_t size) {
     }
     append_text_frame(c.out, data, size);
     ++counts_.frames_sent;
+  }
+}
+
+void LiveServer::release_awaiting() {
+  drawn_ = true;
+  for (auto& c : clients_) {
+    if (!c.awaiting_record) continue;
+    c.awaiting_record = false;
+    c.out += kNoContent;
+    c.close_when_sent = true;
   }
 }
 
@@ -257,6 +283,7 @@ void LiveServer::serve(const std::atomic<bool>& stop) {
     }
     for (std::size_t i = 0; i < clients_.size(); ++i) {
       if (keep[i] && !clients_[i].out.empty()) keep[i] = flush(clients_[i]);
+      if (keep[i] && clients_[i].close_when_sent && clients_[i].out.empty()) keep[i] = false;
     }
     std::size_t w = 0;
     for (std::size_t i = 0; i < clients_.size(); ++i) {

@@ -45,11 +45,14 @@ class LiveServer {
     bool websocket = false;   // upgraded; else still reading its HTTP request
     std::string in;           // what it sent, not yet handled
     std::string out;          // what it has not yet taken
+    bool awaiting_record = false;  // GET /first-record: answered once a page has been sent one
+    bool close_when_sent = false;
   };
   void accept_client();
   bool read_client(Client& c);
   void relay(const char* data, std::size_t size);
   bool flush(Client& c);
+  void release_awaiting();
 
   LiveOptions options_;
   int http_fd_ = -1;
@@ -58,6 +61,7 @@ class LiveServer {
   int telemetry_port_ = 0;
   std::string page_;
   std::vector<Client> clients_;
+  bool drawn_ = false;  // a page has drawn a record (GET /first-record is answered at once)
   LiveCounts counts_;
 };
 

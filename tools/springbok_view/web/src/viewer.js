@@ -337,13 +337,26 @@ if (run) {
   const status = (text) => { $('time').textContent = text; };
   const connect = () => {
     const ws = new WebSocket(`ws://${location.host}${liveConfig.path}`);
+    let told = false;
     ws.onmessage = (e) => {
-      try { latest = JSON.parse(e.data); ++received; requestRender(); } catch (err) { /* not a record */ }
+      try { latest = JSON.parse(e.data); } catch (err) { return; /* not a record */ }
+      ++received;
+      if (!told) {  // the first record: drawn now, and the server told (it ends the page's load)
+        frame(performance.now());
+        ws.send('drawn');
+        told = true;
+      }
+      requestRender();
     };
     ws.onopen = () => status('connected: waiting for telemetry');
     ws.onclose = () => { status('disconnected: retrying'); setTimeout(connect, 1000); };
   };
   connect();
+  // The page's load waits for its first record to be drawn (live_server.cpp: /first-record).
+  const firstRecord = new Image();
+  firstRecord.hidden = true;
+  firstRecord.src = '/first-record';
+  document.body.appendChild(firstRecord);
   frame = (now) => {
     renderQueued = false;
     if (latest) {
