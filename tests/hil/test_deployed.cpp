@@ -4,6 +4,7 @@
 #include <array>
 #include <filesystem>
 
+#include "deployed_rig.hpp"
 #include "hil_rig.hpp"
 #include "springbok/safety/supervisor.hpp"
 
@@ -12,136 +13,11 @@ namespace {
 
 using namespace hil;
 
-// The deployed binary as a child process; stdout and stderr into one file.
-class Firmware {
- public:
-  Firmware(const std::string& config, int time_scale) {
-    out_ = "/tmp/springbok_fw_out_" + std::to_string(::getpid());
-    std::vector<std::string> args{std::string(SPRINGBOK_BIN_DIR) + "/springbok", "--config", config, "--time-scale",
-                                  std::to_string(time_scale)};
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      std::freopen(out_.c_str(), "w", stdout);
-      ::dup2(::fileno(stdout), 2);
-      std::vector<char*> argv;
-      for (std::string& a : args) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      ::execv(argv[0], argv.data());
-      ::_exit(127);
-    }
-  }
-  ~Firmware() { stop(); }
-  bool running() {
-    int status = 0;
-    return pid_ > 0 && ::waitpid(pid_, &status, WNOHANG) == 0;
-  }
-  // SIGTERM (orderly stop: damping, drives disabled); returns everything it printed.
-  std::string stop() {
-    if (pid_ > 0) {
-      ::kill(pid_, SIGTERM);
-      ::waitpid(pid_, &status_, 0);
-      pid_ = -1;
-      std::ifstream in(out_);
-      std::stringstream ss;
-      ss << in.rdbuf();
-      output_ = ss.str();
-      ::unlink(out_.c_str());
-    }
-    return output_;
-  }
-  int exit_status() const { return status_; }
-
- private:
-  pid_t pid_ = -1;
-  int status_ = -1;
-  std::string out_, output_;
-};
-
-// One line to the operator socket, its one-line answer ("" when the socket is not there).
-std::string operator_line(const std::string& socket_path, const std::string& line) {
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", socket_path.c_str());
-  std::string reply;
-  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0) {
-    const std::string msg = line + "\n";
-    if (::write(fd, msg.data(), msg.size()) == static_cast<ssize_t>(msg.size())) {
-      char c = 0;
-      while (::read(fd, &c, 1) == 1 && c != '\n') reply += c;
-    }
-  }
-  ::close(fd);
-  return reply;
-}
-
-// One line of the emulator's ground-truth trace (--truth-log; bullet_motion.hpp names the columns).
-struct TruthSample {
-  double t_s = 0.0, trunk_z_m = 0.0, tilt_rad = 0.0;
-  int non_foot_contact = 0;
-  double trunk_x_m = 0.0, trunk_y_m = 0.0;
-  Vec3 hand_m = Vec3::Zero(), hand_force_n = Vec3::Zero();
-  int foot_contacts = 0;  // bit per foot: lf 1, rf 2, lh 4, rh 8
-  char command = 'o';     // what the drives were told: o off, z zero torque, d damping, p position PD, t torque
-  unsigned long long step = 0;
-};
-
-// The emulator's ground-truth trace, as far as it is written (a partial last line is skipped).
-std::vector<TruthSample> read_truth(const std::string& path) {
-  std::vector<TruthSample> out;
-  std::ifstream in(path);
-  for (std::string line; std::getline(in, line);) {
-    TruthSample t;
-    double hx, hy, hz, fx, fy, fz;
-    if (std::sscanf(line.c_str(), "%lf %lf %lf %d %lf %lf %lf %lf %lf %lf %lf %lf %d %c %llu", &t.t_s, &t.trunk_z_m,
-                    &t.tilt_rad, &t.non_foot_contact, &t.trunk_x_m, &t.trunk_y_m, &hx, &hy, &hz, &fx, &fy, &fz,
-                    &t.foot_contacts, &t.command, &t.step) != 15) {
-      continue;
-    }
-    t.hand_m = Vec3(hx, hy, hz);
-    t.hand_force_n = Vec3(fx, fy, fz);
-    out.push_back(t);
-  }
-  return out;
-}
-
-// The time of the trace's last complete line (reads only the file's tail).
-double truth_time(const std::string& path) {
-  std::ifstream in(path, std::ios::ate);
-  const std::streamoff size = in.tellg();
-  if (size <= 0) return 0.0;
-  in.seekg(std::max<std::streamoff>(0, size - 400));
-  std::string tail((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const std::size_t end = tail.rfind('\n');
-  if (end == std::string::npos) return 0.0;
-  const std::size_t start = tail.rfind('\n', end == 0 ? 0 : end - 1);
-  if (start == std::string::npos) return 0.0;
-  return std::atof(tail.c_str() + start + 1);
-}
-
-// The deployed binary's --time-scale: SPRINGBOK_HIL_TIME_SCALE or `fallback`.
 // A lost sensor damps the robot within stale_ticks + 2 emulator steps of the fault (a tick to
 // see it stale, one for the command to reach the drives), one more when the last good sample
 // before it reached the host a tick late (the VM's latency, CAN.md 5): it counted as fresh a
 // tick later, and the staleness began a tick later.
 constexpr unsigned long long kDampingSlackTicks = 3;
-
-int hil_time_scale(int fallback) {
-  const char* env = std::getenv("SPRINGBOK_HIL_TIME_SCALE");
-  return env != nullptr ? std::atoi(env) : fallback;
-}
-
-// Waits (wall clock) until done() or the firmware exits or `limit_s` passes.
-template <class Done>
-bool wait_for(Firmware& fw, double limit_s, Done&& done) {
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(limit_s);
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    if (!fw.running()) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  }
-  return false;
-}
 
 // The trunk height over flat ground for these joint angles with the trunk level:
 // the lowest foot sphere touches the ground (springbok::dyn forward kinematics).
