@@ -1,9 +1,8 @@
 // springbok-view: the replay page of a springbok-sim run loaded in a real browser (headless
 // Chromium), seeked, and the joint angles and base position it shows read back from its scene
 // and compared with log.csv; a screenshot kept as the test's artefact; a flight-recorder file
-// replayed; the live mode's page, WebSocket handshake (RFC 6455's own example) and relay of a
-// telemetry datagram, and the live page in the browser drawing the relayed record; refusals of
-// bad input.
+// replayed; the live page in the browser drawing the record the relay sent it; refusals of bad
+// input. (The relay without a browser: test_view_live.cpp.)
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -218,87 +217,9 @@ TEST(ViewPage, RefusesBadRunsNamingTheProblem) {
 
 // ---- live ----------------------------------------------------------------------------------
 
-int connect_to(int port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in at{};
-  at.sin_family = AF_INET;
-  at.sin_port = htons(static_cast<std::uint16_t>(port));
-  at.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  EXPECT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&at), sizeof at), 0);
-  timeval timeout{5, 0};
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  return fd;
-}
 
-std::string receive(int fd, std::size_t at_least, const std::string& until = "") {
-  std::string got;
-  char buf[65536];
-  while (got.size() < at_least || (!until.empty() && got.find(until) == std::string::npos)) {
-    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
-    if (n <= 0) break;
-    got.append(buf, static_cast<std::size_t>(n));
-  }
-  return got;
-}
 
-TEST(ViewLive, WebSocketAcceptIsRfc6455s) {
-  EXPECT_EQ(view::websocket_accept("dGhlIHNhbXBsZSBub25jZQ=="), "s3pPLMBiTxaQ9kYGzzhZRbK+xOo=");  // RFC 6455 1.3
-}
 
-TEST(ViewLive, ServesThePageAndRelaysTelemetryToTheWebSocket) {
-  view::LiveServer server({"127.0.0.1", 0, "127.0.0.1", 0});
-  std::atomic<bool> stop{false};
-  std::thread serving([&] { server.serve(stop); });
-
-  const int page = connect_to(server.http_port());
-  const std::string get = "GET / HTTP/1.1\r\nHost: x\r\n\r\n";
-  ::send(page, get.data(), get.size(), 0);
-  const std::string html = receive(page, 1, "</html>");
-  EXPECT_NE(html.find("HTTP/1.1 200 OK"), std::string::npos);
-  EXPECT_NE(html.find("window.SPRINGBOK_LIVE"), std::string::npos);
-  EXPECT_NE(html.find("window.SPRINGBOK_ROBOT"), std::string::npos);
-  ::close(page);
-
-  const int ws = connect_to(server.http_port());
-  const std::string upgrade =
-      "GET /telemetry HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-      "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n";
-  ::send(ws, upgrade.data(), upgrade.size(), 0);
-  const std::string reply = receive(ws, 1, "\r\n\r\n");
-  EXPECT_NE(reply.find("101 Switching Protocols"), std::string::npos) << reply;
-  EXPECT_NE(reply.find("Sec-WebSocket-Accept: s3pPLMBiTxaQ9kYGzzhZRbK+xOo="), std::string::npos) << reply;
-
-  // The firmware's datagram, as its telemetry sender writes it.
-  app::TelemetryRecord record;
-  record.timestamp_s = 12.5;
-  record.q_rad[2] = -1.25;
-  const std::string json = app::telemetry_json(record);
-  ASSERT_GT(json.size(), 125u);  // a 16-bit length frame
-  const int udp = ::socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in to{};
-  to.sin_family = AF_INET;
-  to.sin_port = htons(static_cast<std::uint16_t>(server.telemetry_port()));
-  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  // Until the page is registered as a WebSocket the server may not relay: send until a frame comes.
-  std::string frame;
-  for (int attempt = 0; attempt < 50 && frame.size() < 4 + json.size(); ++attempt) {
-    ::sendto(udp, json.data(), json.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to);
-    timeval shortwait{0, 100000};
-    ::setsockopt(ws, SOL_SOCKET, SO_RCVTIMEO, &shortwait, sizeof shortwait);
-    frame += receive(ws, 4 + json.size());
-  }
-  ASSERT_GE(frame.size(), 4 + json.size());
-  EXPECT_EQ(static_cast<unsigned char>(frame[0]), 0x81);  // FIN, text
-  EXPECT_EQ(static_cast<unsigned char>(frame[1]), 126);
-  EXPECT_EQ((static_cast<unsigned char>(frame[2]) << 8) | static_cast<unsigned char>(frame[3]), static_cast<int>(json.size()));
-  EXPECT_EQ(frame.substr(4, json.size()), json);
-  ::close(udp);
-  ::close(ws);
-  stop = true;
-  serving.join();
-  EXPECT_GE(server.counts().datagrams, 1);
-  EXPECT_GE(server.counts().frames_sent, 1);
-}
 
 // The live page in the browser: served by the relay, fed the firmware's records over its
 // WebSocket, it draws the newest one; what it shows is read back from its scene.
@@ -339,13 +260,5 @@ TEST(ViewInBrowser, TheLivePageShowsTheRelayedRecord) {
   EXPECT_GE(server.counts().frames_sent, 1);
 }
 
-TEST(ViewLive, TheToolRefusesAConfigWithoutTelemetry) {
-  fs::create_directories(kOut);
-  const fs::path config = kOut / "no_telemetry.yaml";
-  std::ofstream(config) << "telemetry: {enabled: false}\n";
-  const auto r = test::run_program("", "springbok-view", "--config " + config.string());
-  EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.out.find("telemetry"), std::string::npos) << r.out;
-}
 
 }  // namespace
