@@ -135,7 +135,96 @@ TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
 // times below (the emulator's clock; 0 = the end of its settling; sensor sample k = step k).
 
 const std::string kWbcConfig = kConfigDir + "wbc_mit8.yaml";
+const std::string kRecorderDir = "/tmp/springbok_hil_recorder";  // recorder.dir of that config
 const std::string kWbcSocket = "/tmp/springbok_hil_wbc.sock";  // operator.socket of that config
+
+// The flight recorder's file written at the fault (`flight-*-fault.csv` in kRecorderDir) holds
+// the ticks up to the fault: the control mode without a fault before it, at least a second of
+// it, then the fault and the damping it latched; it was written at the fault, so it ends before
+// the file written at the stop does. Every tick: the two files, two copies of the ring taken at
+// different times, hold the same ticks up to the fault's file's last (a tick number the loop
+// skipped, as it does after an overrun, is missing from both).
+void expect_recorder_fault_file(const std::string& fault_name) {
+  std::vector<std::filesystem::path> fault_files, stop_files;
+  for (const auto& e : std::filesystem::directory_iterator(kRecorderDir)) {
+    const std::string name = e.path().filename().string();
+    if (name.ends_with("-fault.csv")) fault_files.push_back(e.path());
+    if (name.ends_with("-stop.csv")) stop_files.push_back(e.path());
+  }
+  // The first fault's file (a fault after it, as an arm collapsing into a drive's checks, writes another).
+  ASSERT_GE(fault_files.size(), 1u) << "a file at the fault";
+  ASSERT_EQ(stop_files.size(), 1u);
+  const auto number = [](const std::filesystem::path& p) {  // flight-<UTC time>-<n>-<reason>.csv
+    const std::string name = p.filename().string();
+    const std::size_t end = name.rfind('-'), start = name.rfind('-', end - 1);
+    return std::stoul(name.substr(start + 1, end - start - 1));
+  };
+  std::sort(fault_files.begin(), fault_files.end(),
+            [&](const std::filesystem::path& a, const std::filesystem::path& b) { return number(a) < number(b); });
+  const auto read = [](const std::filesystem::path& path) {
+    std::ifstream in(path);
+    std::string line;
+    std::getline(in, line);
+    std::vector<std::string> names;
+    std::stringstream header(line);
+    for (std::string cell; std::getline(header, cell, ',');) names.push_back(cell);
+    const auto column = [&](const std::string& n) {
+      return static_cast<std::size_t>(std::find(names.begin(), names.end(), n) - names.begin());
+    };
+    const std::size_t tick = column("tick"), mode = column("mode"), faults = column("faults");
+    EXPECT_LT(faults, names.size()) << path;
+    std::vector<std::array<unsigned long long, 3>> rows;  // tick, mode, faults
+    while (std::getline(in, line)) {
+      std::vector<std::string> cells;
+      std::stringstream row(line);
+      for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+      if (cells.size() != names.size()) {
+        ADD_FAILURE() << path << ": a row of " << cells.size() << " values, the header has " << names.size();
+        break;
+      }
+      rows.push_back({std::stoull(cells[tick]), std::stoull(cells[mode]), std::stoull(cells[faults])});
+    }
+    return rows;
+  };
+  const auto rows = read(fault_files[0]);
+  const auto stop_rows = read(stop_files[0]);
+  ASSERT_FALSE(rows.empty());
+  ASSERT_FALSE(stop_rows.empty());
+  std::size_t gaps = 0, first_fault = rows.size();
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    if (i > 0 && rows[i][0] != rows[i - 1][0] + 1) gaps += rows[i][0] - rows[i - 1][0] - 1;
+    if (i > 0) {
+      ASSERT_GT(rows[i][0], rows[i - 1][0]) << "ticks in order";
+    }
+    if (first_fault == rows.size() && rows[i][2] != 0) first_fault = i;
+  }
+  std::printf("HIL recorder: %s: %zu ticks (%llu..%llu), %zu tick numbers skipped by the loop; %s at tick %llu, %zu ticks before it; the stop's "
+              "file ends at tick %llu\n",
+              fault_files[0].filename().c_str(), rows.size(), rows.front()[0], rows.back()[0], gaps, fault_name.c_str(),
+              first_fault < rows.size() ? rows[first_fault][0] : 0ull, first_fault, stop_rows.back()[0]);
+  // Over the ticks both hold (the stop's ring may have moved past the fault file's start).
+  const unsigned long long from = std::max(rows.front()[0], stop_rows.front()[0]), to = rows.back()[0];
+  std::vector<unsigned long long> ticks, stop_ticks;
+  for (const auto& r : rows) {
+    if (r[0] >= from) ticks.push_back(r[0]);
+  }
+  for (const auto& r : stop_rows) {
+    if (r[0] >= from && r[0] <= to) stop_ticks.push_back(r[0]);
+  }
+  EXPECT_GT(ticks.size(), 1000u) << "the two files overlap by more than a second";
+  EXPECT_EQ(ticks, stop_ticks) << "the fault's file lost ticks the stop's file has";
+  ASSERT_LT(first_fault, rows.size()) << "the fault is in its file";
+  EXPECT_GE(first_fault, 1000u) << "at least a second before the fault";
+  const auto control = static_cast<unsigned long long>(springbok::safety::Mode::control);
+  const auto damping = static_cast<unsigned long long>(springbok::safety::Mode::damping);
+  for (std::size_t i = first_fault - 200; i < first_fault; ++i) {
+    EXPECT_EQ(rows[i][1], control) << "tick " << rows[i][0] << " before the fault";
+  }
+  EXPECT_EQ(rows.back()[1], damping) << "the file holds the damping the fault latched";
+  for (std::size_t i = first_fault; i < rows.size(); ++i) EXPECT_NE(rows[i][2], 0u) << "latched";
+  EXPECT_LT(rows.back()[0], stop_rows.back()[0]) << "written at the fault, not at the stop";
+}
+
 
 app::AppConfig wbc_hil_config() {
   const app::ConfigResult r = app::load_config_file(kWbcConfig);
@@ -220,6 +309,7 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
   constexpr double kPushStart_s = 5.0, kPushEnd_s = 8.5, kForce_n = 30.0, kTrotAt_s = 9.0, kTrotUntil_s = 13.5;
   constexpr unsigned long long kStreakAt = 14000;
   const std::string truth = "/tmp/springbok_hil_wbc_truth_" + std::to_string(::getpid()) + ".txt";
+  std::filesystem::remove_all(kRecorderDir);
   Emulator emu(kWbcConfig,
                "faults:\n"
                "  - {kind: corrupt_quaternion, sensor: imu, at: 4500, count: 3}\n"
@@ -353,91 +443,12 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
   ASSERT_EQ(std::sscanf(fw_out.c_str() + fw_out.find("bad_quaternion=", at), "bad_quaternion=%llu", &bad_quaternion), 1);
   EXPECT_GE(bad_quaternion, 3u + stale_ticks);
   EXPECT_NE(summary.find("forced_steps 0\n"), std::string::npos) << summary;
+  expect_recorder_fault_file("imu_lost");
 }
 
 // Case 3: a sensor the controller needs, lost in the control mode: damping within
 // stale_ticks + kDampingSlackTicks steps, latched, logged with its name.
 // `detect_ticks`: how many samples the fault takes to be one (0: the sensors' stale_ticks).
-const std::string kRecorderDir = "/tmp/springbok_hil_recorder";  // recorder.dir of that config
-
-// The flight recorder's file written at the fault (`flight-*-fault.csv` in kRecorderDir) holds
-// the ticks up to the fault: the control mode without a fault before it, at least a second of
-// it, then the fault and the damping it latched; it was written at the fault, so it ends before
-// the file written at the stop does. Every tick: the two files, two copies of the ring taken at
-// different times, hold the same ticks up to the fault's file's last (a tick number the loop
-// skipped, as it does after an overrun, is missing from both).
-void expect_recorder_fault_file(const std::string& fault_name) {
-  std::vector<std::filesystem::path> fault_files, stop_files;
-  for (const auto& e : std::filesystem::directory_iterator(kRecorderDir)) {
-    const std::string name = e.path().filename().string();
-    if (name.ends_with("-fault.csv")) fault_files.push_back(e.path());
-    if (name.ends_with("-stop.csv")) stop_files.push_back(e.path());
-  }
-  ASSERT_EQ(fault_files.size(), 1u) << "one fault, one file";
-  ASSERT_EQ(stop_files.size(), 1u);
-  const auto read = [](const std::filesystem::path& path) {
-    std::ifstream in(path);
-    std::string line;
-    std::getline(in, line);
-    std::vector<std::string> names;
-    std::stringstream header(line);
-    for (std::string cell; std::getline(header, cell, ',');) names.push_back(cell);
-    const auto column = [&](const std::string& n) {
-      return static_cast<std::size_t>(std::find(names.begin(), names.end(), n) - names.begin());
-    };
-    const std::size_t tick = column("tick"), mode = column("mode"), faults = column("faults");
-    EXPECT_LT(faults, names.size()) << path;
-    std::vector<std::array<unsigned long long, 3>> rows;  // tick, mode, faults
-    while (std::getline(in, line)) {
-      std::vector<std::string> cells;
-      std::stringstream row(line);
-      for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
-      if (cells.size() != names.size()) {
-        ADD_FAILURE() << path << ": a row of " << cells.size() << " values, the header has " << names.size();
-        break;
-      }
-      rows.push_back({std::stoull(cells[tick]), std::stoull(cells[mode]), std::stoull(cells[faults])});
-    }
-    return rows;
-  };
-  const auto rows = read(fault_files[0]);
-  const auto stop_rows = read(stop_files[0]);
-  ASSERT_FALSE(rows.empty());
-  ASSERT_FALSE(stop_rows.empty());
-  std::size_t gaps = 0, first_fault = rows.size();
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    if (i > 0 && rows[i][0] != rows[i - 1][0] + 1) gaps += rows[i][0] - rows[i - 1][0] - 1;
-    if (i > 0) {
-      ASSERT_GT(rows[i][0], rows[i - 1][0]) << "ticks in order";
-    }
-    if (first_fault == rows.size() && rows[i][2] != 0) first_fault = i;
-  }
-  std::printf("HIL recorder: %s: %zu ticks (%llu..%llu), %zu tick numbers skipped by the loop; %s at tick %llu, %zu ticks before it; the stop's "
-              "file ends at tick %llu\n",
-              fault_files[0].filename().c_str(), rows.size(), rows.front()[0], rows.back()[0], gaps, fault_name.c_str(),
-              first_fault < rows.size() ? rows[first_fault][0] : 0ull, first_fault, stop_rows.back()[0]);
-  // Over the ticks both hold (the stop's ring may have moved past the fault file's start).
-  const unsigned long long from = std::max(rows.front()[0], stop_rows.front()[0]), to = rows.back()[0];
-  std::vector<unsigned long long> ticks, stop_ticks;
-  for (const auto& r : rows) {
-    if (r[0] >= from) ticks.push_back(r[0]);
-  }
-  for (const auto& r : stop_rows) {
-    if (r[0] >= from && r[0] <= to) stop_ticks.push_back(r[0]);
-  }
-  EXPECT_GT(ticks.size(), 1000u) << "the two files overlap by more than a second";
-  EXPECT_EQ(ticks, stop_ticks) << "the fault's file lost ticks the stop's file has";
-  ASSERT_LT(first_fault, rows.size()) << "the fault is in its file";
-  EXPECT_GE(first_fault, 1000u) << "at least a second before the fault";
-  const auto control = static_cast<unsigned long long>(springbok::safety::Mode::control);
-  const auto damping = static_cast<unsigned long long>(springbok::safety::Mode::damping);
-  for (std::size_t i = first_fault - 200; i < first_fault; ++i) {
-    EXPECT_EQ(rows[i][1], control) << "tick " << rows[i][0] << " before the fault";
-  }
-  EXPECT_EQ(rows.back()[1], damping) << "the file holds the damping the fault latched";
-  for (std::size_t i = first_fault; i < rows.size(); ++i) EXPECT_NE(rows[i][2], 0u) << "latched";
-  EXPECT_LT(rows.back()[0], stop_rows.back()[0]) << "written at the fault, not at the stop";
-}
 
 void expect_sensor_loss_damps(const std::string& fault_yaml, unsigned long long fault_at, const std::string& fault_name,
                               std::uint32_t detect_ticks = 0) {
@@ -496,6 +507,7 @@ TEST(Hil, DeployedWholeBodyControllerStartsDampedAndRejectsCorruptQuaternions) {
   const std::uint32_t stale_ticks = wbc_hil_stale_ticks();
   constexpr unsigned long long kBurstAt = 4500, kBurst = 3, kStreakAt = 5000;
   const std::string truth = "/tmp/springbok_hil_wbc_truth_" + std::to_string(::getpid()) + ".txt";
+  std::filesystem::remove_all(kRecorderDir);
   Emulator emu(kWbcConfig,
                "faults:\n"
                "  - {kind: corrupt_quaternion, sensor: imu, at: 4500, count: 3}\n"
@@ -549,6 +561,7 @@ TEST(Hil, DeployedWholeBodyControllerStartsDampedAndRejectsCorruptQuaternions) {
   ASSERT_EQ(std::sscanf(fw_out.c_str() + fw_out.find("bad_quaternion=", at), "bad_quaternion=%llu", &bad_quaternion), 1);
   EXPECT_GE(bad_quaternion, kBurst + stale_ticks) << "the burst's and the streak's samples counted";
   EXPECT_NE(summary.find("forced_steps 0\n"), std::string::npos) << summary;
+  expect_recorder_fault_file("imu_lost");
 }
 
 TEST(Hil, DeployedWholeBodyControllerDampsWhenTheImuFallsSilent) {
