@@ -1,6 +1,6 @@
 // The HIL suite's deployed-binary rig: `springbok` as a child process, a line to its operator
 // socket, the emulator's ground-truth trace (--truth-log), the time scale, waiting on the
-// firmware. Used by the HyQ + Gen3 suite (test_deployed.cpp) and any robot's (test_any_robot.cpp).
+// firmware, the stand-up through the operator socket and the trace while standing. Used by the HyQ + Gen3 suite (test_deployed.cpp) and any robot's (test_any_robot.cpp).
 #pragma once
 
 #include <signal.h>
@@ -20,6 +20,9 @@
 #include <thread>
 #include <vector>
 
+#include <memory>
+
+#include "springbok/dynamics/dynamics.hpp"
 #include "springbok/model/model.hpp"
 
 namespace springbok::can::hil {
@@ -147,6 +150,65 @@ bool wait_for(Firmware& fw, double limit_s, Done&& done) {
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
   return false;
+}
+
+// The trunk height over flat ground for these joint angles with the trunk level: the lowest
+// foot sphere touches the ground (springbok::dyn forward kinematics).
+inline double standing_height_m(const VecNj& q_joints) {
+  const dyn::Model model;
+  auto data = std::make_unique<dyn::Data>();
+  VecNq q = VecNq::Zero();
+  q[6] = 1.0;
+  q.tail<kNj>() = q_joints;
+  dyn::forward_kinematics(model, *data, q);
+  double lowest = 0.0;
+  for (int f = 0; f < kFeet; ++f) {
+    lowest = std::min(lowest, data->frames[static_cast<std::size_t>(kFootFrames[static_cast<std::size_t>(f)])].translation.z());
+  }
+  return kFootRadius_m - lowest;
+}
+
+// The stand-up through the operator socket: `start` as soon as the firmware listens (idle only
+// damps; the robot spawns on its feet, folded), then the status until the stand or damping mode.
+struct StandUp {
+  std::string started;    // the reply to `start` ("" : the firmware never listened)
+  double first_z_m = 0;   // the trunk's height at the trace's first sample
+  std::string status;     // the last status line
+  bool ok() const { return started.rfind("ok", 0) == 0 && status.find("mode=stand ") != std::string::npos; }
+};
+inline StandUp stand_up(Firmware& fw, const std::string& socket_path, const std::string& truth, double limit_s) {
+  StandUp s;
+  if (!wait_for(fw, 120.0, [&] { return !(s.started = operator_line(socket_path, "start")).empty(); })) return s;
+  if (!wait_for(fw, 60.0, [&] { return !read_truth(truth).empty(); })) return s;
+  s.first_z_m = read_truth(truth).front().trunk_z_m;
+  wait_for(fw, limit_s, [&] {
+    s.status = operator_line(socket_path, "status");
+    return s.status.find("mode=stand ") != std::string::npos || s.status.find("mode=damping") != std::string::npos;
+  });
+  return s;
+}
+
+// The trace over [from_s, to_s]: the trunk's height range (and over [settled_from_s, to_s]), the
+// largest tilt, the samples with a non-foot contact.
+struct Standing {
+  int samples = 0, non_foot = 0;
+  double z_min = 1e9, z_max = -1e9, z_min_settled = 1e9, z_max_settled = -1e9, tilt_max = 0.0;
+};
+inline Standing standing(const std::vector<TruthSample>& trace, double from_s, double to_s, double settled_from_s) {
+  Standing s;
+  for (const TruthSample& t : trace) {
+    if (t.t_s < from_s || t.t_s > to_s) continue;
+    ++s.samples;
+    s.z_min = std::min(s.z_min, t.trunk_z_m);
+    s.z_max = std::max(s.z_max, t.trunk_z_m);
+    s.tilt_max = std::max(s.tilt_max, t.tilt_rad);
+    s.non_foot += t.non_foot_contact;
+    if (t.t_s >= settled_from_s) {
+      s.z_min_settled = std::min(s.z_min_settled, t.trunk_z_m);
+      s.z_max_settled = std::max(s.z_max_settled, t.trunk_z_m);
+    }
+  }
+  return s;
 }
 
 }  // namespace springbok::can::hil

@@ -6,32 +6,13 @@
 // test_deployed.cpp: tests/hil/CMakeLists.txt).
 #include <yaml-cpp/yaml.h>
 
-#include <memory>
-
 #include "deployed_rig.hpp"
 #include "hil_rig.hpp"
-#include "springbok/dynamics/dynamics.hpp"
 
 namespace springbok::can {
 namespace {
 
 using namespace hil;
-
-// The trunk height over flat ground for these joint angles with the trunk level: the lowest
-// foot sphere touches the ground (springbok::dyn forward kinematics).
-double standing_height_m(const VecNj& q_joints) {
-  const dyn::Model model;
-  auto data = std::make_unique<dyn::Data>();
-  VecNq q = VecNq::Zero();
-  q[6] = 1.0;
-  q.tail<kNj>() = q_joints;
-  dyn::forward_kinematics(model, *data, q);
-  double lowest = 0.0;
-  for (int f = 0; f < kFeet; ++f) {
-    lowest = std::min(lowest, data->frames[static_cast<std::size_t>(kFootFrames[static_cast<std::size_t>(f)])].translation.z());
-  }
-  return kFootRadius_m - lowest;
-}
 
 // The shipped config as the HIL runs it: on vcan, no real-time scheduling (the emulator shares
 // the VM's CPUs), the VM's stalls tolerated (as tests/hil/config's), the operator socket, the
@@ -94,25 +75,13 @@ TEST(Hil, DeployedBinaryStandsItsRobotUpFromLyingAndHoldsIt) {
   ::unlink(socket_path.c_str());
   Firmware fw(config, time_scale);
   const double wall_per_sim_s = time_scale * 1.3 + 5.0;  // generous: the wall time a simulated second may take
-  std::string started;
-  ASSERT_TRUE(wait_for(fw, 120.0, [&] {
-    started = operator_line(socket_path, "start");
-    return !started.empty();
-  })) << fw.stop();
-  EXPECT_EQ(started.rfind("ok", 0), 0u) << started;
-  ASSERT_TRUE(wait_for(fw, 60.0, [&] { return !read_truth(truth).empty(); })) << fw.stop();
-  const double lying_z_m = read_truth(truth).front().trunk_z_m;
-  std::string status;
-  const double stand_up_s = loaded.config.stand_up_duration_s;
-  ASSERT_TRUE(wait_for(fw, (stand_up_s + 3.0) * wall_per_sim_s, [&] {
-    status = operator_line(socket_path, "status");
-    return status.find("mode=stand ") != std::string::npos || status.find("mode=damping") != std::string::npos;
-  })) << status << "\n" << fw.stop();
-  ASSERT_NE(status.find("mode=stand "), std::string::npos) << status << "\n" << fw.stop() << emu.stop();
+  const StandUp up = stand_up(fw, socket_path, truth, (loaded.config.stand_up_duration_s + 3.0) * wall_per_sim_s);
+  ASSERT_TRUE(up.ok()) << up.started << "\n" << up.status << "\n" << fw.stop() << emu.stop();
+  const double lying_z_m = up.first_z_m;
   const double t_stand_s = truth_time(truth);
   constexpr double kHold_s = 3.0;
   ASSERT_TRUE(wait_for(fw, (kHold_s + 1.0) * wall_per_sim_s, [&] { return truth_time(truth) >= t_stand_s + kHold_s; }));
-  status = operator_line(socket_path, "status");
+  const std::string status = operator_line(socket_path, "status");
   EXPECT_NE(status.find("mode=stand faults=none"), std::string::npos) << status;
   const std::string fw_out = fw.stop();
   EXPECT_TRUE(WIFEXITED(fw.exit_status()) && WEXITSTATUS(fw.exit_status()) == 0) << fw_out;
@@ -121,33 +90,20 @@ TEST(Hil, DeployedBinaryStandsItsRobotUpFromLyingAndHoldsIt) {
   ::unlink(truth.c_str());
   ::unlink(config.c_str());
 
-  double z_min = 1e9, z_max = -1e9, tilt_max = 0.0, z_min_late = 1e9, z_max_late = -1e9;
-  int n = 0, non_foot = 0;
-  for (const TruthSample& t : samples) {
-    if (t.t_s < t_stand_s || t.t_s > t_stand_s + kHold_s) continue;
-    ++n;
-    z_min = std::min(z_min, t.trunk_z_m);
-    z_max = std::max(z_max, t.trunk_z_m);
-    tilt_max = std::max(tilt_max, t.tilt_rad);
-    non_foot += t.non_foot_contact;
-    if (t.t_s >= t_stand_s + 1.0) {
-      z_min_late = std::min(z_min_late, t.trunk_z_m);
-      z_max_late = std::max(z_max_late, t.trunk_z_m);
-    }
-  }
+  const Standing st = standing(samples, t_stand_s, t_stand_s + kHold_s, t_stand_s + 1.0);
   // The oracle: the trunk height at which the stand posture puts the feet on the flat ground.
   const double z_stand_m = standing_height_m(loaded.config.stand_posture_rad);
   std::printf("HIL %s: lying %.4f m; standing %.2f .. %.2f s: trunk z %.4f .. %.4f m (last 2 s %.4f .. %.4f; the stand "
               "posture on flat ground %.4f m), max tilt %.4f rad\n",
-              std::string(robot::kRobotName).c_str(), lying_z_m, t_stand_s, t_stand_s + kHold_s, z_min, z_max, z_min_late,
-              z_max_late, z_stand_m, tilt_max);
-  EXPECT_GE(n, 200) << "trace samples while standing";
+              std::string(robot::kRobotName).c_str(), lying_z_m, t_stand_s, t_stand_s + kHold_s, st.z_min, st.z_max,
+              st.z_min_settled, st.z_max_settled, z_stand_m, st.tilt_max);
+  EXPECT_GE(st.samples, 200) << "trace samples while standing";
   EXPECT_LT(lying_z_m, z_stand_m - 0.05) << "it stood up from lying";
-  EXPECT_NEAR(z_min_late, z_stand_m, 0.03);
-  EXPECT_NEAR(z_max_late, z_stand_m, 0.03);
-  EXPECT_LT(z_max_late - z_min_late, 0.005) << "it holds still";
-  EXPECT_LT(tilt_max, 0.05);
-  EXPECT_EQ(non_foot, 0) << "only the feet touch the ground";
+  EXPECT_NEAR(st.z_min_settled, z_stand_m, 0.03);
+  EXPECT_NEAR(st.z_max_settled, z_stand_m, 0.03);
+  EXPECT_LT(st.z_max_settled - st.z_min_settled, 0.005) << "it holds still";
+  EXPECT_LT(st.tilt_max, 0.05);
+  EXPECT_EQ(st.non_foot, 0) << "only the feet touch the ground";
   EXPECT_NE(summary.find("forced_steps 0\n"), std::string::npos) << "lockstep: every step had every drive's command\n"
                                                                  << summary;
 }

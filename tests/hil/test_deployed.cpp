@@ -19,22 +19,6 @@ using namespace hil;
 // tick later, and the staleness began a tick later.
 constexpr unsigned long long kDampingSlackTicks = 3;
 
-// The trunk height over flat ground for these joint angles with the trunk level:
-// the lowest foot sphere touches the ground (springbok::dyn forward kinematics).
-double standing_height_m(const VecNj& q_joints) {
-  const dyn::Model model;
-  auto data = std::make_unique<dyn::Data>();
-  VecNq q = VecNq::Zero();
-  q[6] = 1.0;
-  q.tail<kNj>() = q_joints;
-  dyn::forward_kinematics(model, *data, q);
-  double lowest = 0.0;
-  for (int f = 0; f < kFeet; ++f) {
-    lowest = std::min(lowest, data->frames[static_cast<std::size_t>(kFootFrames[static_cast<std::size_t>(f)])].translation.z());
-  }
-  return kFootRadius_m - lowest;
-}
-
 // Issue 10: the deployed binary stands the simulated robot through vcan for 5 s.
 // LOCKSTEP: the emulator steps sim_hal's Bullet world once per firmware tick (when all 19
 // commands of the tick are in) and the firmware runs --time-scale N times slower than
@@ -62,25 +46,13 @@ TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
   ::unlink(socket_path.c_str());
   Firmware fw(config, time_scale);
   const double wall_per_sim_s = time_scale * 1.2 + 5.0;  // generous: the wall time a simulated second may take
-  // The robot spawns crouched on its feet (sim_hal); idle only damps (it cannot hold the
-  // robot up), so the operator starts the stand-up as soon as the firmware listens.
-  std::string started;
-  ASSERT_TRUE(wait_for(fw, 120.0, [&] {
-    started = operator_line(socket_path, "start");
-    return !started.empty();
-  })) << fw.stop();
-  EXPECT_EQ(started.rfind("ok", 0), 0u) << started;
-  ASSERT_TRUE(wait_for(fw, 60.0, [&] { return !read_truth(truth).empty(); })) << fw.stop();
-  const double crouch_z_m = read_truth(truth).front().trunk_z_m;
-  std::string status;
-  ASSERT_TRUE(wait_for(fw, 4.0 * wall_per_sim_s, [&] {
-    status = operator_line(socket_path, "status");
-    return status.find("mode=stand ") != std::string::npos || status.find("mode=damping") != std::string::npos;
-  })) << status << "\n" << fw.stop();
-  ASSERT_NE(status.find("mode=stand "), std::string::npos) << status << "\n" << fw.stop() << emu.stop();
+  // The robot spawns crouched on its feet (sim_hal).
+  const StandUp up = stand_up(fw, socket_path, truth, 4.0 * wall_per_sim_s);
+  ASSERT_TRUE(up.ok()) << up.started << "\n" << up.status << "\n" << fw.stop() << emu.stop();
+  const double crouch_z_m = up.first_z_m;
   const double t_stand_s = truth_time(truth);
   ASSERT_TRUE(wait_for(fw, 6.0 * wall_per_sim_s, [&] { return truth_time(truth) >= t_stand_s + 5.0; }));
-  status = operator_line(socket_path, "status");
+  const std::string status = operator_line(socket_path, "status");
   EXPECT_NE(status.find("mode=stand faults=none"), std::string::npos) << status;
   const std::string fw_out = fw.stop();
   EXPECT_TRUE(WIFEXITED(fw.exit_status()) && WEXITSTATUS(fw.exit_status()) == 0) << fw_out;
@@ -97,35 +69,24 @@ TEST(Hil, DeployedBinaryStandsTheSimulatedRobotFor5s) {
   // The emulator's ground truth over the 5 s of standing.
   const std::vector<TruthSample> samples = read_truth(truth);
   ::unlink(truth.c_str());
-  double z_min = 1e9, z_max = -1e9, tilt_max = 0.0, z_min_late = 1e9, z_max_late = -1e9;
-  int n = 0, non_foot = 0;
-  for (const TruthSample& t : samples) {
-    if (t.t_s < t_stand_s || t.t_s > t_stand_s + 5.0) continue;
-    ++n;
-    z_min = std::min(z_min, t.trunk_z_m);
-    z_max = std::max(z_max, t.trunk_z_m);
-    tilt_max = std::max(tilt_max, t.tilt_rad);
-    non_foot += t.non_foot_contact;
-    if (t.t_s >= t_stand_s + 2.0) {  // stand is entered within stand_tolerance_rad, still settling
-      z_min_late = std::min(z_min_late, t.trunk_z_m);
-      z_max_late = std::max(z_max_late, t.trunk_z_m);
-    }
-  }
+  // The stand is entered within stand_tolerance_rad, still settling: "settled" is its last 3 s.
+  const Standing st = standing(samples, t_stand_s, t_stand_s + 5.0, t_stand_s + 2.0);
   // The oracle: the trunk height at which the stand posture puts the feet on the ground.
   VecNj stand = VecNj::Zero();
   for (int j = 0; j < 12; ++j) stand[j] = stance(j);
   const double z_stand_m = standing_height_m(stand);
   std::printf("standing %.2f .. %.2f s: trunk z %.4f .. %.4f m (last 3 s %.4f .. %.4f; stand posture on flat ground: "
               "%.4f m; crouched at start-up %.4f m), max tilt %.4f rad\n",
-              t_stand_s, t_stand_s + 5.0, z_min, z_max, z_min_late, z_max_late, z_stand_m, crouch_z_m, tilt_max);
-  EXPECT_GE(n, 400) << "trace samples in the 5 s";
+              t_stand_s, t_stand_s + 5.0, st.z_min, st.z_max, st.z_min_settled, st.z_max_settled, z_stand_m, crouch_z_m,
+              st.tilt_max);
+  EXPECT_GE(st.samples, 400) << "trace samples in the 5 s";
   EXPECT_LT(crouch_z_m, z_stand_m - 0.1) << "it stood up from a crouch";
   // The joint PD without gravity compensation sags a little (stand_tolerance_rad 0.15).
-  EXPECT_NEAR(z_min, z_stand_m, 0.06);
-  EXPECT_NEAR(z_max, z_stand_m, 0.06);
-  EXPECT_LT(z_max_late - z_min_late, 0.005) << "it holds still (last 3 s)";
-  EXPECT_LT(tilt_max, 0.05);
-  EXPECT_EQ(non_foot, 0) << "only the feet touch the ground";
+  EXPECT_NEAR(st.z_min, z_stand_m, 0.06);
+  EXPECT_NEAR(st.z_max, z_stand_m, 0.06);
+  EXPECT_LT(st.z_max_settled - st.z_min_settled, 0.005) << "it holds still (last 3 s)";
+  EXPECT_LT(st.tilt_max, 0.05);
+  EXPECT_EQ(st.non_foot, 0) << "only the feet touch the ground";
   // Lockstep held: every step had the commands of all 19 drives.
   EXPECT_NE(summary.find("forced_steps 0\n"), std::string::npos) << summary;
 }
