@@ -68,10 +68,12 @@ Log read_log(const fs::path& path) {
   return log;
 }
 
-// One springbok-sim run of the robot file's own base step (any robot), made once.
+// A springbok-sim run of the robot file's own base step (any robot), made once per test: ctest
+// runs the cases as processes side by side, so each has its own folder (one reading a log.csv
+// another is writing would read it cut short).
 const fs::path& sim_run() {
   static const fs::path dir = [] {
-    const fs::path d = kOut / "base_step";
+    const fs::path d = kOut / ("base_step." + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::create_directories(kOut);
     const auto r = test::run_program("", "springbok-sim",
                                      std::string(SPRINGBOK_SOURCE_DIR) + "/tools/scenarios/any_robot/base_step.yaml --out " +
