@@ -215,6 +215,9 @@ TEST(ViewPage, RefusesBadRunsNamingTheProblem) {
   const auto no_at = test::run_program("", "springbok-view", "--screenshot x.png " + sim_run().string());
   EXPECT_EQ(no_at.exit_code, 1);
   EXPECT_NE(no_at.out.find("--at"), std::string::npos) << no_at.out;
+  const auto bad_size = test::run_program("", "springbok-view", "--screenshot x.png --at 1 --size 10x10 " + sim_run().string());
+  EXPECT_EQ(bad_size.exit_code, 1);
+  EXPECT_NE(bad_size.out.find("--size 10x10"), std::string::npos) << bad_size.out;
 }
 
 // ---- live ----------------------------------------------------------------------------------

@@ -62,6 +62,16 @@ TEST(ViewLive, ServesThePageAndRelaysTelemetryToTheWebSocket) {
   EXPECT_NE(html.find("window.SPRINGBOK_LIVE"), std::string::npos);
   EXPECT_NE(html.find("window.SPRINGBOK_ROBOT"), std::string::npos);
   ::close(page);
+  // What is not the page or the relay is refused, saying so.
+  for (const auto& [request, status] : {std::pair<std::string, std::string>{"GET /nope HTTP/1.1\r\n\r\n", "404 Not Found"},
+                                        {"POST / HTTP/1.1\r\n\r\n", "405 Method Not Allowed"},
+                                        {"GET /telemetry HTTP/1.1\r\n\r\n", "400 Bad Request"}}) {
+    const int fd = connect_to(server.http_port());
+    ::send(fd, request.data(), request.size(), 0);
+    const std::string reply = receive(fd, 1, "\r\n\r\n");
+    EXPECT_EQ(reply.rfind("HTTP/1.1 " + status, 0), 0u) << request << reply;
+    ::close(fd);
+  }
 
   const int ws = connect_to(server.http_port());
   const std::string upgrade =
