@@ -145,6 +145,43 @@ TEST(Cia402StateMachine, ControlwordWalkToOperationEnabled) {
   EXPECT_EQ(controlword_towards_enabled(State::operation_enabled, 0x000F), 0x000F);
 }
 
+// A step's time is the drive's answered cycles (CAN.md 4.3 step 4, 100 ms at 1 ms per SYNC).
+TEST(Cia402StateMachine, AStepsTimeIsTheCyclesTheDriveAnswered) {
+  constexpr std::int64_t ms = 1000000;
+  StepClock clock(100, 1000);
+  clock.restart(500, 0);
+  // 90 cycles answered over 90 ms, then a 60 ms stall of the host's (no SYNC, no answer), then
+  // 10 more: 100 cycles of the drive's, 160 ms of the host's clock, not overdue.
+  std::int64_t t = 0;
+  for (std::uint64_t n = 501; n <= 590; ++n) EXPECT_FALSE(clock.overdue(n, t += ms)) << n;
+  t += 60 * ms;
+  for (std::uint64_t n = 591; n <= 600; ++n) EXPECT_FALSE(clock.overdue(n, t += ms)) << n;
+  EXPECT_EQ(clock.cycles(600), 100u);
+  // The 101st cycle answered in the same state is one too many.
+  EXPECT_TRUE(clock.overdue(601, t += ms));
+  // A new state restarts it.
+  clock.restart(601, t);
+  EXPECT_FALSE(clock.overdue(650, t + 50 * ms));
+  // A drive that answers nothing for the limit's time is overdue: after 100 ms of silence, not at 100.
+  clock.restart(700, 0);
+  EXPECT_FALSE(clock.overdue(700, 100 * ms));
+  EXPECT_TRUE(clock.overdue(700, 100 * ms + 1));
+  // Silence counts from the last answer, not from the step's start.
+  clock.restart(800, 0);
+  EXPECT_FALSE(clock.overdue(850, 80 * ms));
+  EXPECT_FALSE(clock.overdue(850, 179 * ms));
+  EXPECT_TRUE(clock.overdue(850, 181 * ms));
+  // At another SYNC period the count scales: 100 ms at 2 ms per SYNC is 50 cycles.
+  StepClock slow(100, 2000);
+  slow.restart(0, 0);
+  EXPECT_FALSE(slow.overdue(50, 100 * ms));
+  EXPECT_TRUE(slow.overdue(51, 102 * ms));
+  // Default-made: a zero limit, overdue at the first answer.
+  StepClock none;
+  none.restart(0, 0);
+  EXPECT_TRUE(none.overdue(1, 0));
+}
+
 TEST(Cia402Pdo, CompactMappingSequence) {
   std::array<SdoWrite, kMaxMappingWrites> w{};
   const int n = pdo_mapping_sequence(3, Mapping::compact, w);

@@ -223,6 +223,7 @@ void CanHardware::process_cia402_frame(int b, const Frame& f) noexcept {
       if (!accept_position(j, q_rad)) return;
       if (jr.replies_this_tick > 0) ++bus.diag.duplicates;
       ++jr.replies_this_tick;
+      ++jr.tpdo1_count;
       if (jr.cfg.mapping == cia402::Mapping::compact) {
         // No velocity object in the compact mapping: the position difference over the reply age.
         const double age_ticks = static_cast<double>(std::max<std::uint64_t>(1, tick_ - jr.last_rx_tick));

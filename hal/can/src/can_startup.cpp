@@ -653,9 +653,15 @@ LifecycleResult CanHardware::enable_cia402(int b) {
     send_now(b, f);
   }
   // 4. Walk the state machine with the controlword in RPDO1, target torque 0.
+  // A step's time is the drive's: the cycles it answered in that state (cia402::StepClock).
   std::vector<cia402::State> state(nodes.size(), cia402::State::unknown);
-  std::vector<std::int64_t> since(nodes.size(), monotonic_ns());
+  std::vector<cia402::StepClock> step(nodes.size(),
+                                      cia402::StepClock(config_.timing.state_step_timeout_ms, config_.timing.tick_us));
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    step[i].restart(joints_[static_cast<std::size_t>(nodes[i])].tpdo1_count, monotonic_ns());
+  }
   for (JointRuntime& jr : joints_) jr.statusword = 0;
+  const std::int64_t period_ns = 1000LL * config_.timing.tick_us;
   std::int64_t next_cycle = monotonic_ns();
   for (;;) {
     bool all_enabled = true;
@@ -665,12 +671,12 @@ LifecycleResult CanHardware::enable_cia402(int b) {
                                                                              : cia402::State::unknown;
       if (s != state[i]) {
         state[i] = s;
-        since[i] = monotonic_ns();
-      } else if (s != cia402::State::operation_enabled &&
-                 monotonic_ns() - since[i] > 1000000LL * config_.timing.state_step_timeout_ms) {
+        step[i].restart(jr.tpdo1_count, monotonic_ns());
+      } else if (s != cia402::State::operation_enabled && step[i].overdue(jr.tpdo1_count, monotonic_ns())) {
         return LifecycleResult::failure("CiA 402 enable: " + drive_name(nodes[i]) + " stuck in '" +
                                         cia402::to_string(s) + "' (statusword " + hex(jr.statusword, 4) + ") for " +
-                                        std::to_string(config_.timing.state_step_timeout_ms) + " ms");
+                                        std::to_string(config_.timing.state_step_timeout_ms) + " ms (" +
+                                        std::to_string(step[i].cycles(jr.tpdo1_count)) + " SYNCs answered)");
       }
       all_enabled = all_enabled && s == cia402::State::operation_enabled;
       jr.controlword = cia402::controlword_towards_enabled(s, jr.controlword);
@@ -695,12 +701,11 @@ LifecycleResult CanHardware::enable_cia402(int b) {
     // The TPDOs of this SYNC are awaited as a tick's replies are (rx_deadline_us), then the next
     // SYNC goes: a drive that missed one (its NMT start taken in its own cycle, a lost frame)
     // answers the next, and only a state held past state_step_timeout_ms fails.
-    pump_until(std::min<std::int64_t>(after_ms(config_.timing.state_step_timeout_ms),
-                                      monotonic_ns() + 1000LL * static_cast<std::int64_t>(config_.timing.rx_deadline_us)),
-               all_tpdo);
+    pump_until(monotonic_ns() + 1000LL * static_cast<std::int64_t>(config_.timing.rx_deadline_us), all_tpdo);
     if (LifecycleResult r = startup_fault(nodes, "enable"); !r.ok) return r;
-    next_cycle += 1000LL * config_.timing.tick_us;
-    sleep_until_ns(std::max(next_cycle, monotonic_ns()));
+    // One SYNC per tick: after a stall the cycles missed are skipped, not sent in a burst.
+    next_cycle = std::max(next_cycle + period_ns, monotonic_ns());
+    sleep_until_ns(next_cycle);
   }
   for (int j : nodes) joints_[static_cast<std::size_t>(j)].replies_this_tick = 0;
   return startup_fault(nodes, "enable");
@@ -720,8 +725,8 @@ LifecycleResult CanHardware::recover_bus(int b) {
 // CAN.md 4.4 step 2 for buses first..last, together: MIT exit motor mode (`...FD`) to every MIT
 // drive; CiA 402 controlword 0x0007 (disable operation), then 0x0006 (shutdown), each in RPDO1
 // followed by a SYNC on every bus every tick until every CiA 402 drive's statusword shows the step
-// taken (left Operation enabled, then left Switched on too) or state_step_timeout_ms has passed
-// (the bound on a step, 4.3 step 4), then NMT enter pre-operational (`80 0`). A drive whose step
+// taken (left Operation enabled, then left Switched on too) or has spent state_step_timeout_ms on
+// it (the bound on a step, 4.3 step 4, in the drive's cycles), then NMT enter pre-operational (`80 0`). A drive whose step
 // takes longer than a tick (a brake to engage, a slow power stage) would otherwise be sent to
 // Pre-operational, where no SYNC applies the step, and stay Operation enabled. The buses step
 // together so that none goes without SYNC while another's drives are slow (a drive watching
@@ -747,23 +752,32 @@ void CanHardware::disable_buses(int first, int last) noexcept {
       if (jr.status.state == hal::DriveState::enabled) jr.status.state = hal::DriveState::ready;
     }
   }
-  const auto step_taken = [&](std::uint16_t cw) {
+  // Each drive's step time is its own answered cycles (cia402::StepClock), as in the walk.
+  std::array<cia402::StepClock, kNj> step{};
+  // The step is over when every CiA 402 drive of a reachable bus has taken it or is overdue.
+  const auto step_over = [&](std::uint16_t cw) {
     for (int b = first; b <= last; ++b) {
       if (!reachable(b)) continue;
       const Bus& bus = buses_[static_cast<std::size_t>(b)];
       for (int k = 0; k < bus.count; ++k) {
-        const JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
+        const int j = bus.joints[k];
+        const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
         if (jr.cfg.protocol != Protocol::cia402) continue;
         const cia402::State s = cia402::decode_statusword(jr.statusword);
-        if (s == cia402::State::operation_enabled) return false;
-        if (cw == cia402::controlword::shutdown && s == cia402::State::switched_on) return false;
+        const bool taken = s != cia402::State::operation_enabled &&
+                           (cw != cia402::controlword::shutdown || s != cia402::State::switched_on);
+        if (!taken && !step[static_cast<std::size_t>(j)].overdue(jr.tpdo1_count, monotonic_ns())) return false;
       }
     }
     return true;
   };
   for (const std::uint16_t cw : {cia402::controlword::disable_operation, cia402::controlword::shutdown}) {
     if (!any_cia) break;
-    const std::int64_t step_deadline = after_ms(config_.timing.state_step_timeout_ms);
+    for (int j = 0; j < kNj; ++j) {
+      const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+      step[static_cast<std::size_t>(j)] = cia402::StepClock(config_.timing.state_step_timeout_ms, config_.timing.tick_us);
+      step[static_cast<std::size_t>(j)].restart(jr.tpdo1_count, monotonic_ns());
+    }
     do {
       for (int b = first; b <= last; ++b) {
         const Bus& bus = buses_[static_cast<std::size_t>(b)];
@@ -780,7 +794,7 @@ void CanHardware::disable_buses(int first, int last) noexcept {
         send_now(b, sync);
       }
       pump_until(monotonic_ns() + 1000LL * config_.timing.tick_us, [] { return false; });
-    } while (!step_taken(cw) && monotonic_ns() < step_deadline);
+    } while (!step_over(cw));
   }
   for (int b = first; b <= last; ++b) {
     Bus& bus = buses_[static_cast<std::size_t>(b)];

@@ -146,6 +146,7 @@ struct JointRuntime {
   std::uint64_t last_rx_tick = 0;
   bool awaiting = false;          // a command / SYNC went out: a reply is due at the next read
   int replies_this_tick = 0;      // MIT replies / CiA TPDO1 since the last read
+  std::uint64_t tpdo1_count = 0;  // CiA 402: TPDO1 frames taken, ever (the drive's answered cycles, cia402::StepClock)
   bool tpdo2_this_tick = false;
   int implausible_in_row = 0;
   std::uint64_t last_heartbeat_tick = 0;

@@ -115,6 +115,44 @@ inline constexpr std::uint16_t fault_reset = 0x0080;
 // enabled; `previous` is the last controlword sent (fault reset needs an edge).
 std::uint16_t controlword_towards_enabled(State s, std::uint16_t previous) noexcept;
 
+// How long a drive has spent on a state step (CAN.md 4.3 step 4: each step <= 100 ms), counted
+// in the drive's own cycles: the SYNCs it answered with a TPDO1 (2.6), one per tick_us. A stall
+// of the host's, of the bus's or of another process's spends none of the drive's time, so a
+// drive that takes 90 of its 100 ms is not failed by the host's own delay; a drive that answers
+// no SYNC for the whole limit is overdue as well (a silent drive answers no cycle). The host
+// sends at most one SYNC per tick (a cycle missed is skipped, not caught up), so the count never
+// runs ahead of the drive's clock.
+class StepClock {
+ public:
+  StepClock() noexcept = default;  // a zero limit: overdue at once (assign one made with its limit)
+  // `limit_ms`: the step's bound; `tick_us`: the SYNC period.
+  StepClock(std::uint32_t limit_ms, std::uint32_t tick_us) noexcept
+      : limit_cycles_(1000ULL * limit_ms / (tick_us > 0 ? tick_us : 1)), limit_ns_(1000000LL * limit_ms) {}
+  // A step starts (a new state seen, a controlword sent): `tpdo1_count` is the drive's TPDO1
+  // count so far, `now_ns` the host's clock.
+  void restart(std::uint64_t tpdo1_count, std::int64_t now_ns) noexcept {
+    start_count_ = heard_count_ = tpdo1_count;
+    heard_ns_ = now_ns;
+  }
+  // True once the drive has answered more cycles than the limit in this step, or none for the
+  // limit's time.
+  bool overdue(std::uint64_t tpdo1_count, std::int64_t now_ns) noexcept {
+    if (tpdo1_count != heard_count_) {
+      heard_count_ = tpdo1_count;
+      heard_ns_ = now_ns;
+    }
+    return tpdo1_count - start_count_ > limit_cycles_ || now_ns - heard_ns_ > limit_ns_;
+  }
+  // The cycles the drive answered in this step.
+  std::uint64_t cycles(std::uint64_t tpdo1_count) const noexcept { return tpdo1_count - start_count_; }
+
+ private:
+  std::uint64_t limit_cycles_ = 0;
+  std::int64_t limit_ns_ = 0;
+  std::uint64_t start_count_ = 0, heard_count_ = 0;
+  std::int64_t heard_ns_ = 0;
+};
+
 // ---- objects and PDO mapping (CAN.md 2.4, 2.6) --------------------------------------------
 namespace object {
 inline constexpr std::uint16_t error_register = 0x1001;

@@ -71,7 +71,8 @@ struct Timing {
   std::uint32_t boot_timeout_ms = 5000;        // CiA 402: wait for boot-up
   std::uint32_t sdo_timeout_ms = 100;
   std::uint32_t sdo_retries = 2;
-  // CiA 402 state machine, per step; also how long 0x6061 may take to show the mode written to 0x6060
+  // CiA 402 state machine, per step, in the drive's answered SYNC cycles (cia402::StepClock); also
+  // how long 0x6061 may take to show the mode written to 0x6060
   std::uint32_t state_step_timeout_ms = 100;
   std::uint32_t heartbeat_period_ms = 100;     // 0x1017
   std::uint32_t heartbeat_lost_periods = 3;
