@@ -254,6 +254,25 @@ TEST_F(SupervisorTest, DegradedBusesAreAWarningNeverAFault) {
   EXPECT_EQ(sup.faults(), 0u);
 }
 
+// A standing tick whose controller says it cannot take over yet (the wrist F/T's tare being
+// taken) makes `mode control` wait: refused, nothing latched, accepted once a standing tick says ready.
+TEST_F(SupervisorTest, ControlWaitsForTheControllerToBeReady) {
+  tick();
+  ASSERT_EQ(ask(OperatorCommand::start), Verdict::accepted);
+  tick({true, true});
+  ASSERT_EQ(sup.mode(), Mode::stand);
+  ControllerReport taring;
+  taring.control_ready = false;
+  tick(taring);
+  EXPECT_EQ(ask(OperatorCommand::mode_control), Verdict::controller_not_ready);
+  EXPECT_EQ(sup.mode(), Mode::stand);
+  EXPECT_EQ(sup.faults(), 0u);
+  EXPECT_STREQ(to_string(Verdict::controller_not_ready), "the controller is not ready (the wrist f/t's tare is being taken)");
+  tick();
+  EXPECT_EQ(ask(OperatorCommand::mode_control), Verdict::accepted);
+  EXPECT_EQ(sup.mode(), Mode::control);
+}
+
 // CAN.md 6.1: while the IMU says its orientation has not converged the estimator must not
 // start: `mode control` (the WBC, which needs the IMU) is refused, nothing latches; once it
 // has converged the mode starts. A controller that does not need the IMU ignores the bit.

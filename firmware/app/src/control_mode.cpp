@@ -49,6 +49,9 @@ const char* ControlMode::request(const ControllerRequest& r, safety::Mode mode) 
 }
 
 // rt: no alloc, no block
+bool ControlMode::ready() const noexcept { return kind_ != ControlModeKind::wbc || !control_->tare().running; }
+
+// rt: no alloc, no block
 void ControlMode::publish(rt::LatestValue<ControllerSnapshot>& out) noexcept {
   ControllerSnapshot s;
   s.wbc = kind_ == ControlModeKind::wbc;

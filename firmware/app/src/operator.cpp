@@ -290,7 +290,7 @@ std::string describe_log_record(const rt::LogRecord& r) {
       std::string words = r.a >= 0 && r.a <= static_cast<std::int64_t>(safety::OperatorCommand::reset)
                               ? safety::to_string(static_cast<safety::OperatorCommand>(r.a))
                               : "?";
-      if (r.event == rt::LogEvent::command_rejected && r.b >= 0 && r.b <= static_cast<std::int64_t>(safety::Verdict::sensor_not_ready)) {
+      if (r.event == rt::LogEvent::command_rejected && r.b >= 0 && r.b <= static_cast<std::int64_t>(safety::Verdict::controller_not_ready)) {
         words += std::string(": ") + safety::to_string(static_cast<safety::Verdict>(r.b));
       }
       return words;

@@ -59,6 +59,7 @@ const char* to_string(Verdict verdict) noexcept {
     case Verdict::unsafe_timing: return "not safe: overrun streak in progress";
     case Verdict::sensor_lost: return "a sensor the controller needs is lost or clipping (imu or wrist F/T)";
     case Verdict::sensor_not_ready: return "the imu's orientation has not converged";
+    case Verdict::controller_not_ready: return "the controller is not ready (the wrist f/t's tare is being taken)";
   }
   return "unknown";
 }
@@ -162,6 +163,7 @@ Verdict Supervisor::request(OperatorCommand command) noexcept {  // rt: no alloc
       if (mode_ != Mode::stand) return Verdict::not_standing;
       if (sensors_lost_ != 0) return Verdict::sensor_lost;
       if (imu_not_converged_) return Verdict::sensor_not_ready;
+      if (!control_ready_) return Verdict::controller_not_ready;
       enter(Mode::control);
       return Verdict::accepted;
     case OperatorCommand::mode_stand:
@@ -238,6 +240,7 @@ bool command_finite(const hal::JointCommands& c) noexcept {
 void Supervisor::finish(const hal::Measurements& meas, const ControllerReport& report,
                         hal::JointCommands& cmd) noexcept {  // rt: no alloc
   const Mode before = mode_;
+  if (mode_ == Mode::stand) control_ready_ = report.control_ready;
   if (mode_ == Mode::stand_up || mode_ == Mode::stand || mode_ == Mode::control) {
     const bool ok = report.ok && command_finite(cmd);
     if (ok) {

@@ -207,7 +207,12 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
   EXPECT_EQ(rig->control.controller().tare().completed, 1u) << "tared in stand";
   EXPECT_EQ(rig->request(tare), nullptr);  // a second tare, in stand: collected now
   EXPECT_TRUE(rig->control.controller().tare().running);
-  rig->executive->run_ticks(config.control.tare_samples + 10);
+  // The control mode waits for it: the F/T's bias would be a push there.
+  rig->executive->run_ticks(10);
+  EXPECT_EQ(rig->command(safety::OperatorCommand::mode_control), safety::Verdict::controller_not_ready);
+  EXPECT_EQ(rig->supervisor.mode(), safety::Mode::stand);
+  EXPECT_TRUE(rig->control.controller().tare().running) << "still collecting in stand";
+  rig->executive->run_ticks(config.control.tare_samples);
   EXPECT_EQ(rig->control.controller().tare().completed, 2u);
 
   ASSERT_EQ(rig->command(safety::OperatorCommand::mode_control), safety::Verdict::accepted);

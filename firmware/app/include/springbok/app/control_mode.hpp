@@ -31,6 +31,8 @@ class ControlMode {
   // Gait changes in the control mode; a tare in any mode. rt: no alloc, no block
   const char* request(const ControllerRequest& r, safety::Mode mode) noexcept;
   void publish(rt::LatestValue<ControllerSnapshot>& out) noexcept;  // rt: no alloc, no block
+  // The whole-body controller can take over once the wrist F/T is tared (no tare being taken). rt
+  bool ready() const noexcept;
   // The controller's tick report (the estimate, the template's rest pose and displacements,
   // F_e, the QP's forces and status) into a telemetry record (the whole-body controller
   // only). rt: no alloc, no block

@@ -8,7 +8,8 @@
 //             robot's weight along the same smoothstep); done when the ramp
 //             ended and every leg joint is within stand_tolerance_rad;
 //   stand:    hold the stand posture (joint PD, plus the weight's feed-forward
-//             with stand_feed_forward weight);
+//             with stand_feed_forward weight), and report whether the control
+//             law could take over (`mode control` waits for it);
 //   control:  the control law (a ControlLaw: ControlMode in control_mode.hpp, the
 //             whole-body controller or JointPdHold), which also observes the
 //             stand-up and stand ticks.
@@ -41,7 +42,8 @@ struct ControlInput {
 // The control law of the control mode; `in.ticks_in_mode` is 0 on its first tick.
 // observe() sees the stand-up and stand ticks (an estimator keeps running);
 // request() takes an operator's request in `mode` (nullptr: accepted, else why
-// not, a static string); publish() writes its state for `controller` (every tick).
+// not, a static string); publish() writes its state for `controller` (every tick);
+// ready() says whether it could take over from the stand now (ControllerReport::control_ready).
 template <class C>
 concept ControlLaw = requires(C& c, const ControlInput& in, hal::JointCommands& cmd,
                                          const ControllerRequest& r, rt::LatestValue<ControllerSnapshot>& out) {
@@ -49,6 +51,7 @@ concept ControlLaw = requires(C& c, const ControlInput& in, hal::JointCommands& 
   { c.observe(in) } noexcept;
   { c.request(r, safety::Mode::control) } noexcept -> std::same_as<const char*>;
   { c.publish(out) } noexcept;
+  { c.ready() } noexcept -> std::same_as<bool>;
 };
 
 inline constexpr const char* kNotTheWbc = "the control mode runs joint_pd (control.controller), no whole-body controller";
@@ -77,6 +80,7 @@ class JointPdHold {
   void observe(const ControlInput&) noexcept {}
   const char* request(const ControllerRequest&, safety::Mode) noexcept { return kNotTheWbc; }
   void publish(rt::LatestValue<ControllerSnapshot>& out) noexcept { out.publish(ControllerSnapshot{}); }
+  bool ready() const noexcept { return true; }
 
  private:
   VecNj posture_rad_;
@@ -115,11 +119,14 @@ class ModeController {
             (m.q_rad - posture_rad_).head<kFirstArmJoint>().cwiseAbs().maxCoeff() <= tolerance_rad_;
         return report;
       }
-      case safety::Mode::stand:
+      case safety::Mode::stand: {
         control_.observe(in);
         joint_pd_command(posture_rad_, VecNj::Zero(), gains_, cmd);
         if (weight_feed_forward_) cmd.tau_ff_nm = weight_feed_forward(m.q_rad);
-        return {};
+        safety::ControllerReport report;
+        report.control_ready = control_.ready();
+        return report;
+      }
       case safety::Mode::control:
         return control_.compute(in, cmd);
       case safety::Mode::idle:

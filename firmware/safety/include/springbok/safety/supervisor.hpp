@@ -65,6 +65,7 @@ enum class Verdict : std::uint8_t {
   unsafe_timing,        // reset during an overrun streak
   sensor_lost,          // mode control while a sensor the controller needs is lost or clipping
   sensor_not_ready,     // mode control while the IMU's orientation has not converged (CAN.md 6.1)
+  controller_not_ready, // mode control while the control law cannot take over (the wrist F/T's tare is being taken)
 };
 const char* to_string(Verdict verdict) noexcept;
 
@@ -93,6 +94,9 @@ struct SupervisorConfig {
 struct ControllerReport {
   bool ok = true;                // false: failed (QP infeasible, iteration cap, ...)
   bool posture_reached = false;  // stand-up finished
+  // Standing: whether the control mode's law could take over now (false while the wrist F/T's
+  // tare is being taken: a bias taken as a push otherwise). `mode control` waits for it.
+  bool control_ready = true;
 };
 
 class Supervisor {
@@ -166,6 +170,7 @@ class Supervisor {
   FaultMask sensors_lost_ = 0;
   std::uint32_t degraded_buses_ = 0;
   bool imu_not_converged_ = false;  // the control mode needs the IMU and it says: not converged
+  bool control_ready_ = true;       // the last standing tick's ControllerReport::control_ready
   bool have_last_good_ = false;
   hal::JointCommands last_good_;
 };
