@@ -180,13 +180,14 @@ EkfStatus InertialKinematicEkf::start_from_calibration(const FootMeasurements& f
 
   Filter& x = x_;
   x = Filter{};
-  x.p = Vec3(xy_m.x(), xy_m.y(), params_.ground_height_m - contact_z);
-  x.v.setZero();
+  x.p_b = Vec3(xy_m.x(), xy_m.y(), params_.ground_height_m - contact_z);
+  x.v_b.setZero();
   x.q = Quat(rot).normalized();
   x.b_a.setZero();
   x.b_g = c.gyro_bias_i_rad_s;
 
-  // Prior. Standing still, the recorded tilt is off by b_a's horizontal part over g:
+  // Prior (p and v the trunk origin's here: finish_start maps them to the IMU point's).
+  // Standing still, the recorded tilt is off by b_a's horizontal part over g:
   // dth = J db_a, J = [e_z]x C / g (R = Exp(dth) R^, C = R^ R_BI).
   const double g = params_.gravity_m_s2;
   const Mat3 c_wi = rot * mounting_.rotation_bi;
@@ -212,8 +213,8 @@ EkfStatus InertialKinematicEkf::start_from_calibration(const FootMeasurements& f
     const double s = c.gyro_spread_i_rad_s[k];
     P(kEkfBg + k, kEkfBg + k) = std::max(s * s / c.samples, floor_bg * floor_bg);
   }
-  const EkfStatus st = finish_start(feet);
-  x.last_imu = cal_last_;  // the robot at rest at the start: the first tick's previous sample
+  const EkfStatus st = finish_start(feet, Vec3::Zero());  // at rest: w = 0
+  x.last_imu = cal_last_;  // the first tick's previous sample
   x.have_last_imu = true;
   return st;
 }
@@ -229,8 +230,8 @@ EkfStatus InertialKinematicEkf::start_at(const EkfInitialState& s, const FootMea
   if (contacts == 0) return EkfStatus::no_anchor;
   Filter& x = x_;
   x = Filter{};
-  x.p = s.position_w_m;
-  x.v = s.velocity_w_m_s;
+  x.p_b = s.position_w_m;
+  x.v_b = s.velocity_w_m_s;
   x.q = s.orientation_wb.normalized();
   x.b_a = s.accel_bias_i_m_s2;
   x.b_g = s.gyro_bias_i_rad_s;
@@ -240,8 +241,10 @@ EkfStatus InertialKinematicEkf::start_at(const EkfInitialState& s, const FootMea
       Eigen::Matrix<double, 12, 1>::Zero(), Vec3::Constant(params_.initial_accel_bias_std_m_s2),
       Vec3::Constant(params_.initial_gyro_bias_std_rad_s);
   x.P = sd.cwiseProduct(sd).asDiagonal();
-  const EkfStatus st = finish_start(feet);
-  if (s.has_imu && s.imu.rate_i_rad_s.allFinite() && s.imu.specific_force_i_m_s2.allFinite()) {
+  const bool imu = s.has_imu && s.imu.rate_i_rad_s.allFinite() && s.imu.specific_force_i_m_s2.allFinite();
+  const Vec3 w_b = imu ? Vec3(mounting_.rotation_bi * (s.imu.rate_i_rad_s - x.b_g)) : Vec3::Zero();
+  const EkfStatus st = finish_start(feet, w_b);
+  if (imu) {
     x.last_imu = s.imu;
     x.have_last_imu = true;
   }
@@ -249,15 +252,24 @@ EkfStatus InertialKinematicEkf::start_at(const EkfInitialState& s, const FootMea
 }
 
 // rt: no alloc
-EkfStatus InertialKinematicEkf::finish_start(const FootMeasurements& feet) noexcept {
+EkfStatus InertialKinematicEkf::finish_start(const FootMeasurements& feet, const Vec3& w_b) noexcept {
   Filter& x = x_;
   const Mat3 rot = x.q.toRotationMatrix();
-  // d_i = p + R s_i: dd_i = dp - [R s_i]x dth + R ds_i (a free foot: decoupled, its reset std).
+  const Vec3& r = mounting_.position_bi_m;
+  // x.P holds the prior of (p_B, v_B, th, -, b_a, b_g). The state's from it, to first order:
+  //   p = p_B + R r:          dp = dp_B - [R r]x dth
+  //   v = v_B + R (w x r):    dv = dv_B - [R (w x r)]x dth + R [r]x R_BI db_g
+  //   d_i = p_B + R s_i:      dd_i = dp_B - [R s_i]x dth + R ds_i  (a free foot: decoupled, its reset std)
+  x.p = x.p_b + rot * r;
+  x.v = x.v_b + rot * w_b.cross(r);
   EkfCovariance map = EkfCovariance::Identity();
+  map.block<3, 3>(kEkfP, kEkfTh) = -skew(rot * r);
+  map.block<3, 3>(kEkfV, kEkfTh) = -skew(rot * w_b.cross(r));
+  map.block<3, 3>(kEkfV, kEkfBg) = rot * skew(r) * mounting_.rotation_bi;
   for (int f = 0; f < kEkfFeet; ++f) {
     const FootMeasurement& m = feet[idx(f)];
     const int i = ekf_foot_index(f);
-    x.d[idx(f)] = x.p + rot * (m.contact_point_b_m.allFinite() ? m.contact_point_b_m : Vec3::Zero());
+    x.d[idx(f)] = x.p_b + rot * (m.contact_point_b_m.allFinite() ? m.contact_point_b_m : Vec3::Zero());
     map.block<3, 3>(i, i).setZero();
     if (m.contact) {
       map.block<3, 3>(i, kEkfP).setIdentity();
@@ -280,10 +292,45 @@ EkfStatus InertialKinematicEkf::finish_start(const FootMeasurements& feet) noexc
   }
   x.have_last_imu = false;
   condition_covariance();
+  write_outputs(w_b);
   saved_ = x_;
   started_ = true;
   status_ = EkfStatus::ok;
   return status_;
+}
+
+// rt: no alloc
+void InertialKinematicEkf::write_outputs(const Vec3& w_b) noexcept {
+  Filter& x = x_;
+  const Mat3 rot = x.q.toRotationMatrix();
+  const Vec3& r = mounting_.position_bi_m;
+  x.w_b = w_b;
+  x.p_b = x.p - rot * r;
+  x.v_b = x.v - rot * w_b.cross(r);
+}
+
+// rt: no alloc
+Mat3 InertialKinematicEkf::trunk_position_covariance_w() const noexcept {
+  const Mat3 x = skew(x_.q.toRotationMatrix() * mounting_.position_bi_m);  // dp_B = dp + [R r]x dth
+  const EkfCovariance& P = x_.P;
+  Mat3 c = P.block<3, 3>(kEkfP, kEkfP) + x * P.block<3, 3>(kEkfTh, kEkfP) + P.block<3, 3>(kEkfP, kEkfTh) * x.transpose() +
+           x * P.block<3, 3>(kEkfTh, kEkfTh) * x.transpose();
+  return 0.5 * (c + c.transpose());
+}
+
+// rt: no alloc
+Mat3 InertialKinematicEkf::trunk_velocity_covariance_w() const noexcept {
+  // dv_B = dv + [R (w x r)]x dth - R [r]x R_BI (db_g + n_g)
+  const Mat3 rot = x_.q.toRotationMatrix();
+  const Vec3& r = mounting_.position_bi_m;
+  Eigen::Matrix<double, 3, kN> jac = Eigen::Matrix<double, 3, kN>::Zero();
+  jac.block<3, 3>(0, kEkfV).setIdentity();
+  jac.block<3, 3>(0, kEkfTh) = skew(rot * x_.w_b.cross(r));
+  const Mat3 lever = rot * skew(r);
+  jac.block<3, 3>(0, kEkfBg) = -lever * mounting_.rotation_bi;
+  const double sample_var = params_.gyro_noise_rad_s_per_sqrt_hz * params_.gyro_noise_rad_s_per_sqrt_hz / x_.last_dt_s;
+  const Mat3 c = jac * x_.P * jac.transpose() + sample_var * lever * lever.transpose();
+  return 0.5 * (c + c.transpose());
 }
 
 // ---- the tick ---------------------------------------------------------------------------
@@ -344,8 +391,9 @@ EkfStatus InertialKinematicEkf::update(const EkfInput& in, double dt_s) noexcept
     }
   }
   if (params_.orientation_aid == OrientationAid::yaw && in.orientation_valid) fuse_yaw(in.orientation_wi);
-  x_.w_b = mounting_.rotation_bi * (in.imu.rate_i_rad_s - x_.b_g);
   condition_covariance();
+  write_outputs(mounting_.rotation_bi * (in.imu.rate_i_rad_s - x_.b_g));
+  x_.last_dt_s = dt_s;
 
   bool finite = x_.p.allFinite() && x_.v.allFinite() && x_.q.coeffs().allFinite() && x_.b_a.allFinite() &&
                 x_.b_g.allFinite() && x_.P.allFinite();
@@ -363,7 +411,6 @@ EkfStatus InertialKinematicEkf::update(const EkfInput& in, double dt_s) noexcept
 void InertialKinematicEkf::predict(const ImuSample& imu, double dt) noexcept {
   Filter& x = x_;
   const Mat3& rbi = mounting_.rotation_bi;
-  const Vec3& r = mounting_.position_bi_m;
   const ImuSample& prev = x.have_last_imu ? x.last_imu : imu;
   const Vec3 w0 = rbi * (prev.rate_i_rad_s - x.b_g);
   const Vec3 w1 = rbi * (imu.rate_i_rad_s - x.b_g);
@@ -378,12 +425,8 @@ void InertialKinematicEkf::predict(const ImuSample& imu, double dt) noexcept {
   const Vec3 g_w(0.0, 0.0, -params_.gravity_m_s2);
   const Vec3 fw0 = r0 * f0, fw1 = r1 * f1;
   const Vec3 a0 = fw0 + g_w, a1 = fw1 + g_w;
-  const Vec3 v_imu0 = x.v + r0 * w0.cross(r);
-  const Vec3 p_imu0 = x.p + r0 * r;
-  const Vec3 v_imu1 = v_imu0 + (0.5 * dt) * (a0 + a1);
-  const Vec3 p_imu1 = p_imu0 + dt * v_imu0 + (dt * dt / 6.0) * (2.0 * a0 + a1);
-  x.p = p_imu1 - r1 * r;
-  x.v = v_imu1 - r1 * w1.cross(r);
+  x.p += dt * x.v + (dt * dt / 6.0) * (2.0 * a0 + a1);
+  x.v += (0.5 * dt) * (a0 + a1);
   x.last_imu = imu;
   x.have_last_imu = true;
 
@@ -437,7 +480,7 @@ void InertialKinematicEkf::predict(const ImuSample& imu, double dt) noexcept {
 void InertialKinematicEkf::reset_foot(int foot, const FootMeasurement& m) noexcept {
   Filter& x = x_;
   const int i = ekf_foot_index(foot);
-  x.d[idx(foot)] = x.p + x.q.toRotationMatrix() * m.contact_point_b_m;
+  x.d[idx(foot)] = x.p + x.q.toRotationMatrix() * (m.contact_point_b_m - mounting_.position_bi_m);
   x.P.middleRows<3>(i).setZero();
   x.P.middleCols<3>(i).setZero();
   x.P.block<3, 3>(i, i) = Mat3::Identity() * (params_.foot_reset_std_m * params_.foot_reset_std_m);
@@ -450,8 +493,8 @@ InertialKinematicEkf::Fused InertialKinematicEkf::fuse_foot(int foot, const Foot
   const EkfCovariance& P = x.P;
   const int i = ekf_foot_index(foot);
   const Mat3 rot = x.q.toRotationMatrix();
-  const Vec3 rel = x.d[idx(foot)] - x.p;                          // predicted R^ s
-  const Vec3 y = rot * m.contact_point_b_m - rel;                 // innovation, world axes
+  const Vec3 rel = x.d[idx(foot)] - x.p;                                      // predicted R^ (s - r)
+  const Vec3 y = rot * (m.contact_point_b_m - mounting_.position_bi_m) - rel;  // innovation, world axes
   const Mat3 hth = skew(rel);                                     // H's dth block
   const Mat3 noise = rot * m.covariance_b_m2 * rot.transpose();
 
@@ -517,7 +560,7 @@ bool InertialKinematicEkf::retest_foot(int foot, const FootMeasurement& m, doubl
   Filter& x = x_;
   const std::size_t f = idx(foot);
   const Mat3 rot = x.q.toRotationMatrix();
-  const Vec3 w = x.p + rot * m.contact_point_b_m;
+  const Vec3 w = x.p + rot * (m.contact_point_b_m - mounting_.position_bi_m);
   if (x.probe_count[f] == 0) {
     x.probe_mean_w_m[f] = w;
     x.probe_count[f] = 1;

@@ -12,32 +12,40 @@
 //   w the trunk's angular rate in trunk axes, [a]x the cross-product matrix of a.
 //   Exp/Log: the rotation vector <-> rotation (quaternion) maps.
 //
-// ---- state --------------------------------------------------------------------------
+// ---- state ------------------------------------------------------------------------------
 //   nominal (quaternion, 31 numbers)              error (27), index, how it composes
-//   p    trunk origin, W [m]                      dp    0..2    p = p^ + dp
-//   v    trunk origin's velocity, W [m/s]         dv    3..5    v = v^ + dv
+//   p    the IMU's origin, W [m]                  dp    0..2    p = p^ + dp
+//   v    the IMU origin's velocity, W [m/s]       dv    3..5    v = v^ + dv
 //   R    q_WB (Hamilton, unit)                    dth   6..8    R = Exp(dth) R^  (LEFT, WORLD axes)
 //   d_i  foot i's contact point, W [m]            dd_i  9+3i..  d_i = d_i^ + dd_i, i = LF RF LH RH
 //   b_a  accelerometer bias, I axes [m/s^2]       db_a  21..23
 //   b_g  gyro bias, I axes [rad/s]                db_g  24..26
+// The trunk origin's position and velocity (the outputs) are p_B = p - R r and
+// v_B = v - R (w x r). The state holds the IMU point's, not the trunk origin's, because w is
+// known only through each tick's gyro sample: with the trunk's velocity in the state, every
+// sample's noise would enter it directly through the lever arm (white, sigma_g / sqrt(dt) |r|,
+// no random walk), which the model cannot hold; the filter would be overconfident in velocity.
+// At the IMU's point the lever arm leaves the propagation and enters, exactly, the kinematics
+// (s_i - r) and the outputs (whose covariance carries the gyro's noise through r).
 // With the rotation error in world axes the yaw error is dth_z alone (unobservable from
 // the legs and the IMU: it only drifts, unless the yaw aid is on) and the tilt is
 // (dth_x, dth_y).
 //
 // ---- sensors ------------------------------------------------------------------------
 //   gyro    w_m = R_BI^T w + b_g + n_g                     (I axes)
-//   accel   f_m = R_BI^T R^T (a_I - g_W) + b_a + n_a        (I axes), a_I the acceleration of
-//           the IMU's point p_I = p + R r:  a_I = a + R (w' x r + w x (w x r)), a = p''
-//   feet    s_i = R^T (d_i - p) + n_s,i,  n_s,i ~ N(0, Sigma_i) trunk axes (the caller's)
+//   accel   f_m = R_BI^T R^T (p'' - g_W) + b_a + n_a        (I axes), at the IMU's point p
+//           (the trunk origin's acceleration is p'' - R (w' x r + w x (w x r)))
+//   feet    s_i = R^T (d_i - p_B) + n_s,i = R^T (d_i - p) + r + n_s,i,
+//           n_s,i ~ N(0, Sigma_i) trunk axes (the caller's)
 //   n_g, n_a white, densities sigma_g [rad/s/sqrt(Hz)], sigma_a [m/s^2/sqrt(Hz)]: a sample
 //   over dt has std sigma / sqrt(dt). The earth's rate is neglected (it goes into b_g).
 //
 // ---- continuous model ----------------------------------------------------------------
 //   p' = v
-//   v' = R (f - w' x r - w x (w x r)) + g_W,   f = R_BI (f_m - b_a - n_a)
-//   R' = R [w]x,                               w = R_BI (w_m - b_g - n_g)
-//   d_i' = n_d,i     white, density sigma_d [m/s/sqrt(Hz)]: small while the foot is anchored,
-//                    large while it is free (in swing or rejected as slipping)
+//   v' = R f + g_W,     f = R_BI (f_m - b_a - n_a)   (trunk axes)
+//   R' = R [w]x,        w = R_BI (w_m - b_g - n_g)
+//   d_i' = n_d,i        white, density sigma_d [m/s/sqrt(Hz)]: small while the foot is anchored,
+//                       large while it is free (in swing or rejected as slipping)
 //   b_a' = n_ba, b_g' = n_bg   bias random walks [m/s^3/sqrt(Hz)], [rad/s^2/sqrt(Hz)]
 //
 // ---- mean propagation over one tick (t0 -> t1 = t0 + dt) -------------------------------
@@ -46,23 +54,16 @@
 // for both, unless the start was given the sample at its instant: the calibration's last
 // one, or EkfInitialState::imu). w is taken linear over the tick:
 //   R_1 = R_0 Exp(W),  W = dt (w_0 + w_1) / 2 + dt^2 (w_0 x w_1) / 12   (Magnus to 2nd order)
-// The IMU's point moves with a_k = R_k f_k + g_W, taken linear over the tick:
-//   v_I = v + R (w x r),  p_I = p + R r
-//   v_I1 = v_I0 + dt (a_0 + a_1) / 2,  p_I1 = p_I0 + dt v_I0 + dt^2 (2 a_0 + a_1) / 6
-//   p_1 = p_I1 - R_1 r,  v_1 = v_I1 - R_1 (w_1 x r)
-// The lever arm is exact in the mean: the trunk origin's velocity is the IMU point's less
-// R (w x r), whose change over the tick is R (w' x r + w x (w x r)) dt; w' is not neglected.
+// and the acceleration a_k = R_k f_k + g_W:
+//   v_1 = v_0 + dt (a_0 + a_1) / 2,  p_1 = p_0 + dt v_0 + dt^2 (2 a_0 + a_1) / 6
+// Both are second order in dt.
 //
 // ---- linearised error dynamics ----------------------------------------------------------
-// C = R^ R_BI (IMU axes to world), f_W = (R_0 f_0 + R_1 f_1) / 2 (the IMU's specific force,
-// world axes):
+// C = R^ R_BI (IMU axes to world), f_W = (R_0 f_0 + R_1 f_1) / 2 (specific force, world):
 //   dp'   = dv
 //   dv'   = -[f_W]x dth - C db_a - C n_a
 //   dth'  = -C db_g - C n_g
 //   dd_i' = n_d,i,   db_a' = n_ba,   db_g' = n_bg
-// Left out of the Jacobian (not of the mean): the lever arm's accelerations w' x r and
-// w x (w x r) in the dv'-dth term (small beside g for a trunk's motion and an IMU within
-// decimetres of the origin) and a gyro bias error's effect through R (w x r) on v (|r| |db_g|).
 // Discretisation: Phi = exp(F dt) to second order in dt (F^2 is nonzero in three blocks):
 //   Phi_pv   = dt I                      Phi_pth  = -dt^2/2 [f_W]x     Phi_pba = -dt^2/2 C
 //   Phi_vth  = -dt [f_W]x                Phi_vba  = -dt C              Phi_vbg = dt^2/2 [f_W]x C
@@ -76,9 +77,9 @@
 //
 // ---- measurements (each foot in turn: a sequential update, exact for independent noise) ---
 // Foot kinematics, rotated to world with R^ (an invertible constant for the linearisation):
-//   z_i = R^ s_i = (d_i - p) + R^ n_s,i      predicted  d_i^ - p^
+//   z_i = R^ (s_i - r) = (d_i - p) + R^ n_s,i      predicted  d_i^ - p^
 //   H: dp -> -I,  dth -> [d_i^ - p^]x,  dd_i -> I;   noise R^ Sigma_i R^^T
-//   (from R^ R^T = Exp(-dth):  R^ s = (I - [dth]x)(d - p) = (d - p) + [d - p]x dth)
+//   (from R^ R^T = Exp(-dth):  R^ R^T (d - p) = (I - [dth]x)(d - p) = (d - p) + [d - p]x dth)
 // Flat ground (option, default on), with the kinematics of the same foot (one 4-row update):
 //   d_i,z = ground height + n_h,  n_h ~ N(0, sigma_h^2);  H: dd_i,z -> 1
 // Without it a foot's position and the trunk's tilt enter the kinematics only as d_i - p in
@@ -96,10 +97,15 @@
 // d, b added; R <- Exp(dth) R), the covariance symmetrised and its diagonal bounded after the
 // tick (a row and column scaled down to the bound: it stays positive semidefinite).
 //
+// ---- outputs ------------------------------------------------------------------------
+//   p_B = p - R r,  v_B = v - R (w x r),  w = R_BI (w_m - b_g) of the last accepted tick
+//   dp_B = dp + [R r]x dth
+//   dv_B = dv + [R (w x r)]x dth - R [r]x R_BI (db_g + n_g),  n_g the last sample's noise
+//
 // ---- contact, slip ------------------------------------------------------------------
 // A foot is free (in swing) while the caller's stance word says no contact: its
 // measurement is not used and its process noise is the free one. At touch-down its state
-// is reset to the kinematic position p^ + R^ s_i with a large covariance decoupled from
+// is reset to the kinematic position p_B^ + R^ s_i with a large covariance decoupled from
 // the rest (foot_reset_std_m), then fused: the first update puts it on its measurement and
 // moves the trunk by almost nothing. An anchored foot whose kinematic innovation's
 // Mahalanobis distance y^T S^-1 y (3 dof, S the 3x3 of this update) exceeds slip_gate_chi2
@@ -117,7 +123,8 @@
 // and yaw given; b_a = 0 with its prior, and the tilt's covariance correlated with it
 // (standing still the tilt estimate is off by b_a's horizontal part over g:
 // dth = [e_z]x C db_a / g). Or a known initial state (start_at). The feet's covariances
-// follow from d_i = p + R s_i.
+// follow from d_i = p_B + R s_i, the IMU point's from p = p_B + R r, v = v_B + R (w x r)
+// (w from the start's IMU sample, 0 without one).
 //
 // ---- inputs refused --------------------------------------------------------------------
 // A non-finite sample, contact point, covariance or orientation in use, a dt outside
@@ -317,9 +324,13 @@ class InertialKinematicEkf {
   // ---- the estimate --------------------------------------------------------------------
   EkfStatus status() const noexcept { return status_; }
   bool started() const noexcept { return started_; }
-  const Eigen::Vector3d& position_w_m() const noexcept { return x_.p; }
-  const Eigen::Vector3d& velocity_w_m_s() const noexcept { return x_.v; }
-  Eigen::Vector3d velocity_b_m_s() const noexcept { return x_.q.toRotationMatrix().transpose() * x_.v; }
+  // The trunk origin's position and velocity, world axes (outputs), and v_B in trunk axes.
+  const Eigen::Vector3d& position_w_m() const noexcept { return x_.p_b; }
+  const Eigen::Vector3d& velocity_w_m_s() const noexcept { return x_.v_b; }
+  Eigen::Vector3d velocity_b_m_s() const noexcept { return x_.q.toRotationMatrix().transpose() * x_.v_b; }
+  // The IMU point's (the state's), world axes.
+  const Eigen::Vector3d& imu_position_w_m() const noexcept { return x_.p; }
+  const Eigen::Vector3d& imu_velocity_w_m_s() const noexcept { return x_.v; }
   const Eigen::Quaterniond& orientation_wb() const noexcept { return x_.q; }
   Eigen::Matrix3d rotation_wb() const noexcept { return x_.q.toRotationMatrix(); }
   // The last accepted tick's gyro sample less b_g through the mounting, trunk axes [rad/s].
@@ -331,8 +342,13 @@ class InertialKinematicEkf {
   bool foot_rejected(int foot) const noexcept { return foot_mode(foot) == FootMode::rejected; }
   // The last kinematic innovation's squared Mahalanobis distance of a foot (0 when not tested).
   double foot_mahalanobis2(int foot) const noexcept { return x_.mahalanobis2[idx(foot)]; }
+  // The error state's covariance (p, v the IMU point's) and its diagonal.
   const EkfCovariance& covariance() const noexcept { return x_.P; }
   EkfVector covariance_diagonal() const noexcept { return x_.P.diagonal(); }
+  // The trunk origin's position and velocity covariances, world axes (see outputs above; the
+  // velocity's includes the last gyro sample's noise through the lever arm). rt: no alloc
+  Eigen::Matrix3d trunk_position_covariance_w() const noexcept;
+  Eigen::Matrix3d trunk_velocity_covariance_w() const noexcept;
   const EkfParams& params() const noexcept { return params_; }
   const ImuMounting& mounting() const noexcept { return mounting_; }
 
@@ -353,8 +369,10 @@ class InertialKinematicEkf {
             const Eigen::Matrix<double, M, 1>& innovation) noexcept;
   void inject(const EkfVector& dx) noexcept;
   void condition_covariance() noexcept;
-  // The start shared by both: the mean and the base blocks of P set, the feet placed.
-  EkfStatus finish_start(const FootMeasurements& feet) noexcept;
+  void write_outputs(const Eigen::Vector3d& w_b) noexcept;  // the trunk's p_B, v_B from the state
+  // The start shared by both: given p_B, v_B, R, the biases and the prior of (p_B, v_B, th,
+  // b_a, b_g) in P, the state and its covariance (w_b: the trunk's rate at the start).
+  EkfStatus finish_start(const FootMeasurements& feet, const Eigen::Vector3d& w_b) noexcept;
 
   ImuMounting mounting_;
   EkfParams params_;
@@ -377,6 +395,8 @@ class InertialKinematicEkf {
     ImuSample last_imu;
     bool have_last_imu = false;
     Eigen::Vector3d w_b = Eigen::Vector3d::Zero();
+    Eigen::Vector3d p_b = Eigen::Vector3d::Zero(), v_b = Eigen::Vector3d::Zero();  // outputs
+    double last_dt_s = 1e-3;
   };
   Filter x_, saved_;
   bool started_ = false;
