@@ -39,6 +39,32 @@ Mat3 rotation_zyx(double yaw, double pitch, double roll) noexcept {
 
 bool gate_enabled(double chi2) noexcept { return chi2 > 0.0 && std::isfinite(chi2); }
 
+// During a tick only P's lower triangle is kept (the prediction and the updates write it
+// alone); condition_covariance mirrors it at the tick's end. Columns c..c+2 of the symmetric
+// matrix, from the lower triangle.
+void sym_cols3(const EkfCovariance& P, int c, Eigen::Matrix<double, kN, 3>& out) noexcept {
+  for (int k = 0; k < 3; ++k) {
+    const int col = c + k;
+    for (int r = 0; r < col; ++r) out(r, k) = P(col, r);
+    for (int r = col; r < kN; ++r) out(r, k) = P(r, col);
+  }
+}
+
+// P -= U U^T on the lower triangle.
+template <int M>
+void lower_rank_update(EkfCovariance& P, const Eigen::Matrix<double, kN, M>& u) noexcept {
+  for (int j = 0; j < kN; ++j) {
+    double c[M];
+    for (int k = 0; k < M; ++k) c[k] = u(j, k);
+    double* col = P.data() + static_cast<std::ptrdiff_t>(j) * kN;
+    for (int i = j; i < kN; ++i) {
+      double sum = 0.0;
+      for (int k = 0; k < M; ++k) sum += c[k] * u(i, k);
+      col[i] -= sum;
+    }
+  }
+}
+
 }  // namespace
 
 const char* to_string(EkfStatus s) noexcept {
@@ -339,7 +365,10 @@ bool InertialKinematicEkf::input_ok(const EkfInput& in, double dt_s) const noexc
   if (!(dt_s > 0.0) || !(dt_s <= params_.max_dt_s)) return false;
   if (!in.imu.rate_i_rad_s.allFinite() || !in.imu.specific_force_i_m_s2.allFinite()) return false;
   for (const FootMeasurement& m : in.feet) {
-    if (m.contact && (!m.contact_point_b_m.allFinite() || !m.covariance_b_m2.allFinite())) return false;
+    if (m.contact && (!m.contact_point_b_m.allFinite() || !m.covariance_b_m2.allFinite() ||
+                      !m.anchor_velocity_w_m_s.allFinite())) {
+      return false;
+    }
   }
   if (params_.orientation_aid == OrientationAid::yaw && in.orientation_valid &&
       (!in.orientation_wi.coeffs().allFinite() || !(in.orientation_wi.norm() > 0.5))) {
@@ -359,7 +388,7 @@ EkfStatus InertialKinematicEkf::update(const EkfInput& in, double dt_s) noexcept
     return status_;
   }
   saved_ = x_;
-  predict(in.imu, dt_s);
+  predict(in, dt_s);
 
   const bool gate = gate_enabled(params_.slip_gate_chi2);
   int fused = 0;
@@ -391,12 +420,12 @@ EkfStatus InertialKinematicEkf::update(const EkfInput& in, double dt_s) noexcept
     }
   }
   if (params_.orientation_aid == OrientationAid::yaw && in.orientation_valid) fuse_yaw(in.orientation_wi);
-  condition_covariance();
+  bool finite = condition_covariance();
   write_outputs(mounting_.rotation_bi * (in.imu.rate_i_rad_s - x_.b_g));
   x_.last_dt_s = dt_s;
 
-  bool finite = x_.p.allFinite() && x_.v.allFinite() && x_.q.coeffs().allFinite() && x_.b_a.allFinite() &&
-                x_.b_g.allFinite() && x_.P.allFinite();
+  finite = finite && x_.p.allFinite() && x_.v.allFinite() && x_.q.coeffs().allFinite() && x_.b_a.allFinite() &&
+           x_.b_g.allFinite() && x_.p_b.allFinite() && x_.v_b.allFinite();
   for (const Vec3& d : x_.d) finite = finite && d.allFinite();
   if (!finite) {
     x_ = saved_;
@@ -408,8 +437,9 @@ EkfStatus InertialKinematicEkf::update(const EkfInput& in, double dt_s) noexcept
 }
 
 // rt: no alloc
-void InertialKinematicEkf::predict(const ImuSample& imu, double dt) noexcept {
+void InertialKinematicEkf::predict(const EkfInput& in, double dt) noexcept {
   Filter& x = x_;
+  const ImuSample& imu = in.imu;
   const Mat3& rbi = mounting_.rotation_bi;
   const ImuSample& prev = x.have_last_imu ? x.last_imu : imu;
   const Vec3 w0 = rbi * (prev.rate_i_rad_s - x.b_g);
@@ -429,6 +459,10 @@ void InertialKinematicEkf::predict(const ImuSample& imu, double dt) noexcept {
   x.v += (0.5 * dt) * (a0 + a1);
   x.last_imu = imu;
   x.have_last_imu = true;
+  for (int f = 0; f < kEkfFeet; ++f) {  // an anchored foot's known motion (a rolling contact)
+    const FootMeasurement& m = in.feet[idx(f)];
+    if (m.contact && x.mode[idx(f)] == FootMode::anchored) x.d[idx(f)] += dt * m.anchor_velocity_w_m_s;
+  }
 
   // ---- covariance: P <- Phi P Phi^T + Q, Phi's nonzero blocks only -----------------------
   const Mat3 fx = skew(0.5 * (fw0 + fw1));
@@ -437,23 +471,29 @@ void InertialKinematicEkf::predict(const ImuSample& imu, double dt) noexcept {
   const Mat3 phi_pth = (-0.5 * dt2) * fx, phi_pba = (-0.5 * dt2) * c;
   const Mat3 phi_vth = -dt * fx, phi_vba = -dt * c, phi_vbg = (0.5 * dt2) * fx * c;
   const Mat3 phi_thbg = -dt * c;
-  EkfCovariance& P = x.P;
-  // Rows (A = Phi P), p before v before th: each reads rows not yet changed.
-  P.middleRows<3>(kEkfP) += dt * P.middleRows<3>(kEkfV);
-  P.middleRows<3>(kEkfP).noalias() += phi_pth * P.middleRows<3>(kEkfTh);
-  P.middleRows<3>(kEkfP).noalias() += phi_pba * P.middleRows<3>(kEkfBa);
-  P.middleRows<3>(kEkfV).noalias() += phi_vth * P.middleRows<3>(kEkfTh);
-  P.middleRows<3>(kEkfV).noalias() += phi_vba * P.middleRows<3>(kEkfBa);
-  P.middleRows<3>(kEkfV).noalias() += phi_vbg * P.middleRows<3>(kEkfBg);
-  P.middleRows<3>(kEkfTh).noalias() += phi_thbg * P.middleRows<3>(kEkfBg);
-  // Columns (A Phi^T), in the same order.
-  P.middleCols<3>(kEkfP) += dt * P.middleCols<3>(kEkfV);
-  P.middleCols<3>(kEkfP).noalias() += P.middleCols<3>(kEkfTh) * phi_pth.transpose();
-  P.middleCols<3>(kEkfP).noalias() += P.middleCols<3>(kEkfBa) * phi_pba.transpose();
-  P.middleCols<3>(kEkfV).noalias() += P.middleCols<3>(kEkfTh) * phi_vth.transpose();
-  P.middleCols<3>(kEkfV).noalias() += P.middleCols<3>(kEkfBa) * phi_vba.transpose();
-  P.middleCols<3>(kEkfV).noalias() += P.middleCols<3>(kEkfBg) * phi_vbg.transpose();
-  P.middleCols<3>(kEkfTh).noalias() += P.middleCols<3>(kEkfBg) * phi_thbg.transpose();
+  EkfCovariance& P = x.P;  // full (symmetric) at the tick's start
+  // Phi = I + N with N nonzero in rows 0..8 only. G = P Phi^T differs from P in its first 9
+  // columns, b = P_{:,0:9} + P N_{0:9,:}^T; P' = Phi G differs from G in its first 9 rows.
+  // P' therefore differs from P in its first 9 columns (and rows): those are b with rows 0..8
+  // plus N b. Only the lower triangle is written: the band P(0:9, 9:) is left stale.
+  Eigen::Matrix<double, kN, 9> b = P.leftCols<9>();
+  b.middleCols<3>(kEkfP) += dt * P.middleCols<3>(kEkfV);
+  b.middleCols<3>(kEkfP).noalias() += P.middleCols<3>(kEkfTh) * phi_pth.transpose();
+  b.middleCols<3>(kEkfP).noalias() += P.middleCols<3>(kEkfBa) * phi_pba.transpose();
+  b.middleCols<3>(kEkfV).noalias() += P.middleCols<3>(kEkfTh) * phi_vth.transpose();
+  b.middleCols<3>(kEkfV).noalias() += P.middleCols<3>(kEkfBa) * phi_vba.transpose();
+  b.middleCols<3>(kEkfV).noalias() += P.middleCols<3>(kEkfBg) * phi_vbg.transpose();
+  b.middleCols<3>(kEkfTh).noalias() += P.middleCols<3>(kEkfBg) * phi_thbg.transpose();
+  Eigen::Matrix<double, 9, 9> top = b.topRows<9>();
+  top.middleRows<3>(kEkfP) += dt * b.middleRows<3>(kEkfV);
+  top.middleRows<3>(kEkfP).noalias() += phi_pth * b.middleRows<3>(kEkfTh);
+  top.middleRows<3>(kEkfP).noalias() += phi_pba * b.middleRows<3>(kEkfBa);
+  top.middleRows<3>(kEkfV).noalias() += phi_vth * b.middleRows<3>(kEkfTh);
+  top.middleRows<3>(kEkfV).noalias() += phi_vba * b.middleRows<3>(kEkfBa);
+  top.middleRows<3>(kEkfV).noalias() += phi_vbg * b.middleRows<3>(kEkfBg);
+  top.middleRows<3>(kEkfTh).noalias() += phi_thbg * b.middleRows<3>(kEkfBg);
+  b.topRows<9>() = top;
+  P.leftCols<9>() = b;
 
   const double qa = params_.accel_noise_m_s2_per_sqrt_hz * params_.accel_noise_m_s2_per_sqrt_hz;
   const double qg = params_.gyro_noise_rad_s_per_sqrt_hz * params_.gyro_noise_rad_s_per_sqrt_hz;
@@ -489,8 +529,14 @@ void InertialKinematicEkf::reset_foot(int foot, const FootMeasurement& m) noexce
 
 // rt: no alloc
 InertialKinematicEkf::Fused InertialKinematicEkf::fuse_foot(int foot, const FootMeasurement& m, bool gate) noexcept {
+  return params_.use_ground ? fuse_foot_rows<4>(foot, m, gate) : fuse_foot_rows<3>(foot, m, gate);
+}
+
+// rt: no alloc
+template <int M>
+InertialKinematicEkf::Fused InertialKinematicEkf::fuse_foot_rows(int foot, const FootMeasurement& m, bool gate) noexcept {
   Filter& x = x_;
-  const EkfCovariance& P = x.P;
+  const EkfCovariance& P = x.P;  // its lower triangle (see sym_cols3)
   const int i = ekf_foot_index(foot);
   const Mat3 rot = x.q.toRotationMatrix();
   const Vec3 rel = x.d[idx(foot)] - x.p;                                      // predicted R^ (s - r)
@@ -498,50 +544,64 @@ InertialKinematicEkf::Fused InertialKinematicEkf::fuse_foot(int foot, const Foot
   const Mat3 hth = skew(rel);                                     // H's dth block
   const Mat3 noise = rot * m.covariance_b_m2 * rot.transpose();
 
-  // P H^T (27x3) and H P H^T: H = [-I (p), [rel]x (th), I (d_i)].
-  Eigen::Matrix<double, kN, 3> pht = P.middleCols<3>(i) - P.middleCols<3>(kEkfP);
-  pht.noalias() += P.middleCols<3>(kEkfTh) * hth.transpose();
-  Mat3 s3 = pht.middleRows<3>(i) - pht.middleRows<3>(kEkfP);
-  s3.noalias() += hth * pht.middleRows<3>(kEkfTh);
-  s3 += noise;
-  s3 = (0.5 * (s3 + s3.transpose())).eval();
-
-  const Eigen::LLT<Mat3> llt3(s3);
-  if (llt3.info() != Eigen::Success) return Fused::failed;
-  const double d2 = llt3.matrixL().solve(y).squaredNorm();
+  // P H^T and H P H^T + N: H = [-I (p), [rel]x (th), I (d_i)], and with the ground row
+  // d_i,z = h, H = e_z on dd_i (M = 4).
+  Eigen::Matrix<double, kN, 3> cols_p, cols_th, cols_d;
+  sym_cols3(P, kEkfP, cols_p);
+  sym_cols3(P, kEkfTh, cols_th);
+  sym_cols3(P, i, cols_d);
+  Eigen::Matrix<double, kN, M> pht;
+  pht.template leftCols<3>() = cols_d - cols_p;
+  pht.template leftCols<3>().noalias() += cols_th * hth.transpose();
+  Eigen::Matrix<double, M, M> s;
+  Mat3 s3 = pht.template middleRows<3>(i).template leftCols<3>() - pht.template middleRows<3>(kEkfP).template leftCols<3>();
+  s3.noalias() += hth * pht.template middleRows<3>(kEkfTh).template leftCols<3>();
+  s.template topLeftCorner<3, 3>() = 0.5 * (s3 + s3.transpose()) + noise;
+  Eigen::Matrix<double, M, 1> innovation;
+  innovation.template head<3>() = y;
+  if constexpr (M == 4) {
+    pht.col(3) = cols_d.col(2);
+    s.template block<3, 1>(0, 3) = pht.template leftCols<3>().row(i + 2).transpose();
+    s.template block<1, 3>(3, 0) = pht.template leftCols<3>().row(i + 2);
+    s(3, 3) = cols_d(i + 2, 2) + params_.ground_std_m * params_.ground_std_m;
+    innovation[3] = params_.ground_height_m - x.d[idx(foot)].z();
+  }
+  const Eigen::LLT<Eigen::Matrix<double, M, M>> llt(s);
+  if (llt.info() != Eigen::Success) return Fused::failed;
+  // The gate: the kinematic rows' leading 3x3 factor is the 3x3 S's own Cholesky factor.
+  const Eigen::Matrix<double, M, M>& l = llt.matrixLLT();
+  Vec3 e = y;
+  for (int k = 0; k < 3; ++k) {
+    for (int j = 0; j < k; ++j) e[k] -= l(k, j) * e[j];
+    e[k] /= l(k, k);
+  }
+  const double d2 = e.squaredNorm();
   x.mahalanobis2[idx(foot)] = d2;
   if (gate && d2 > params_.slip_gate_chi2) return Fused::gated;
-
-  if (!params_.use_ground) return fuse<3>(pht, s3, y) ? Fused::yes : Fused::failed;
-  // With the ground row d_i,z = h: H = e_z on dd_i.
-  Eigen::Matrix<double, kN, 4> pht4;
-  pht4.leftCols<3>() = pht;
-  pht4.col(3) = P.col(i + 2);
-  Eigen::Matrix4d s4;
-  s4.topLeftCorner<3, 3>() = s3;
-  s4.block<3, 1>(0, 3) = pht.row(i + 2).transpose();
-  s4.block<1, 3>(3, 0) = pht.row(i + 2);
-  s4(3, 3) = P(i + 2, i + 2) + params_.ground_std_m * params_.ground_std_m;
-  Eigen::Vector4d y4;
-  y4 << y, params_.ground_height_m - x.d[idx(foot)].z();
-  return fuse<4>(pht4, s4, y4) ? Fused::yes : Fused::failed;
+  fuse<M>(pht, llt, innovation);
+  return Fused::yes;
 }
 
 // rt: no alloc
 template <int M>
-bool InertialKinematicEkf::fuse(const Eigen::Matrix<double, kN, M>& pht, const Eigen::Matrix<double, M, M>& s,
+void InertialKinematicEkf::fuse(Eigen::Matrix<double, kN, M>& pht, const Eigen::LLT<Eigen::Matrix<double, M, M>>& llt,
                                 const Eigen::Matrix<double, M, 1>& innovation) noexcept {
-  const Eigen::LLT<Eigen::Matrix<double, M, M>> llt(s);
-  if (llt.info() != Eigen::Success) return false;
-  // K y = P H^T S^-1 y = U (L^-1 y),  K S K^T = U U^T,  U = P H^T L^-T.
-  Eigen::Matrix<double, M, kN> ut = pht.transpose();
-  llt.matrixL().solveInPlace(ut);
-  const Eigen::Matrix<double, M, 1> e = llt.matrixL().solve(innovation);
+  // K y = P H^T S^-1 y = U (L^-1 y),  K S K^T = U U^T,  U = P H^T L^-T (forward substitution
+  // on the columns, in place).
+  const Eigen::Matrix<double, M, M>& l = llt.matrixLLT();  // L in its lower triangle
+  Eigen::Matrix<double, M, 1> e = innovation;
+  for (int k = 0; k < M; ++k) {
+    for (int j = 0; j < k; ++j) {
+      pht.col(k) -= l(k, j) * pht.col(j);
+      e[k] -= l(k, j) * e[j];
+    }
+    pht.col(k) /= l(k, k);
+    e[k] /= l(k, k);
+  }
   EkfVector dx;
-  dx.noalias() = ut.transpose() * e;
-  x_.P.noalias() -= ut.transpose() * ut;
+  dx.noalias() = pht * e;
+  lower_rank_update<M>(x_.P, pht);
   inject(dx);
-  return true;
 }
 
 // rt: no alloc
@@ -596,24 +656,31 @@ void InertialKinematicEkf::fuse_yaw(const Quat& orientation_wi) noexcept {
   const double innovation = wrap_pi(std::atan2(measured(1, 0), measured(0, 0)) - yaw);
   const double tan_pitch = sin_pitch / std::sqrt(1.0 - sin_pitch * sin_pitch);
   const Vec3 h(std::cos(yaw) * tan_pitch, std::sin(yaw) * tan_pitch, 1.0);  // d yaw / d dth (world)
+  Eigen::Matrix<double, kN, 3> cols_th;
+  sym_cols3(x.P, kEkfTh, cols_th);
   Eigen::Matrix<double, kN, 1> pht;
-  pht.noalias() = x.P.middleCols<3>(kEkfTh) * h;
+  pht.noalias() = cols_th * h;
   Eigen::Matrix<double, 1, 1> s, y;
   s(0, 0) = h.dot(pht.segment<3>(kEkfTh)) + params_.yaw_std_rad * params_.yaw_std_rad;
   y(0, 0) = innovation;
-  (void)fuse<1>(pht, s, y);
+  const Eigen::LLT<Eigen::Matrix<double, 1, 1>> llt(s);
+  if (llt.info() == Eigen::Success) fuse<1>(pht, llt, y);
 }
 
 // rt: no alloc
-void InertialKinematicEkf::condition_covariance() noexcept {
+bool InertialKinematicEkf::condition_covariance() noexcept {
   EkfCovariance& P = x_.P;
+  // The lower triangle mirrored to the upper (symmetric by construction); its sum is finite
+  // if and only if every entry is (short of overflow, itself a fault).
+  double sum = 0.0;
   for (int j = 0; j < kN; ++j) {
+    sum += P(j, j);
     for (int i = j + 1; i < kN; ++i) {
-      const double a = 0.5 * (P(i, j) + P(j, i));
-      P(i, j) = a;
-      P(j, i) = a;
+      P(j, i) = P(i, j);
+      sum += P(i, j);
     }
   }
+  if (!std::isfinite(sum)) return false;
   const double max_std[] = {params_.max_position_std_m, params_.max_velocity_std_m_s, params_.max_angle_std_rad,
                             params_.foot_reset_std_m,   params_.foot_reset_std_m,     params_.foot_reset_std_m,
                             params_.foot_reset_std_m,   params_.max_accel_bias_std_m_s2, params_.max_gyro_bias_std_rad_s};
@@ -628,6 +695,7 @@ void InertialKinematicEkf::condition_covariance() noexcept {
       P(i, i) = kMinVar;
     }
   }
+  return true;
 }
 
 }  // namespace springbok::est

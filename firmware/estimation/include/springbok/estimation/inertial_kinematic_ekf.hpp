@@ -44,8 +44,10 @@
 //   p' = v
 //   v' = R f + g_W,     f = R_BI (f_m - b_a - n_a)   (trunk axes)
 //   R' = R [w]x,        w = R_BI (w_m - b_g - n_g)
-//   d_i' = n_d,i        white, density sigma_d [m/s/sqrt(Hz)]: small while the foot is anchored,
-//                       large while it is free (in swing or rejected as slipping)
+//   d_i' = u_i + n_d,i  u_i the anchor's known motion while anchored (the caller's, 0 for a
+//                       point foot; a rolling sphere's contact point moves with it), n_d,i white,
+//                       density sigma_d [m/s/sqrt(Hz)]: small while the foot is anchored, large
+//                       while it is free (in swing or rejected as slipping)
 //   b_a' = n_ba, b_g' = n_bg   bias random walks [m/s^3/sqrt(Hz)], [rad/s^2/sqrt(Hz)]
 //
 // ---- mean propagation over one tick (t0 -> t1 = t0 + dt) -------------------------------
@@ -56,7 +58,7 @@
 //   R_1 = R_0 Exp(W),  W = dt (w_0 + w_1) / 2 + dt^2 (w_0 x w_1) / 12   (Magnus to 2nd order)
 // and the acceleration a_k = R_k f_k + g_W:
 //   v_1 = v_0 + dt (a_0 + a_1) / 2,  p_1 = p_0 + dt v_0 + dt^2 (2 a_0 + a_1) / 6
-// Both are second order in dt.
+// Both are second order in dt. An anchored foot: d_1 = d_0 + dt u_i.
 //
 // ---- linearised error dynamics ----------------------------------------------------------
 // C = R^ R_BI (IMU axes to world), f_W = (R_0 f_0 + R_1 f_1) / 2 (specific force, world):
@@ -72,8 +74,9 @@
 // are isotropic, so the rotations C drop out):
 //   Q_vv = sigma_a^2 dt I,  Q_pv = sigma_a^2 dt^2/2 I,  Q_pp = sigma_a^2 dt^3/3 I
 //   Q_thth = sigma_g^2 dt I,  Q_dd,i = sigma_d,i^2 dt I,  Q_ba = sigma_ba^2 dt I,  Q_bg = sigma_bg^2 dt I
-// P1 = Phi P0 Phi^T + Q: Phi changes only the p, v, th rows (and columns), so the product is
-// a few 3x3-by-3x27 blocks, not a dense 27^3 product.
+// P1 = Phi P0 Phi^T + Q: Phi = I + N with N nonzero in the p, v, th rows only, so P changes
+// only in its first 9 columns (and rows): b = P_{:,0:9} + P N^T (six 27x3-by-3x3 blocks), then
+// rows 0..8 of b plus N b (a 9x9 corner); not a dense 27^3 product.
 //
 // ---- measurements (each foot in turn: a sequential update, exact for independent noise) ---
 // Foot kinematics, rotated to world with R^ (an invertible constant for the linearisation):
@@ -93,9 +96,11 @@
 //   H: dth -> (cos(yaw) tan(pitch), sin(yaw) tan(pitch), 1);  skipped above 60 degrees of pitch.
 //   It also makes the gyro bias's vertical part observable.
 // Update: K = P H^T S^-1 with S = H P H^T + N = L L^T; P -= U U^T with U = P H^T L^-T (the
-// optimal gain's form of Joseph's), the error injected into the mean after each foot (p, v,
-// d, b added; R <- Exp(dth) R), the covariance symmetrised and its diagonal bounded after the
-// tick (a row and column scaled down to the bound: it stays positive semidefinite).
+// optimal gain's form of Joseph's; P H^T takes H's three nonzero 3-column blocks), the error
+// injected into the mean after each foot (p, v, d, b added; R <- Exp(dth) R). Within a tick
+// only P's lower triangle is written (the prediction and the rank-M updates, half the work);
+// at the tick's end it is mirrored (P exactly symmetric) and its diagonal bounded (a row and
+// column scaled down to the bound: it stays positive semidefinite).
 //
 // ---- outputs ------------------------------------------------------------------------
 //   p_B = p - R r,  v_B = v - R (w x r),  w = R_BI (w_m - b_g) of the last accepted tick
@@ -124,7 +129,7 @@
 // (standing still the tilt estimate is off by b_a's horizontal part over g:
 // dth = [e_z]x C db_a / g). Or a known initial state (start_at). The feet's covariances
 // follow from d_i = p_B + R s_i, the IMU point's from p = p_B + R r, v = v_B + R (w x r)
-// (w from the start's IMU sample, 0 without one).
+// (w from start_at's IMU sample, 0 without one; 0 at the calibrated start, at rest).
 //
 // ---- inputs refused --------------------------------------------------------------------
 // A non-finite sample, contact point, covariance or orientation in use, a dt outside
@@ -139,6 +144,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -168,11 +174,17 @@ struct ImuSample {
 // One foot's measurement this tick.
 struct FootMeasurement {
   bool contact = false;  // the caller's stance word
-  // s_i: the ground contact point relative to the trunk origin, trunk axes, from the
-  // encoders (BaseEstimator::contact_point_b for this robot) [m].
+  // s_i: the ground contact point relative to the trunk origin, trunk axes, from this tick's
+  // encoders [m] (for this robot BaseEstimator::kinematics(q), then contact_point_b(foot, R)
+  // with the filter's last rotation_wb()).
   Eigen::Vector3d contact_point_b_m = Eigen::Vector3d::Zero();
   // Its covariance, trunk axes [m^2] (contact_point_covariance_b). Symmetric positive definite.
   Eigen::Matrix3d covariance_b_m2 = Eigen::Matrix3d::Identity() * 1e-6;
+  // u_i: the anchor's known motion over the ground while in contact, world axes [m/s]: 0 for a
+  // point foot; a sphere of radius r rolling without slipping moves its contact point by
+  // w_shin x (r e_z) (w_shin its lower leg's angular velocity, world axes), as BaseEstimator's
+  // anchors do. Not checked, and not used, without contact.
+  Eigen::Vector3d anchor_velocity_w_m_s = Eigen::Vector3d::Zero();
 };
 using FootMeasurements = std::array<FootMeasurement, kEkfFeet>;
 
@@ -355,7 +367,7 @@ class InertialKinematicEkf {
  private:
   static std::size_t idx(int foot) noexcept { return static_cast<std::size_t>(foot); }
   bool input_ok(const EkfInput& in, double dt_s) const noexcept;
-  void predict(const ImuSample& imu, double dt_s) noexcept;
+  void predict(const EkfInput& in, double dt_s) noexcept;
   enum class Fused : std::uint8_t { yes, gated, failed };  // failed: S not positive definite
   // The foot's kinematics (and the ground) fused, or rejected by the gate (nothing fused).
   // rt: no alloc
@@ -364,11 +376,15 @@ class InertialKinematicEkf {
   // A rejected foot: one tick of its stillness test; true when it is accepted again.
   bool retest_foot(int foot, const FootMeasurement& m, double dt_s) noexcept;
   void reset_foot(int foot, const FootMeasurement& m) noexcept;
+  template <int M>  // M = 4: with the ground row
+  Fused fuse_foot_rows(int foot, const FootMeasurement& m, bool gate) noexcept;
+  // The update with P H^T (overwritten), the Cholesky factor of S and the innovation.
   template <int M>
-  bool fuse(const Eigen::Matrix<double, kEkfErrorDim, M>& pht, const Eigen::Matrix<double, M, M>& s,
+  void fuse(Eigen::Matrix<double, kEkfErrorDim, M>& pht, const Eigen::LLT<Eigen::Matrix<double, M, M>>& llt,
             const Eigen::Matrix<double, M, 1>& innovation) noexcept;
   void inject(const EkfVector& dx) noexcept;
-  void condition_covariance() noexcept;
+  // P's lower triangle mirrored, its diagonal bounded; false if an entry is not finite.
+  bool condition_covariance() noexcept;
   void write_outputs(const Eigen::Vector3d& w_b) noexcept;  // the trunk's p_B, v_B from the state
   // The start shared by both: given p_B, v_B, R, the biases and the prior of (p_B, v_B, th,
   // b_a, b_g) in P, the state and its covariance (w_b: the trunk's rate at the start).
