@@ -27,9 +27,12 @@
 // no random walk), which the model cannot hold; the filter would be overconfident in velocity.
 // At the IMU's point the lever arm leaves the propagation and enters, exactly, the kinematics
 // (s_i - r) and the outputs (whose covariance carries the gyro's noise through r).
-// With the rotation error in world axes the yaw error is dth_z alone (unobservable from
-// the legs and the IMU: it only drifts, unless the yaw aid is on) and the tilt is
-// (dth_x, dth_y).
+// With the rotation error in world axes the yaw error is dth_z alone and the tilt is
+// (dth_x, dth_y). The absolute yaw and position are unobservable from the legs and the IMU
+// (turning or moving the trunk and the feet together changes no measurement): their errors
+// only drift, the yaw's unless the yaw aid is on. The yaw's drift is observable while the feet
+// stand (they fix the trunk's yaw rate), so the gyro bias is, its vertical part too; a step
+// carries the yaw's error into the new foothold.
 //
 // ---- sensors ------------------------------------------------------------------------
 //   gyro    w_m = R_BI^T w + b_g + n_g                     (I axes)
@@ -94,7 +97,7 @@
 // IMU's tilt is not used, an IMU's fusion takes it from the same accelerometer):
 //   yaw = atan2(R_10, R_00) of R_WI R_BI^T, innovation wrapped to (-pi, pi];
 //   H: dth -> (cos(yaw) tan(pitch), sin(yaw) tan(pitch), 1);  skipped above 60 degrees of pitch.
-//   It also makes the gyro bias's vertical part observable.
+//   It makes the absolute yaw observable (and the vertical gyro bias through steps and flight).
 // Update: K = P H^T S^-1 with S = H P H^T + N = L L^T; P -= U U^T with U = P H^T L^-T (the
 // optimal gain's form of Joseph's; P H^T takes H's three nonzero 3-column blocks), the error
 // injected into the mean after each foot (p, v, d, b added; R <- Exp(dth) R). Within a tick
