@@ -408,7 +408,10 @@ TEST_F(Control, APushNearTheFeetsEdgeStepsInPlaceUntilItSettles) {
   }
 }
 
-TEST_F(Control, TicksDoNotAllocate) {
+class ControlWithEachFilter : public Control, public ::testing::WithParamInterface<est::BaseFilter> {};
+
+TEST_P(ControlWithEachFilter, TicksDoNotAllocate) {
+  params.estimator.filter = GetParam();
   make();
   c->observe(next(), kDt_s, true);
   c->tick(next(), kDt_s, cmd);
@@ -440,6 +443,10 @@ TEST_F(Control, TicksDoNotAllocate) {
     EXPECT_TRUE(tuned);
   }
   EXPECT_EQ(n, 0u);
+  EXPECT_EQ(c->estimate().status, est::EstimateStatus::ok);
 }
+INSTANTIATE_TEST_SUITE_P(Filters, ControlWithEachFilter,
+                         ::testing::Values(est::BaseFilter::complementary, est::BaseFilter::ekf),
+                         [](const auto& info) { return std::string(est::to_string(info.param)); });
 
 }  // namespace

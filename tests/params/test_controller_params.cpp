@@ -268,6 +268,22 @@ TEST(EstimatorConfig, ErrorsNameTheFieldAndGoodValuesLoad) {
   EXPECT_TRUE(errors.empty()) << errors.joined();
   EXPECT_EQ(tilt.tilt_gain_per_s, 0.5);
   EXPECT_EQ(tilt.tilt_window_s, 0.4);
+  // filter: ekf, with its own keys.
+  EXPECT_EQ(params::read_estimator_params(Field(YAML::Load("{}"), "estimator", errors)).filter,
+            springbok::est::BaseFilter::complementary);
+  EXPECT_NE(error_of("{filter: kalman}").find("estimator.filter"), std::string::npos);
+  EXPECT_NE(error_of("{filter: ekf, ekf: {gyro_noise_density: -1}}").find("estimator.ekf.gyro_noise_density: must be in"),
+            std::string::npos);
+  EXPECT_NE(error_of("{ekf: {slip_gate: 3}}").find("estimator.ekf.slip_gate: unknown key"), std::string::npos);
+  EXPECT_NE(error_of("{ekf: {use_ground: 1}}").find("estimator.ekf.use_ground: must be true or false"), std::string::npos);
+  const springbok::est::EstimatorParams ekf = params::read_estimator_params(Field(
+      YAML::Load("{filter: ekf, ekf: {gyro_noise_density: 2.4e-4, slip_gate_chi2: 30, encoder_std: 1e-3}}"), "estimator",
+      errors));
+  EXPECT_TRUE(errors.empty()) << errors.joined();
+  EXPECT_EQ(ekf.filter, springbok::est::BaseFilter::ekf);
+  EXPECT_EQ(ekf.ekf.gyro_noise_rad_s_per_sqrt_hz, 2.4e-4);
+  EXPECT_EQ(ekf.ekf.slip_gate_chi2, 30.0);
+  EXPECT_EQ(ekf.encoder_std_rad, 1e-3);
 }
 
 }  // namespace

@@ -20,7 +20,29 @@ const char* to_string(EstimateStatus s) noexcept {
   return "?";
 }
 
-BaseEstimator::BaseEstimator(const EstimatorParams& params) noexcept : params_(params) {
+const char* to_string(BaseFilter f) noexcept {
+  switch (f) {
+    case BaseFilter::complementary: return "complementary";
+    case BaseFilter::ekf: return "ekf";
+  }
+  return "?";
+}
+
+namespace {
+EkfParams ekf_params(const EstimatorParams& p) noexcept {
+  EkfParams e = p.ekf;
+  e.ground_height_m = p.ground_height_m;
+  e.gravity_m_s2 = kGravity_m_s2;
+  return e;
+}
+ImuMounting imu_mounting(const dyn::Model& model) noexcept {
+  const dyn::Placement& imu = model.frame_placement[kImuFrame];
+  return ImuMounting{imu.rotation, imu.translation};
+}
+}  // namespace
+
+BaseEstimator::BaseEstimator(const EstimatorParams& params) noexcept
+    : params_(params), ekf_(imu_mounting(model_), ekf_params(params)) {
   q_identity_[6] = 1.0;  // quaternion w
 }
 
@@ -84,6 +106,7 @@ void BaseEstimator::write_state(const hal::Measurements& m, const Mat3& rot_wb, 
 // rt: no alloc
 EstimateStatus BaseEstimator::reset(const hal::Measurements& m, const Stance& stance,
                                     const Eigen::Vector2d& xy_m) noexcept {
+  if (params_.filter == BaseFilter::ekf) return reset_ekf(m, stance, xy_m);
   int feet = 0;
   for (bool s : stance) feet += s ? 1 : 0;
   if (!measurement_ok(m) || feet == 0) return EstimateStatus::bad_input;
@@ -113,6 +136,7 @@ EstimateStatus BaseEstimator::reset(const hal::Measurements& m, const Stance& st
 
 // rt: no alloc, no block
 const BaseEstimate& BaseEstimator::update(const hal::Measurements& m, const Stance& stance, double dt_s) noexcept {
+  if (params_.filter == BaseFilter::ekf) return update_ekf(m, stance, dt_s);
   if (!reset_) {
     out_.status = EstimateStatus::not_reset;
     return out_;
@@ -246,6 +270,96 @@ void BaseEstimator::rebase_tilt_integrals(double block_s) noexcept {
   turned_once_ = 0.0;
   turned_twice_ = 0.0;
   tilt_blocks_since_rebase_ = 0;
+}
+
+// ---- filter ekf -------------------------------------------------------------------------
+
+// rt: no alloc
+void BaseEstimator::ekf_feet(const hal::Measurements& m, const Stance& stance, const Mat3& rot_wb,
+                             const Vec3& omega_b, FootMeasurements& feet) const noexcept {
+  const Vec3 joint_std = Vec3::Constant(params_.encoder_std_rad);
+  for (int f = 0; f < kFeet; ++f) {
+    FootMeasurement& fm = feet[static_cast<std::size_t>(f)];
+    fm.contact = stance[f];
+    fm.contact_point_b_m = contact_point_b(f, rot_wb);
+    const int first = leg_first_joint(f);
+    fm.covariance_b_m2 =
+        contact_point_covariance_b(data_.J_feet[f].block<3, kLegJoints>(0, 6 + first), joint_std, params_.kinematics_std_m);
+    const Vec3 omega_shin_w = rot_wb * shin_angular_velocity_b(f, omega_b, m.qd_rad_s);
+    fm.anchor_velocity_w_m_s = omega_shin_w.cross(Vec3(0.0, 0.0, params_.foot_radius_m));
+  }
+}
+
+void BaseEstimator::write_ekf_state(const hal::Measurements& m) noexcept {
+  Quat quat = ekf_.orientation_wb();
+  if (quat.w() < 0.0) quat.coeffs() = -quat.coeffs();
+  out_.q.head<3>() = ekf_.position_w_m();
+  out_.q.segment<4>(3) = quat.coeffs();
+  out_.q.tail<kNj>() = m.q_rad;
+  out_.v.head<3>() = ekf_.velocity_b_m_s();
+  out_.v.segment<3>(3) = ekf_.angular_rate_b_rad_s();
+  out_.v.tail<kNj>() = m.qd_rad_s;
+  for (int f = 0; f < kFeet; ++f) out_.anchor_world_m[f] = ekf_.foot_position_w_m(f);
+}
+
+// rt: no alloc
+EstimateStatus BaseEstimator::reset_ekf(const hal::Measurements& m, const Stance& stance,
+                                        const Eigen::Vector2d& xy_m) noexcept {
+  int feet = 0;
+  for (bool s : stance) feet += s ? 1 : 0;
+  if (!measurement_ok(m) || feet == 0) return EstimateStatus::bad_input;
+  const Mat3 rot = trunk_rotation(m.imu.orientation);
+  kinematics(m.q_rad);
+  FootMeasurements fm{};
+  ekf_feet(m, stance, rot, trunk_angular_rate(m.imu.angular_rate_rad_s), fm);
+  // The trunk origin above the mean contact point of the stance feet, at rest, no bias known.
+  Vec3 mean_contact_w = Vec3::Zero();
+  for (int f = 0; f < kFeet; ++f) {
+    if (stance[f]) mean_contact_w += rot * fm[static_cast<std::size_t>(f)].contact_point_b_m;
+  }
+  mean_contact_w /= feet;
+  EkfInitialState start;
+  start.position_w_m << xy_m.x(), xy_m.y(), params_.ground_height_m - mean_contact_w.z();
+  start.orientation_wb = Quat(rot).normalized();
+  start.has_imu = true;
+  start.imu.rate_i_rad_s = m.imu.angular_rate_rad_s;
+  start.imu.specific_force_i_m_s2 = m.imu.linear_accel_m_s2;
+  if (ekf_.start_at(start, fm) != EkfStatus::ok) return EstimateStatus::bad_input;
+  stance_prev_ = stance;
+  reset_ = true;
+  write_ekf_state(m);
+  out_.status = EstimateStatus::ok;
+  return out_.status;
+}
+
+// rt: no alloc, no block
+const BaseEstimate& BaseEstimator::update_ekf(const hal::Measurements& m, const Stance& stance, double dt_s) noexcept {
+  if (!reset_) {
+    out_.status = EstimateStatus::not_reset;
+    return out_;
+  }
+  if (!measurement_ok(m)) {
+    out_.status = EstimateStatus::bad_input;  // hold the last estimate
+    return out_;
+  }
+  kinematics(m.q_rad);
+  EkfInput in;
+  in.imu.rate_i_rad_s = m.imu.angular_rate_rad_s;
+  in.imu.specific_force_i_m_s2 = m.imu.linear_accel_m_s2;
+  in.orientation_valid = true;
+  in.orientation_wi = m.imu.orientation;
+  // The feet at the filter's last orientation and rate (this tick's are what it computes).
+  ekf_feet(m, stance, ekf_.rotation_wb(), ekf_.angular_rate_b_rad_s(), in.feet);
+  stance_prev_ = stance;
+  switch (ekf_.update(in, dt_s)) {
+    case EkfStatus::ok: out_.status = EstimateStatus::ok; break;
+    case EkfStatus::no_anchor: out_.status = EstimateStatus::no_stance; break;
+    case EkfStatus::not_started: out_.status = EstimateStatus::not_reset; return out_;
+    case EkfStatus::bad_input:
+    case EkfStatus::numerical_fault: out_.status = EstimateStatus::bad_input; return out_;  // held
+  }
+  write_ekf_state(m);
+  return out_;
 }
 
 }  // namespace springbok::est

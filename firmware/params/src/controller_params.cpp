@@ -153,9 +153,11 @@ wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
 }
 
 est::EstimatorParams read_estimator_params(const Field& f) {
-  f.allow_only({"velocity_gain", "position_gain", "foot_radius", "ground_height", "use_accelerometer", "tilt_gain",
-                "tilt_window"});
+  f.allow_only({"filter", "velocity_gain", "position_gain", "foot_radius", "ground_height", "use_accelerometer",
+                "tilt_gain", "tilt_window", "ekf"});
   est::EstimatorParams p;
+  int filter = static_cast<int>(p.filter);
+  if (f["filter"].choice(filter, {"complementary", "ekf"})) p.filter = static_cast<est::BaseFilter>(filter);
   f["velocity_gain"].number(p.velocity_gain_per_s, 1e-3, 1e3);
   f["position_gain"].number(p.position_gain_per_s, 0.0, 1e3);
   f["foot_radius"].number(p.foot_radius_m, 0.0, 0.5);
@@ -163,6 +165,26 @@ est::EstimatorParams read_estimator_params(const Field& f) {
   f["use_accelerometer"].boolean(p.use_accelerometer);
   f["tilt_gain"].number(p.tilt_gain_per_s, 0.0, 10.0);
   f["tilt_window"].number(p.tilt_window_s, 0.05, est::kMaxTiltWindow_s);
+  // filter ekf: the IMU's datasheet quantities, the feet's, the slip gate, the ground, the priors.
+  const Field e = f["ekf"];
+  if (e.present()) {
+    e.allow_only({"gyro_noise_density", "accel_noise_density", "gyro_bias_walk", "accel_bias_walk", "foot_anchored_walk",
+                  "slip_gate_chi2", "use_ground", "ground_std", "encoder_std", "kinematics_std", "initial_gyro_bias_std",
+                  "initial_accel_bias_std"});
+    est::EkfParams& k = p.ekf;
+    e["gyro_noise_density"].number(k.gyro_noise_rad_s_per_sqrt_hz, 1e-7, 1.0);
+    e["accel_noise_density"].number(k.accel_noise_m_s2_per_sqrt_hz, 1e-7, 10.0);
+    e["gyro_bias_walk"].number(k.gyro_bias_walk_rad_s2_per_sqrt_hz, 0.0, 1.0);
+    e["accel_bias_walk"].number(k.accel_bias_walk_m_s3_per_sqrt_hz, 0.0, 10.0);
+    e["foot_anchored_walk"].number(k.foot_anchored_walk_m_s_per_sqrt_hz, 1e-6, 1.0);
+    e["slip_gate_chi2"].number(k.slip_gate_chi2, 0.0, 1e6);
+    e["use_ground"].boolean(k.use_ground);
+    e["ground_std"].number(k.ground_std_m, 1e-5, 1.0);
+    e["encoder_std"].number(p.encoder_std_rad, 0.0, 0.1);
+    e["kinematics_std"].number(p.kinematics_std_m, 1e-5, 0.1);
+    e["initial_gyro_bias_std"].number(k.initial_gyro_bias_std_rad_s, 1e-6, 1.0);
+    e["initial_accel_bias_std"].number(k.initial_accel_bias_std_m_s2, 1e-6, 10.0);
+  }
   return p;
 }
 

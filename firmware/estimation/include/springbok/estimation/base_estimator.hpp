@@ -47,6 +47,15 @@
 // Without a stance foot the filter predicts from the IMU alone and says so.
 // A non-finite or invalid measurement holds the last estimate and reports it.
 //
+// filter: ekf replaces steps 1-5 with est::InertialKinematicEkf (inertial_kinematic_ekf.hpp:
+// the IMU's biases in its state, the raw gyro and specific force, each stance foot's contact
+// point as a measurement, a slipping foot rejected). This class gives it what it needs from
+// the robot: the IMU's mounting (robot::kFrame_trunk_imu), each foot's contact point from the
+// encoders (the sphere's lowest point, as step 2) with its covariance (encoder_std_rad through
+// the leg's Jacobian, plus kinematics_std_m), and the rolling sphere's contact-point motion
+// (step 4's w_shin x r z) as the anchor's known velocity. reset() starts it from the IMU's
+// orientation output with zero biases (their priors: EkfParams); the biases are learnt online.
+//
 // Conventions are CONVENTIONS.md's: q = [p_WB, quaternion xyzw, joints],
 // v = [v_B, w_B (trunk frame), joint rates].
 #pragma once
@@ -55,13 +64,19 @@
 #include <cstdint>
 
 #include "springbok/dynamics/dynamics.hpp"
+#include "springbok/estimation/inertial_kinematic_ekf.hpp"
 #include "springbok/hal/types.hpp"
 #include "springbok/model/model.hpp"
 #include "springbok/model/robot_state.hpp"
 
 namespace springbok::est {
 
+// The filter that estimates the base (see above).
+enum class BaseFilter : std::uint8_t { complementary, ekf };
+const char* to_string(BaseFilter f) noexcept;
+
 struct EstimatorParams {
+  BaseFilter filter = BaseFilter::complementary;
   double velocity_gain_per_s = 30.0;  // leg odometry vs IMU integration crossover
   double position_gain_per_s = 10.0;  // pull towards the stance anchors
   double foot_radius_m = kFootRadius_m;
@@ -70,6 +85,11 @@ struct EstimatorParams {
   double tilt_gain_per_s = 0.0;       // 5.: position-aided tilt, 0 = off (the IMU's tilt as reported)
   double tilt_window_s = 0.3;         // 5.: T, at most kMaxTiltWindow_s
   double tilt_rebase_s = 60.0;        // 5.: the integrals restart from zero this often (> 0)
+  // filter ekf: the filter's own parameters (its ground_height_m is set from ground_height_m
+  // above) and the kinematics' noise for each contact point's covariance.
+  EkfParams ekf;
+  double encoder_std_rad = 2e-4;   // a joint angle's error (the encoder's resolution, backlash)
+  double kinematics_std_m = 2e-3;  // what the kinematics do not know (where the sphere touches, flex)
 };
 inline constexpr double kMaxTiltWindow_s = 1.2;  // the ring below holds 2 T at 10 ms per entry
 
@@ -140,6 +160,13 @@ class BaseEstimator {
   // and slope now (block_s: the entries' spacing).
   void rebase_tilt_integrals(double block_s) noexcept;
   void write_state(const hal::Measurements& m, const Mat3& rot_wb, const Vec3& omega_b) noexcept;
+  // filter ekf: reset() and update() through the EKF. rt: no alloc
+  EstimateStatus reset_ekf(const hal::Measurements& m, const Stance& stance, const Eigen::Vector2d& xy_m) noexcept;
+  const BaseEstimate& update_ekf(const hal::Measurements& m, const Stance& stance, double dt_s) noexcept;
+  // The feet's measurements for the EKF at its last orientation (kinematics() done). rt: no alloc
+  void ekf_feet(const hal::Measurements& m, const Stance& stance, const Mat3& rot_wb, const Vec3& omega_b,
+                FootMeasurements& feet) const noexcept;
+  void write_ekf_state(const hal::Measurements& m) noexcept;
 
   EstimatorParams params_;
   dyn::Model model_;
@@ -165,6 +192,8 @@ class BaseEstimator {
   Vec3 turn_axis_ = Vec3::Zero();  // the last tick's, its sign kept (q and -q are one orientation)
   int tilt_entries_ = 0, tilt_head_ = 0, tilt_ticks_ = 0, tilt_blocks_since_rebase_ = 0;
   Vec3 tilt_error_ = Vec3::Zero();  // the newest window's, world axes (z 0)
+
+  InertialKinematicEkf ekf_;  // filter ekf
 
   BaseEstimate out_;
 };
