@@ -171,6 +171,58 @@ TEST(BaseEstimator, StandingStillStaysStillAndDoesNotAllocate) {
   EXPECT_LT(estimator.estimate().v.norm(), 1e-9);
 }
 
+// filter ekf: the start-up calibration. A still robot (lying or standing before start-up) whose
+// gyro reads a 20 mrad/s turn-on bias on every axis plus white noise: after calibration_time_s
+// the bias is known to the noise's mean error, and reset() starts the filter from it (the
+// filter then holds it, standing still). A bump (rates far above the noise) drops the recording
+// under way; without a still recording the filter starts from zero. No allocation.
+TEST(BaseEstimator, TheEkfStartsFromTheStillRecordingsGyroBias) {
+  est::EstimatorParams params;
+  params.filter = est::BaseFilter::ekf;
+  const Stance all{true, true, true, true};
+  const Vec3 bias(0.02, -0.02, 0.02);
+  constexpr double kNoise = 0.005;  // rad/s per sample
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> normal(0.0, kNoise);
+  hal::Measurements m = at_rest(Quat(Eigen::AngleAxisd(0.05, Vec3::UnitX())));
+  const Vec3 rate0 = m.imu.angular_rate_rad_s;
+  const auto sample = [&](const Vec3& extra) {
+    m.imu.angular_rate_rad_s = rate0 + bias + extra + Vec3(normal(rng), normal(rng), normal(rng));
+    return m;
+  };
+  {
+    est::BaseEstimator uncalibrated(params);
+    ASSERT_EQ(uncalibrated.reset(sample(Vec3::Zero()), all, Eigen::Vector2d::Zero()), est::EstimateStatus::ok);
+    EXPECT_FALSE(uncalibrated.gyro_calibrated());
+    EXPECT_EQ(uncalibrated.ekf().gyro_bias_i_rad_s().norm(), 0.0);
+  }
+  est::BaseEstimator estimator(params);
+  const int window = static_cast<int>(std::lround(params.ekf.calibration_time_s / 0.001));
+  test::AllocationTrap trap;
+  for (int k = 0; k < window / 2; ++k) estimator.calibrate(sample(Vec3::Zero()), 0.001);
+  for (int k = 0; k < 50; ++k) estimator.calibrate(sample(Vec3(0.5, 0.0, 0.0)), 0.001);  // bumped
+  for (int k = 0; k < window / 2; ++k) estimator.calibrate(sample(Vec3::Zero()), 0.001);
+  const bool after_bump = estimator.gyro_calibrated();
+  for (int k = 0; k < 2 * window; ++k) estimator.calibrate(sample(Vec3::Zero()), 0.001);
+  ASSERT_EQ(estimator.reset(sample(Vec3::Zero()), all, Eigen::Vector2d::Zero()), est::EstimateStatus::ok);
+  const Vec3 started_from = estimator.ekf().gyro_bias_i_rad_s();
+  for (int k = 0; k < 500; ++k) estimator.update(sample(Vec3::Zero()), all, 0.001);
+  const std::size_t allocations = trap.disarm();
+  EXPECT_EQ(allocations, 0u);
+  EXPECT_FALSE(after_bump) << "the bumped recording is not used";
+  ASSERT_TRUE(estimator.gyro_calibrated());
+  EXPECT_EQ(started_from, estimator.calibrated_gyro_bias_i_rad_s());
+  // The mean of N samples: kNoise / sqrt(N) per axis; within 4 of those.
+  const double mean_error = kNoise / std::sqrt(static_cast<double>(window));
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(estimator.calibrated_gyro_bias_i_rad_s()[a], bias[a], 4.0 * mean_error) << a;
+    // The filter starts there and moves within its own prior (EkfParams' initial std).
+    EXPECT_NEAR(estimator.ekf().gyro_bias_i_rad_s()[a], bias[a], 0.0015) << a;
+  }
+  EXPECT_EQ(estimator.estimate().status, est::EstimateStatus::ok);
+  EXPECT_LT(estimator.estimate().v.head<3>().norm(), 0.005);
+}
+
 TEST(BaseEstimator, MovingTrunkOverStillFeetIsTracked) {
   // The trunk sways over four fixed feet: the leg joint rates that keep each contact
   // point still are solved from the world foot Jacobian at the contact point (dynamics),

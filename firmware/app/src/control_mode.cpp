@@ -49,6 +49,11 @@ const char* ControlMode::request(const ControllerRequest& r, safety::Mode mode) 
 }
 
 // rt: no alloc, no block
+void ControlMode::idle(const ControlInput& in) noexcept {
+  if (kind_ == ControlModeKind::wbc) control_->calibrate(*in.meas, in.dt_s);
+}
+
+// rt: no alloc, no block
 bool ControlMode::ready() const noexcept { return kind_ != ControlModeKind::wbc || !control_->tare().running; }
 
 // rt: no alloc, no block

@@ -321,6 +321,14 @@ EstimateStatus BaseEstimator::reset_ekf(const hal::Measurements& m, const Stance
   EkfInitialState start;
   start.position_w_m << xy_m.x(), xy_m.y(), params_.ground_height_m - mean_contact_w.z();
   start.orientation_wb = Quat(rot).normalized();
+  // The biases: what the filter learnt when it ran before (a restart after a gap), else the
+  // start-up calibration's gyro bias.
+  if (ekf_.started()) {
+    start.gyro_bias_i_rad_s = ekf_.gyro_bias_i_rad_s();
+    start.accel_bias_i_m_s2 = ekf_.accel_bias_i_m_s2();
+  } else if (gyro_calibrated_) {
+    start.gyro_bias_i_rad_s = calibrated_gyro_bias_;
+  }
   start.has_imu = true;
   start.imu.rate_i_rad_s = m.imu.angular_rate_rad_s;
   start.imu.specific_force_i_m_s2 = m.imu.linear_accel_m_s2;
@@ -330,6 +338,28 @@ EstimateStatus BaseEstimator::reset_ekf(const hal::Measurements& m, const Stance
   write_ekf_state(m);
   out_.status = EstimateStatus::ok;
   return out_.status;
+}
+
+// rt: no alloc, no block
+void BaseEstimator::calibrate(const hal::Measurements& m, double dt_s) noexcept {
+  if (params_.filter != BaseFilter::ekf || reset_) return;
+  if (!m.imu.valid || !(dt_s > 0.0)) {
+    ekf_.restart_calibration();  // a gap: the recording is no longer one still stretch
+    return;
+  }
+  const ImuSample sample{m.imu.angular_rate_rad_s, m.imu.linear_accel_m_s2};
+  const CalibrationStatus s = ekf_.calibrate_sample(sample, dt_s);
+  if (s == CalibrationStatus::bad_sample) {
+    ekf_.restart_calibration();
+    return;
+  }
+  if (s != CalibrationStatus::ready) return;
+  const CalibrationResult& r = ekf_.evaluate_calibration();
+  if (r.status == CalibrationStatus::ready) {  // still: the newest recording's bias is the one to start from
+    calibrated_gyro_bias_ = r.gyro_bias_i_rad_s;
+    gyro_calibrated_ = true;
+  }
+  ekf_.restart_calibration();
 }
 
 // rt: no alloc, no block

@@ -33,6 +33,8 @@ class ControlMode {
   void publish(rt::LatestValue<ControllerSnapshot>& out) noexcept;  // rt: no alloc, no block
   // The whole-body controller can take over once the wrist F/T is tared (no tare being taken). rt
   bool ready() const noexcept;
+  // Idle ticks: the estimator's start-up calibration (the robot lying still). rt: no alloc, no block
+  void idle(const ControlInput& in) noexcept;
   // The controller's tick report (the estimate, the template's rest pose and displacements,
   // F_e, the QP's forces and status) into a telemetry record (the whole-body controller
   // only). rt: no alloc, no block

@@ -1,7 +1,8 @@
 // The mode controller: the one place that reads the supervisor's mode and commands the
 // joints for it, every tick (ControlLoop calls it whatever the mode):
 //
-//   idle, damping: nothing (the supervisor writes those commands in finish());
+//   idle, damping: nothing (the supervisor writes those commands in finish()); the control
+//             law sees the idle ticks (idle(): its estimator's start-up calibration);
 //   stand_up: the desired posture moves from the pose at entry to the stand
 //             posture along a smoothstep in stand_up_duration_s (with
 //             gains.stand_feed_forward weight, the feed-forward takes over the
@@ -43,7 +44,8 @@ struct ControlInput {
 // observe() sees the stand-up and stand ticks (an estimator keeps running);
 // request() takes an operator's request in `mode` (nullptr: accepted, else why
 // not, a static string); publish() writes its state for `controller` (every tick);
-// ready() says whether it could take over from the stand now (ControllerReport::control_ready).
+// ready() says whether it could take over from the stand now (ControllerReport::control_ready);
+// idle() sees the idle ticks (the estimator's start-up calibration, the robot lying still).
 template <class C>
 concept ControlLaw = requires(C& c, const ControlInput& in, hal::JointCommands& cmd,
                                          const ControllerRequest& r, rt::LatestValue<ControllerSnapshot>& out) {
@@ -52,6 +54,7 @@ concept ControlLaw = requires(C& c, const ControlInput& in, hal::JointCommands& 
   { c.request(r, safety::Mode::control) } noexcept -> std::same_as<const char*>;
   { c.publish(out) } noexcept;
   { c.ready() } noexcept -> std::same_as<bool>;
+  { c.idle(in) } noexcept;
 };
 
 inline constexpr const char* kNotTheWbc = "the control mode runs joint_pd (control.controller), no whole-body controller";
@@ -81,6 +84,7 @@ class JointPdHold {
   const char* request(const ControllerRequest&, safety::Mode) noexcept { return kNotTheWbc; }
   void publish(rt::LatestValue<ControllerSnapshot>& out) noexcept { out.publish(ControllerSnapshot{}); }
   bool ready() const noexcept { return true; }
+  void idle(const ControlInput&) noexcept {}
 
  private:
   VecNj posture_rad_;
@@ -130,8 +134,10 @@ class ModeController {
       case safety::Mode::control:
         return control_.compute(in, cmd);
       case safety::Mode::idle:
+        control_.idle(in);
+        break;  // the supervisor writes the command
       case safety::Mode::damping:
-        break;  // the supervisor writes these commands
+        break;  // the supervisor writes the command
     }
     return {};
   }

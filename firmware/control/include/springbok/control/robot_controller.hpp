@@ -218,6 +218,9 @@ class RobotController {
   // A tick outside the control mode: the estimator on four feet; `standing_still`
   // (the stand mode, the tool's settle) lets the tare collect. rt: no alloc, no block
   void observe(const hal::Measurements& m, double dt_s, bool standing_still) noexcept;
+  // A tick before the first observe() (idle: the robot lying, damped): the estimator's start-up
+  // gyro calibration (BaseEstimator::calibrate). rt: no alloc, no block
+  void calibrate(const hal::Measurements& m, double dt_s) noexcept { estimator_.calibrate(m, dt_s); }
 
   // One control-mode tick. Writes `cmd` (torque mode) only when it returns ok.
   // `truth` (tool only) replaces the estimated base. rt: no alloc, no block

@@ -54,7 +54,10 @@
 // encoders (the sphere's lowest point, as step 2) with its covariance (encoder_std_rad through
 // the leg's Jacobian, plus kinematics_std_m), and the rolling sphere's contact-point motion
 // (step 4's w_shin x r z) as the anchor's known velocity. reset() starts it from the IMU's
-// orientation output with zero biases (their priors: EkfParams); the biases are learnt online.
+// orientation output, with the gyro bias of the newest still recording calibrate() took before
+// it (the robot lying or standing still before start-up: calibration_time_s of samples whose
+// spread says still; a recording that moved is dropped, and the next one begins), else zero;
+// the accelerometer's bias starts at zero. Both are learnt online from there.
 //
 // Conventions are CONVENTIONS.md's: q = [p_WB, quaternion xyzw, joints],
 // v = [v_B, w_B (trunk frame), joint rates].
@@ -120,6 +123,14 @@ class BaseEstimator {
 
   // One estimator tick of dt_s. rt: no alloc, no block
   const BaseEstimate& update(const hal::Measurements& m, const Stance& stance, double dt_s) noexcept;
+  // filter ekf, before reset(): one IMU sample for the start-up gyro calibration (see above);
+  // nothing with the complementary filter. rt: no alloc, no block
+  void calibrate(const hal::Measurements& m, double dt_s) noexcept;
+  // The gyro bias the next reset() starts from and whether a still recording gave it (filter
+  // ekf); the filter's estimate of both biases once it runs.
+  bool gyro_calibrated() const noexcept { return gyro_calibrated_; }
+  const Vec3& calibrated_gyro_bias_i_rad_s() const noexcept { return calibrated_gyro_bias_; }
+  const InertialKinematicEkf& ekf() const noexcept { return ekf_; }
 
   const BaseEstimate& estimate() const noexcept { return out_; }
   // Diagnostic: |the tilt aid's doubly integrated horizontal specific force| since its last
@@ -194,6 +205,8 @@ class BaseEstimator {
   Vec3 tilt_error_ = Vec3::Zero();  // the newest window's, world axes (z 0)
 
   InertialKinematicEkf ekf_;  // filter ekf
+  bool gyro_calibrated_ = false;
+  Vec3 calibrated_gyro_bias_ = Vec3::Zero();  // IMU axes
 
   BaseEstimate out_;
 };
