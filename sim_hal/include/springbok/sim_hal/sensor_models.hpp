@@ -16,8 +16,8 @@
 //   sample between samples; above it every tick gets a fresh sample of that rate's noise. The
 //   output is delayed by delay_ticks whole ticks.
 //   Orientation (IMU to world), sampled and delayed with the gyro:
-//     R_meas = Exp(d + drift_white) R_true,  d += drift sqrt(T) n  (world axes),
-//     drift_white ~ N(0, noise_rad^2) per axis and sample; both 0: exact.
+//     R_meas = Exp(d + e) R_true,  d += drift sqrt(T) n  (world axes),
+//     e ~ N(0, noise_rad^2) per axis and sample; both 0: exact.
 //   Joint encoders: q = D round(q_true / D), D = 2 pi / (counts_per_rev gear_ratio_j);
 //     qd: exact | difference (q_k - q_{k-1}) / dt | lowpass: v += a ((q_k - q_{k-1}) / dt - v),
 //     a = 1 - exp(-2 pi f_c dt) (the drive's own first-order filter of its differenced encoder).
@@ -27,8 +27,9 @@
 // `ideal` (every parameter 0) reproduces the input exactly: today's sensors.
 //
 // ---- presets (sensor_preset(); tools/scenarios/README.md "Sensor models" gives the same table)
-// Values marked (ds) are from the datasheet text we could check; (typ) are typical values we
-// assume (the datasheet's table was not available to us, or gives no such figure).
+// Values marked (ds) are from the datasheet text we could read; (typ) are typical values we
+// assume (the datasheet's specification table was not available to us, or gives no such figure).
+// "+-X" offsets are read as 3-sigma bounds; a bias instability B as the walk reaching it in 100 s.
 //   ideal     every sensor exact.
 //   mems      IMU: Bosch BMI088 class (BST-BMI088-DS001).
 //               gyro: +-2000 deg/s on 16 bits, 16.384 LSB/(deg/s) (ds: register 0x02-0x07, +-32767 for
@@ -37,7 +38,7 @@
 //               bias stability 2 deg/h (typ) as a walk reaching it in 100 s; scale 0.33 % std (typ);
 //               ODR 1000 Hz (a datasheet setting), delay 1 tick (typ: the ODR filter's group delay).
 //               accelerometer: +-24 g on 16 bits (ds: the +-24 g range; LSB 24 g / 32768); noise
-//               175 ug/sqrt(Hz) (typ; the datasheet's z axis is about 190); zero-g offset +-20 mg
+//               175 ug/sqrt(Hz) (typ; 175-190 is quoted for the axes); zero-g offset +-20 mg
 //               as a 3-sigma bound: std 6.7 mg (typ); bias instability 40 ug (typ) as a walk
 //               reaching it in 100 s; scale 0.33 % std (typ); ODR 800 Hz (held: one tick in five
 //               repeats), delay 1 tick (typ).
