@@ -704,6 +704,31 @@ TEST(DriveEmulatorCli, PrintsTheLayoutAndItsBusLoads) {
   EXPECT_NE(out.find("sensors vcan5    no  imu+ft       0        5     675.0   67.5%"), std::string::npos) << out;
 }
 
+// --sensors-preset / --sensors-seed (sim_hal's sensor model on the IMU and wrist F/T published
+// with --motion bullet): parsed, a bad name refused, not together with the legacy --imu-*, and
+// only with --motion bullet.
+TEST(DriveEmulatorCli, SensorsPresetIsParsedAndRefusedWhenBad) {
+  const std::string config = "--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml ";
+  std::string out;
+  EXPECT_EQ(run(config + "--print-layout --sensors-preset mems --sensors-seed 7", out), 0) << out;
+  EXPECT_EQ(run(config + "--print-layout --sensors-preset tactical", out), 0) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--print-layout --sensors-preset consumer", out), 0);
+  EXPECT_NE(out.find("--sensors-preset"), std::string::npos) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--print-layout --sensors-seed -3", out), 0);
+  EXPECT_NE(out.find("--sensors-seed"), std::string::npos) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--print-layout --sensors-preset mems --imu-gyro-noise-rad-s 0.01", out), 0);
+  EXPECT_NE(out.find("excludes"), std::string::npos) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--print-layout --sensors-seed 2 --imu-seed 3", out), 0);
+  EXPECT_NE(out.find("excludes"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(run(config + "--sensors-preset mems --duration-s 0.01", out), 2);
+  EXPECT_NE(out.find("--sensors-preset needs --motion bullet"), std::string::npos) << out;
+}
+
 TEST(DriveEmulatorCli, RejectsABadConfigOrFaultScript) {
   const std::string bad = "/tmp/springbok_emu_cli_bad.yaml";
   std::ofstream(bad) << "can: {layout: classic7, timing: {tick_us: zero}}\n";
