@@ -189,6 +189,23 @@ TEST(SensorEmulator, PublishedFramesDecodeBackToTheSampleWithinQuantization) {
   EXPECT_EQ(rig.emu.frames_out(), 1500u);
 }
 
+// A sample the world's sensor model saturated (hal::Imu / hal::Wrench clipping) goes on the bus
+// with the clipping status bit: the host counts it and, held clip_streak (10) samples, latches
+// the streak the supervisor faults on.
+TEST(SensorEmulator, TheSamplesClippingReachesTheHost) {
+  SensorRig rig;
+  rig.step();
+  EXPECT_EQ(rig.imu.diagnostics().clipped, 0u);
+  rig.imu_in.clipping = true;
+  rig.wrist_in.clipping = true;
+  for (int k = 0; k < 10; ++k) rig.step();
+  EXPECT_EQ(rig.imu.diagnostics().clipped, 10u);
+  EXPECT_EQ(rig.ft.diagnostics().clipped, 10u);
+  EXPECT_TRUE(rig.imu.diagnostics().clip_streak_fault);
+  EXPECT_TRUE(rig.ft.diagnostics().clip_streak_fault);
+  EXPECT_EQ(rig.imu.diagnostics().samples_accepted, 11u) << "a clipped sample is still used";
+}
+
 TEST(SensorEmulator, OffsetWrenchGoesToTheSensorFrameAndBack) {
   can::SensorsConfig c = both_sensors();
   c.wrist_ft.has_offset = true;
