@@ -21,7 +21,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -151,6 +150,10 @@ std::string check_config(const SimConfig& c) {
   for (double s : {n.gyro_noise_rad_s, n.accel_noise_m_s2, n.gyro_bias_rad_s, n.accel_bias_m_s2}) {
     if (!(std::isfinite(s) && s >= 0.0)) return "imu noise and bias must be finite and >= 0";
   }
+  if (c.imu.active() && !is_ideal(c.sensors.imu)) {
+    return "imu (the legacy ImuNoise) and sensors.imu are both set: give the IMU's model in one of them";
+  }
+  if (std::string why = check_sensor_model(c.sensors, c.step_s); !why.empty()) return "sensors." + why;
   for (int t : {c.latency.joint_measurement_ticks, c.latency.sensor_measurement_ticks, c.latency.command_ticks}) {
     if (t < 0 || t > Latency::kMaxTicks) return "latency ticks must be in [0, 4]";
   }
@@ -218,10 +221,7 @@ struct BulletRobot::Impl {
   hal::Imu imu;
   hal::Wrench wrist;
   Vec3 previous_imu_velocity_world = Vec3::Zero();
-  std::mt19937_64 rng;
-  std::normal_distribution<double> unit_normal{0.0, 1.0};
-  Vec3 gyro_bias = Vec3::Zero();
-  Vec3 accel_bias = Vec3::Zero();
+  SensorModel sensors;
 
   void teardown() noexcept {
     if (!world) return;
@@ -250,9 +250,6 @@ struct BulletRobot::Impl {
   void apply_external_wrenches(double t_s) noexcept;
   void accumulate_contacts(double weight) noexcept;
   void update_sensors(bool first) noexcept;
-  Vec3 gaussian3(double std_dev) noexcept {
-    return Vec3(unit_normal(rng), unit_normal(rng), unit_normal(rng)) * std_dev;
-  }
 };
 
 std::string BulletRobot::Impl::build() {
@@ -333,9 +330,16 @@ std::string BulletRobot::Impl::build() {
     world->addCollisionObject(ground.get(), kGroundGroup, kRobotGroup);
   }
 
-  rng.seed(config.imu.seed);
-  gyro_bias = gaussian3(config.imu.gyro_bias_rad_s);
-  accel_bias = gaussian3(config.imu.accel_bias_m_s2);
+  // The sensor model, with the legacy ImuNoise mapped onto its IMU; the IMU's stream keeps the
+  // legacy seed unless sensors.imu is in use (check_config refused both at once).
+  SensorModelConfig model = config.sensors;
+  const auto& legacy = config.imu;
+  if (legacy.active()) {
+    apply_legacy_imu(legacy.gyro_noise_rad_s, legacy.accel_noise_m_s2, legacy.gyro_bias_rad_s, legacy.accel_bias_m_s2,
+                     config.step_s, model.imu);
+  }
+  const std::uint64_t imu_seed = is_ideal(config.sensors.imu) ? legacy.seed : config.sensors.seed;
+  if (std::string why = sensors.configure(model, config.step_s, imu_seed); !why.empty()) return "sensors." + why;
   return {};
 }
 
@@ -516,10 +520,11 @@ void BulletRobot::Impl::update_sensors(bool first) noexcept {
   const Mat3 imu_from_world = world_from_imu.linear().transpose();
   imu.valid = true;
   imu.stamp_ns = stamp_ns;
-  imu.orientation = Quat(world_from_imu.linear()).normalized();
-  imu.angular_rate_rad_s = imu_from_world * omega_world + gyro_bias + gaussian3(config.imu.gyro_noise_rad_s);
-  imu.linear_accel_m_s2 =
-      imu_from_world * (accel_world - gravity_world) + accel_bias + gaussian3(config.imu.accel_noise_m_s2);
+  ImuTruth imu_truth;
+  imu_truth.orientation = Quat(world_from_imu.linear()).normalized();
+  imu_truth.angular_rate_rad_s = imu_from_world * omega_world;
+  imu_truth.specific_force_m_s2 = imu_from_world * (accel_world - gravity_world);
+  sensors.imu(imu_truth, first, imu);
 
   // Wrist F/T: the external wrenches on the sensor's body, about the sensor origin, sensor axes.
   const auto& ft_frame = robot::kFrames[kWristFtFrame];
@@ -540,10 +545,15 @@ void BulletRobot::Impl::update_sensors(bool first) noexcept {
   }
   wrist.valid = true;
   wrist.stamp_ns = stamp_ns;
-  wrist.force_n = world_from_ft.linear().transpose() * force;
-  wrist.torque_nm = world_from_ft.linear().transpose() * torque;
+  const Vec3 force_ft = world_from_ft.linear().transpose() * force;
+  const Vec3 torque_ft = world_from_ft.linear().transpose() * torque;
+  sensors.wrist(force_ft, torque_ft, wrist);
 
-  Sampled now{truth.q.tail<kNj>(), truth.v.tail<kNj>(), truth.tau_applied_nm, imu, wrist};
+  Sampled now;
+  sensors.joints(truth.q.tail<kNj>(), truth.v.tail<kNj>(), truth.tau_applied_nm, first, now.q_rad, now.qd_rad_s,
+                 now.tau_nm);
+  now.imu = imu;
+  now.wrist = wrist;
   if (first) {
     sampled.fill(now);  // as if at rest there for as long as the latency reaches back
   } else {
@@ -674,5 +684,7 @@ double BulletRobot::lowest_foot_clearance_m() const noexcept {
 }
 
 const SimConfig& BulletRobot::config() const noexcept { return impl_->config; }
+
+const SensorModel& BulletRobot::sensor_model() const noexcept { return impl_->sensors; }
 
 }  // namespace springbok::sim

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <memory>
+#include <numbers>
 #include <vector>
 
 #include "springbok/can/config.hpp"
@@ -207,6 +208,48 @@ TEST(BulletMotion, SensorsPublishedFromTheWorldDecodeBackToItsValues) {
   EXPECT_EQ(ft.diagnostics().samples_accepted, 200u);
   std::printf("IMU orientation through the frames vs ground truth: worst %.2e rad (q_w near 0: upside-down mounting)\n",
               worst_angle_rad);
+}
+
+// --sensors-preset mems: the IMU the emulator publishes is sim_hal's BMI088-class model (16-bit
+// gyro on +-2000 deg/s, its accelerometer held at 800 Hz, a turn-on bias from the seed) and the
+// wrist F/T the Mini45-class one (1/16 N steps, an offset); the same seed, the same samples.
+TEST(BulletMotion, TheSensorsPresetShapesThePublishedSamples) {
+  const auto run = [](SensorsPreset preset, std::uint64_t seed) {
+    BulletOptions o;
+    o.sensors_preset = preset;
+    o.sensors_seed = seed;
+    Rig rig(o);
+    std::vector<hal::Imu> imu;
+    std::vector<hal::Wrench> ft;
+    rig.world.set_step_callback([&](const hal::Imu& i, const hal::Wrench& w) {
+      imu.push_back(i);
+      ft.push_back(w);
+    });
+    can::mit::Command zero[kNj]{};
+    rig.send_all(zero, true);
+    for (int k = 0; k < 100; ++k) rig.send_all(zero);
+    return std::pair{imu, ft};
+  };
+  const auto [imu, ft] = run(SensorsPreset::mems, 4);
+  const auto [ideal_imu, ideal_ft] = run(SensorsPreset::ideal, 4);
+  ASSERT_EQ(imu.size(), 100u);
+  ASSERT_EQ(ideal_imu.size(), 100u);
+  const double gyro_lsb = std::numbers::pi / 180.0 / 16.384;
+  int accel_repeats = 0;
+  for (std::size_t k = 0; k < imu.size(); ++k) {
+    for (int i = 0; i < 3; ++i) {
+      const double counts = imu[k].angular_rate_rad_s[i] / gyro_lsb;
+      EXPECT_NEAR(counts, std::round(counts), 1e-6) << k;
+      EXPECT_NEAR(ft[k].force_n[i] * 16.0, std::round(ft[k].force_n[i] * 16.0), 1e-9) << k;
+    }
+    if (k > 0 && imu[k].linear_accel_m_s2 == imu[k - 1].linear_accel_m_s2) ++accel_repeats;
+    EXPECT_FALSE(imu[k].clipping) << k;
+  }
+  EXPECT_GE(accel_repeats, 19);  // 800 Hz at 1 kHz: one tick in five holds
+  EXPECT_GT((imu[50].angular_rate_rad_s - ideal_imu[50].angular_rate_rad_s).norm(), 1e-4);  // bias: ~6 mrad/s per axis
+  EXPECT_GT((ft[50].force_n - ideal_ft[50].force_n).norm(), 0.1);  // the turn-on offset (1 N std)
+  const auto [again, again_ft] = run(SensorsPreset::mems, 4);
+  for (std::size_t k = 0; k < imu.size(); ++k) EXPECT_EQ(again[k].angular_rate_rad_s, imu[k].angular_rate_rad_s) << k;
 }
 
 }  // namespace

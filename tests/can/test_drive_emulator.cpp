@@ -189,6 +189,23 @@ TEST(SensorEmulator, PublishedFramesDecodeBackToTheSampleWithinQuantization) {
   EXPECT_EQ(rig.emu.frames_out(), 1500u);
 }
 
+// A sample the world's sensor model saturated (hal::Imu / hal::Wrench clipping) goes on the bus
+// with the clipping status bit: the host counts it and, held clip_streak (10) samples, latches
+// the streak the supervisor faults on.
+TEST(SensorEmulator, TheSamplesClippingReachesTheHost) {
+  SensorRig rig;
+  rig.step();
+  EXPECT_EQ(rig.imu.diagnostics().clipped, 0u);
+  rig.imu_in.clipping = true;
+  rig.wrist_in.clipping = true;
+  for (int k = 0; k < 10; ++k) rig.step();
+  EXPECT_EQ(rig.imu.diagnostics().clipped, 10u);
+  EXPECT_EQ(rig.ft.diagnostics().clipped, 10u);
+  EXPECT_TRUE(rig.imu.diagnostics().clip_streak_fault);
+  EXPECT_TRUE(rig.ft.diagnostics().clip_streak_fault);
+  EXPECT_EQ(rig.imu.diagnostics().samples_accepted, 11u) << "a clipped sample is still used";
+}
+
 TEST(SensorEmulator, OffsetWrenchGoesToTheSensorFrameAndBack) {
   can::SensorsConfig c = both_sensors();
   c.wrist_ft.has_offset = true;
@@ -702,6 +719,31 @@ TEST(DriveEmulatorCli, PrintsTheLayoutAndItsBusLoads) {
   EXPECT_NE(out.find("layout ok"), std::string::npos);
   // The sensors' own bus: 3 IMU + 2 F/T frames, 675 us (CAN.md 6.3).
   EXPECT_NE(out.find("sensors vcan5    no  imu+ft       0        5     675.0   67.5%"), std::string::npos) << out;
+}
+
+// --sensors-preset / --sensors-seed (sim_hal's sensor model on the IMU and wrist F/T published
+// with --motion bullet): parsed, a bad name refused, not together with the legacy --imu-*, and
+// only with --motion bullet.
+TEST(DriveEmulatorCli, SensorsPresetIsParsedAndRefusedWhenBad) {
+  const std::string config = "--config " SPRINGBOK_SOURCE_DIR "/tests/hil/config/mit_classic7.yaml ";
+  std::string out;
+  EXPECT_EQ(run(config + "--print-layout --sensors-preset mems --sensors-seed 7", out), 0) << out;
+  EXPECT_EQ(run(config + "--print-layout --sensors-preset tactical", out), 0) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--print-layout --sensors-preset consumer", out), 0);
+  EXPECT_NE(out.find("--sensors-preset"), std::string::npos) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--print-layout --sensors-seed -3", out), 0);
+  EXPECT_NE(out.find("--sensors-seed"), std::string::npos) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--print-layout --sensors-preset mems --imu-gyro-noise-rad-s 0.01", out), 0);
+  EXPECT_NE(out.find("excludes"), std::string::npos) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--print-layout --sensors-seed 2 --imu-seed 3", out), 0);
+  EXPECT_NE(out.find("excludes"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(run(config + "--sensors-preset mems --duration-s 0.01", out), 2);
+  EXPECT_NE(out.find("--sensors-preset needs --motion bullet"), std::string::npos) << out;
 }
 
 TEST(DriveEmulatorCli, RejectsABadConfigOrFaultScript) {

@@ -226,6 +226,63 @@ TEST(SimHal, ImuNoiseIsSeededWithTheConfiguredSpread) {
   EXPECT_GT(std::abs(mean), 1e-3);           // a constant bias drawn once (std 0.1)
 }
 
+// The sensor model behind read(): a preset's IMU, encoders, joint torques and F/T reach the
+// measurements (quantised, biased: the model's own draws, which sensor_model() exposes); the
+// default is ideal (the exact world, as the test above reads it).
+TEST(SimHal, TheSensorModelShapesWhatReadReturns) {
+  sim::SimConfig c = resting_fixed_base();
+  c.sensors = sim::sensor_preset(sim::ImuPreset::mems);
+  c.sensors.seed = 9;
+  sim::BulletRobot robot(c);
+  ASSERT_TRUE(robot.configure().ok);
+  for (int k = 0; k < 20; ++k) robot.step();
+  hal::Measurements m;
+  ASSERT_EQ(robot.read(m), hal::IoStatus::ok);
+  const sim::SensorModel& model = robot.sensor_model();
+  const double gyro_lsb = c.sensors.imu.gyro.lsb;
+  const double d = 2.0 * std::numbers::pi / (c.sensors.encoders.counts_per_rev * c.sensors.encoders.gear_ratio[0]);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(m.imu.angular_rate_rad_s[i] / gyro_lsb, std::round(m.imu.angular_rate_rad_s[i] / gyro_lsb), 1e-6);
+  }
+  // At rest the gyro reads its bias (plus noise, 7.7 mrad/s per sample, and a scale error of nothing).
+  EXPECT_LT((m.imu.angular_rate_rad_s - model.imu_errors().gyro_bias_rad_s).cwiseAbs().maxCoeff(), 0.05);
+  EXPECT_GT(model.imu_errors().gyro_bias_rad_s.norm(), 1e-4);
+  const sim::GroundTruth& truth = robot.ground_truth();
+  for (int j = 0; j < kNj; ++j) {
+    EXPECT_NEAR(m.q_rad[j] / d, std::round(m.q_rad[j] / d), 1e-6) << j;
+    EXPECT_LE(std::abs(m.q_rad[j] - truth.q[7 + j]), 0.5 * d + 1e-12) << j;
+  }
+  EXPECT_NE(m.tau_nm, truth.tau_applied_nm);
+  EXPECT_NEAR((m.wrist.force_n - model.wrist_errors().force_offset_n).norm(), 0.0, 1.0) << "no wrench: the offset";
+
+  sim::SimConfig ideal = resting_fixed_base();
+  EXPECT_TRUE(sim::is_ideal(ideal.sensors));
+  sim::BulletRobot exact(ideal);
+  ASSERT_TRUE(exact.configure().ok);
+  exact.step();
+  ASSERT_EQ(exact.read(m), hal::IoStatus::ok);
+  EXPECT_EQ(m.q_rad, exact.ground_truth().q.tail<kNj>());
+  EXPECT_EQ(m.tau_nm, exact.ground_truth().tau_applied_nm);
+  EXPECT_EQ(m.wrist.force_n, Vec3::Zero());
+}
+
+// The legacy ImuNoise and a non-ideal sensors.imu describe one IMU twice: refused.
+TEST(SimHal, LegacyImuNoiseAndTheSensorModelsImuAreRefusedTogether) {
+  sim::SimConfig c = resting_fixed_base();
+  c.imu.gyro_noise_rad_s = 0.01;
+  c.sensors.imu = sim::imu_preset(sim::ImuPreset::tactical);
+  sim::BulletRobot robot(c);
+  const auto r = robot.configure();
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("sensors.imu"), std::string::npos) << r.message;
+  c.sensors.imu = sim::ImuModelConfig{};
+  c.sensors.encoders.velocity = sim::EncoderVelocity::lowpass;  // and no cutoff
+  sim::BulletRobot bad(c);
+  const auto r2 = bad.configure();
+  EXPECT_FALSE(r2.ok);
+  EXPECT_NE(r2.message.find("sensors.encoders.velocity_cutoff_hz"), std::string::npos) << r2.message;
+}
+
 // The trunk lying on its right side (base rolled +90 deg about x: trunk +y is
 // world +z), welded in place with its right face (trunk y = -half width)
 // `gap_m` above the ground.

@@ -16,8 +16,10 @@
 //
 // With --motion bullet the sensors of `can.sensors` (CAN.md 6) publish one sample per
 // world step on their buses: the IMU from the trunk's motion through trunk_imu (sim_hal's
-// IMU model, --imu-* noise and bias), the wrist F/T from the wrench scripted on the hand
-// (--hand-force-n N --hand-force-axis x|y|z|-x|-y|-z --hand-force-start-s T).
+// IMU model: --sensors-preset ideal|mems|tactical --sensors-seed N, or the legacy --imu-* noise
+// and bias), the wrist F/T from the wrench scripted on the hand (--hand-force-n N
+// --hand-force-axis x|y|z|-x|-y|-z --hand-force-start-s T; with --sensors-preset mems or
+// tactical through the realistic F/T model).
 #include <signal.h>
 
 #include <CLI/CLI.hpp>
@@ -90,6 +92,8 @@ int main(int argc, char** argv) {
   std::string hand_force_axis = "x";
   double imu_gyro_noise = 0.0, imu_accel_noise = 0.0, imu_gyro_bias = 0.0, imu_accel_bias = 0.0;
   std::uint64_t imu_seed = 1;
+  std::string sensors_preset = "ideal";
+  std::uint64_t sensors_seed = 1;
   int mit_master_id = -1;  // -1: as the config says
   emu::MitReplyOptions mit_reply;
   emu::Cia402Options cia402;
@@ -164,15 +168,30 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--hand-force-duration-s", hand_force_duration_s, "bullet: how long it lasts (0 = until the end)")
       ->check(CLI::NonNegativeNumber);
-  app.add_option("--imu-gyro-noise-rad-s", imu_gyro_noise, "bullet: IMU gyro white noise std (sim_hal model)")
-      ->check(CLI::Range(0.0, 10.0));
-  app.add_option("--imu-accel-noise-m-s2", imu_accel_noise, "bullet: IMU accelerometer white noise std")
-      ->check(CLI::Range(0.0, 100.0));
-  app.add_option("--imu-gyro-bias-rad-s", imu_gyro_bias, "bullet: std of the IMU gyro bias drawn once")
-      ->check(CLI::Range(0.0, 10.0));
-  app.add_option("--imu-accel-bias-m-s2", imu_accel_bias, "bullet: std of the accelerometer bias drawn once")
-      ->check(CLI::Range(0.0, 100.0));
-  app.add_option("--imu-seed", imu_seed, "bullet: seed of the IMU noise");
+  CLI::Option* preset_opt =
+      app.add_option("--sensors-preset", sensors_preset,
+                     "bullet: sim_hal's sensor model for the IMU and the wrist F/T published: ideal (exact), mems "
+                     "(BMI088 class, Mini45-class F/T), tactical (KVH 1775 class, Mini45-class F/T); "
+                     "tools/scenarios/README.md, Sensor models")
+          ->check(CLI::IsMember({"ideal", "mems", "tactical"}));
+  CLI::Option* seed_opt = app.add_option("--sensors-seed", sensors_seed, "bullet: seed of the sensor model (>= 0)")
+                              ->check(CLI::NonNegativeNumber);
+  // The legacy IMU options: sim_hal's model as a white noise std per sample and a turn-on std
+  // (mapped onto the sensor model as sim.imu is); not together with --sensors-*.
+  CLI::Option* legacy[] = {
+      app.add_option("--imu-gyro-noise-rad-s", imu_gyro_noise, "bullet: IMU gyro white noise std per sample (legacy)")
+          ->check(CLI::Range(0.0, 10.0)),
+      app.add_option("--imu-accel-noise-m-s2", imu_accel_noise, "bullet: IMU accelerometer white noise std (legacy)")
+          ->check(CLI::Range(0.0, 100.0)),
+      app.add_option("--imu-gyro-bias-rad-s", imu_gyro_bias, "bullet: std of the IMU gyro bias drawn once (legacy)")
+          ->check(CLI::Range(0.0, 10.0)),
+      app.add_option("--imu-accel-bias-m-s2", imu_accel_bias, "bullet: std of the accelerometer bias drawn once (legacy)")
+          ->check(CLI::Range(0.0, 100.0)),
+      app.add_option("--imu-seed", imu_seed, "bullet: seed of the IMU noise (legacy)")};
+  for (CLI::Option* o : legacy) {
+    preset_opt->excludes(o);
+    seed_opt->excludes(o);
+  }
   CLI11_PARSE(app, argc, argv);
 
   const can::ConfigResult cfg = can::load_can_config_file(config_path);
@@ -265,6 +284,10 @@ int main(int argc, char** argv) {
     options.imu_gyro_bias_rad_s = imu_gyro_bias;
     options.imu_accel_bias_m_s2 = imu_accel_bias;
     options.imu_seed = imu_seed;
+    options.sensors_preset = sensors_preset == "mems"       ? emu::SensorsPreset::mems
+                             : sensors_preset == "tactical" ? emu::SensorsPreset::tactical
+                                                            : emu::SensorsPreset::ideal;
+    options.sensors_seed = sensors_seed;
     if (hand_force_n != 0.0) {
       options.hand_force = true;
       options.hand.force_n = hand_force_n;
@@ -288,6 +311,9 @@ int main(int argc, char** argv) {
     return 2;
   } else if (hand_force_n != 0.0) {
     std::fprintf(stderr, "drive_emulator: --hand-force-n needs --motion bullet\n");
+    return 2;
+  } else if (sensors_preset != "ideal") {
+    std::fprintf(stderr, "drive_emulator: --sensors-preset needs --motion bullet (the sensors publish only then)\n");
     return 2;
   }
 

@@ -15,9 +15,90 @@ namespace {
 
 using yaml::Field;
 
+// sim.sensors.imu.{gyro, accel}: one triad of the sensor model, over its preset's values.
+void read_triad(const Field& f, sim::InertialTriadConfig& c, bool gyro) {
+  const char* noise = gyro ? "noise_rad_s_per_sqrt_hz" : "noise_m_s2_per_sqrt_hz";
+  const char* walk = gyro ? "bias_walk_rad_s2_per_sqrt_hz" : "bias_walk_m_s3_per_sqrt_hz";
+  const char* bias = gyro ? "turn_on_bias_rad_s" : "turn_on_bias_m_s2";
+  const char* lsb = gyro ? "lsb_rad_s" : "lsb_m_s2";
+  const char* range = gyro ? "range_rad_s" : "range_m_s2";
+  if (!f.allow_only({noise, walk, bias, "scale_factor_std", lsb, range, "sample_rate_hz", "delay_ticks"})) return;
+  const double scale = gyro ? 1.0 : 10.0;  // the accelerometer's limits: m/s^2 span ~10x rad/s
+  f[noise].number(c.noise_per_sqrt_hz, 0.0, 1.0 * scale);
+  f[walk].number(c.bias_walk_per_sqrt_hz, 0.0, 1.0 * scale);
+  f[bias].number(c.turn_on_bias, 0.0, 10.0 * scale);
+  f["scale_factor_std"].number(c.scale_factor_std, 0.0, 0.5);
+  f[lsb].number(c.lsb, 0.0, 1.0 * scale);
+  f[range].number(c.range, 0.0, 1e4 * scale);
+  f["sample_rate_hz"].number(c.sample_rate_hz, 0.0, 1e6);
+  f["delay_ticks"].integer(c.delay_ticks, 0, sim::kMaxSensorDelayTicks);
+}
+
+// sim.sensors: {preset, seed, imu, encoders, joint_torque, wrist_ft} (tools/scenarios/README.md,
+// "Sensor models"): the preset first (mems / tactical: that IMU and the realistic rest), then
+// each section's own preset, then each key over it.
+void read_sensors(const Field& f, sim::SensorModelConfig& c) {
+  c = sim::SensorModelConfig{};
+  if (!f.allow_only({"preset", "seed", "imu", "encoders", "joint_torque", "wrist_ft"})) return;
+  constexpr sim::ImuPreset kImuPresets[] = {sim::ImuPreset::ideal, sim::ImuPreset::mems, sim::ImuPreset::tactical};
+  constexpr sim::PartPreset kPartPresets[] = {sim::PartPreset::ideal, sim::PartPreset::realistic};
+  if (int p = 0; f["preset"].choice(p, {"ideal", "mems", "tactical"})) c = sim::sensor_preset(kImuPresets[p]);
+  f["seed"].integer(c.seed, 0, std::numeric_limits<long long>::max());
+
+  const Field imu = f["imu"];
+  if (imu.allow_only({"preset", "gyro", "accel", "orientation"})) {
+    if (int p = 0; imu["preset"].choice(p, {"ideal", "mems", "tactical"})) c.imu = sim::imu_preset(kImuPresets[p]);
+    read_triad(imu["gyro"], c.imu.gyro, true);
+    read_triad(imu["accel"], c.imu.accel, false);
+    const Field o = imu["orientation"];
+    if (o.allow_only({"drift_rad_per_sqrt_s", "noise_rad"})) {
+      o["drift_rad_per_sqrt_s"].number(c.imu.orientation.drift_rad_per_sqrt_s, 0.0, 1.0);
+      o["noise_rad"].number(c.imu.orientation.noise_rad, 0.0, 1.0);
+    }
+  }
+  const Field enc = f["encoders"];
+  if (enc.allow_only({"preset", "counts_per_rev", "gear_ratio", "velocity", "velocity_cutoff_hz"})) {
+    if (int p = 0; enc["preset"].choice(p, {"ideal", "realistic"})) c.encoders = sim::encoder_preset(kPartPresets[p]);
+    enc["counts_per_rev"].number(c.encoders.counts_per_rev, 0.0, 1e9);
+    enc["gear_ratio"].vector<kNj>(c.encoders.gear_ratio, 1e-3, 1e4, /*scalar_fills=*/true);
+    constexpr sim::EncoderVelocity kVelocity[] = {sim::EncoderVelocity::exact, sim::EncoderVelocity::difference,
+                                                  sim::EncoderVelocity::lowpass};
+    if (int v = 0; enc["velocity"].choice(v, {"exact", "difference", "lowpass"})) c.encoders.velocity = kVelocity[v];
+    enc["velocity_cutoff_hz"].number(c.encoders.velocity_cutoff_hz, 1e-3, 1e6);
+    if (c.encoders.velocity == sim::EncoderVelocity::lowpass && !(c.encoders.velocity_cutoff_hz > 0.0)) {
+      enc["velocity_cutoff_hz"].fail("required with velocity: lowpass");
+    }
+  }
+  const Field tau = f["joint_torque"];
+  if (tau.allow_only({"preset", "noise_std_nm", "offset_std_nm"})) {
+    if (int p = 0; tau["preset"].choice(p, {"ideal", "realistic"})) {
+      c.joint_torque = sim::joint_torque_preset(kPartPresets[p]);
+    }
+    tau["noise_std_nm"].vector<kNj>(c.joint_torque.noise_std_nm, 0.0, 1e4, true);
+    tau["offset_std_nm"].vector<kNj>(c.joint_torque.offset_std_nm, 0.0, 1e4, true);
+  }
+  const Field ft = f["wrist_ft"];
+  if (ft.allow_only({"preset", "force_noise_std_n", "torque_noise_std_nm", "force_offset_std_n", "torque_offset_std_nm",
+                     "force_offset_walk_n_per_sqrt_s", "torque_offset_walk_nm_per_sqrt_s", "force_range_n",
+                     "torque_range_nm", "force_lsb_n", "torque_lsb_nm"})) {
+    sim::WristFtConfig& w = c.wrist_ft;
+    if (int p = 0; ft["preset"].choice(p, {"ideal", "realistic"})) w = sim::wrist_ft_preset(kPartPresets[p]);
+    ft["force_noise_std_n"].number(w.force_noise_std_n, 0.0, 1e3);
+    ft["torque_noise_std_nm"].number(w.torque_noise_std_nm, 0.0, 1e2);
+    ft["force_offset_std_n"].number(w.force_offset_std_n, 0.0, 1e4);
+    ft["torque_offset_std_nm"].number(w.torque_offset_std_nm, 0.0, 1e3);
+    ft["force_offset_walk_n_per_sqrt_s"].number(w.force_offset_walk_n_per_sqrt_s, 0.0, 1e2);
+    ft["torque_offset_walk_nm_per_sqrt_s"].number(w.torque_offset_walk_nm_per_sqrt_s, 0.0, 10.0);
+    ft["force_range_n"].vector<3>(w.force_range_n, 0.0, 1e6, true);
+    ft["torque_range_nm"].vector<3>(w.torque_range_nm, 0.0, 1e5, true);
+    ft["force_lsb_n"].number(w.force_lsb_n, 0.0, 100.0);
+    ft["torque_lsb_nm"].number(w.torque_lsb_nm, 0.0, 10.0);
+  }
+}
+
 void read_sim(const Field& f, sim::SimConfig& c) {
   f.allow_only({"step_s", "substeps", "solver_iterations", "limit_solver_iterations", "gravity_m_s2", "ground_friction", "ground_restitution",
-                "fixed_base", "imu", "latency"});
+                "fixed_base", "imu", "sensors", "latency"});
   f["step_s"].number(c.step_s, 1e-5, 0.01);
   f["substeps"].integer(c.substeps, 1, 100);
   f["solver_iterations"].integer(c.solver_iterations, 1, 1000);
@@ -35,6 +116,19 @@ void read_sim(const Field& f, sim::SimConfig& c) {
   imu["gyro_bias_rad_s"].number(c.imu.gyro_bias_rad_s, 0.0, 10.0);
   imu["accel_bias_m_s2"].number(c.imu.accel_bias_m_s2, 0.0, 100.0);
   imu["seed"].integer(c.imu.seed, 0, 4294967295LL);
+  // sim.imu is the IMU model's legacy form: with sim.sensors' IMU (its imu, its preset, its
+  // seed) the file says two things of one sensor.
+  const Field sensors = f["sensors"];
+  read_sensors(sensors, c.sensors);
+  if (imu.is_map() && !imu.keys().empty()) {
+    for (const char* key : {"imu", "preset", "seed"}) {
+      if (!sensors[key].present()) continue;
+      imu.fail(fmt::format("conflicts with sim.sensors.{}: give the IMU's model in one place (sim.sensors.imu; "
+                           "sim.imu's keys are its legacy form, per-sample std and turn-on std)",
+                           key));
+      break;
+    }
+  }
   const Field latency = f["latency"];
   latency.allow_only({"joint_measurement_ticks", "sensor_measurement_ticks", "command_ticks"});
   c.latency = sim::Latency{};

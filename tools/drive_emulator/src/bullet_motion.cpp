@@ -13,6 +13,11 @@ namespace {
 
 sim::SimConfig sim_config(const BulletOptions& o) {
   sim::SimConfig c = sim::crouched_sim_config(1000);
+  constexpr sim::ImuPreset kPresets[] = {sim::ImuPreset::ideal, sim::ImuPreset::mems, sim::ImuPreset::tactical};
+  const sim::SensorModelConfig preset = sim::sensor_preset(kPresets[static_cast<int>(o.sensors_preset)]);
+  c.sensors.seed = o.sensors_seed;
+  c.sensors.imu = preset.imu;
+  c.sensors.wrist_ft = preset.wrist_ft;
   c.imu.gyro_noise_rad_s = o.imu_gyro_noise_rad_s;
   c.imu.accel_noise_m_s2 = o.imu_accel_noise_m_s2;
   c.imu.gyro_bias_rad_s = o.imu_gyro_bias_rad_s;

@@ -66,7 +66,9 @@ void SensorEmulator::publish(const hal::Imu& imu, const hal::Wrench& wrist, std:
     r.angular_rate_rad_s = imu.angular_rate_rad_s;
     r.linear_accel_m_s2 = imu.linear_accel_m_s2;
     std::array<Frame, can::kImuFrames> frames{};
-    const std::uint8_t status = imu.valid ? st::valid : 0;
+    // The sample's clipping (sim_hal's sensor model saturated a field) is the status bit the
+    // host's clipping streak counts (CAN.md 6).
+    const auto status = static_cast<std::uint8_t>((imu.valid ? st::valid : 0) | (imu.clipping ? st::clipping : 0));
     if (!can::encode_imu_sample(cfg_.imu, r, imu_.counter, status, frames)) {
       can::encode_imu_sample(cfg_.imu, can::ImuReading{}, imu_.counter, 0, frames);  // not finite: not valid
     }
@@ -84,7 +86,7 @@ void SensorEmulator::publish(const hal::Imu& imu, const hal::Wrench& wrist, std:
     Eigen::Vector3d force_s = wrist.force_n, torque_s = wrist.torque_nm;
     if (cfg_.wrist_ft.has_offset) can::wrench_ee_to_sensor(ee_to_sensor_, wrist.force_n, wrist.torque_nm, force_s, torque_s);
     std::array<Frame, can::kFtFrames> frames{};
-    const std::uint8_t status = wrist.valid ? st::valid : 0;
+    const auto status = static_cast<std::uint8_t>((wrist.valid ? st::valid : 0) | (wrist.clipping ? st::clipping : 0));
     if (!can::encode_ft_sample(cfg_.wrist_ft, force_s, torque_s, ft_.counter, status, frames)) {
       can::encode_ft_sample(cfg_.wrist_ft, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), ft_.counter, 0, frames);
     }

@@ -14,15 +14,23 @@
 #include "springbok/hal/hardware.hpp"
 #include "springbok/model/model.hpp"
 #include "springbok/sim_hal/external_wrench.hpp"
+#include "springbok/sim_hal/sensor_models.hpp"
 
 namespace springbok::sim {
 
+// The legacy IMU noise (scenario keys sim.imu.*): white noise as a std per sample at the tick
+// rate and a constant turn-on bias drawn once. It maps onto the sensor model (SimConfig::sensors,
+// apply_legacy_imu): density = std * sqrt(step_s), turn_on_bias = std, the same random stream
+// for the same seed. Setting it (a std > 0) together with a non-ideal sensors.imu is refused.
 struct ImuNoise {
   double gyro_noise_rad_s = 0.0;           // white noise std per sample
   double accel_noise_m_s2 = 0.0;
   double gyro_bias_rad_s = 0.0;            // std of a constant bias drawn once
   double accel_bias_m_s2 = 0.0;
-  std::uint64_t seed = 1;
+  std::uint64_t seed = 1;                  // the IMU's stream while sensors.imu is ideal
+  bool active() const noexcept {
+    return gyro_noise_rad_s != 0.0 || accel_noise_m_s2 != 0.0 || gyro_bias_rad_s != 0.0 || accel_bias_m_s2 != 0.0;
+  }
 };
 
 // The deployed CAN path's transport delays (CAN.md 3.3), in ticks. A joint state reaches
@@ -50,7 +58,8 @@ struct SimConfig {
   bool fixed_base = false;                 // trunk welded to the world (tests)
   bool saturate_torques = true;            // clamp drive torques to the joints' limits at their angles
   Rotors rotors = Rotors::included;        // the actuators' rotors (springbok::kRotorInertia_kgm2)
-  ImuNoise imu;
+  ImuNoise imu;                            // legacy; see ImuNoise
+  SensorModelConfig sensors;               // what the sensors report (sensor_models.hpp); default: ideal
   Latency latency;
   VecNq initial_q = default_q();           // [p_WB, quaternion xyzw, joints]
   VecNv initial_v = VecNv::Zero();         // [v_B, w_B trunk frame, joint rates]
@@ -105,6 +114,8 @@ class BulletRobot final : public hal::Hardware {
   // Lowest point of the four foot spheres above the ground [m].
   double lowest_foot_clearance_m() const noexcept;
   const SimConfig& config() const noexcept;
+  // The sensor model behind read() (after configure): its per-run draws and its biases now.
+  const SensorModel& sensor_model() const noexcept;
 
  private:
   struct Impl;

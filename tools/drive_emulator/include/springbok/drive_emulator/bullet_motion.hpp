@@ -53,9 +53,19 @@ struct HandForce {
 // 4.4), position PD (p: some stiffness), torque (t: a controller's torques).
 enum class CommandClass : char { off = 'o', zero = 'z', damping = 'd', position = 'p', torque = 't' };
 
+// sim_hal's sensor presets (sim_hal/include/springbok/sim_hal/sensor_models.hpp).
+enum class SensorsPreset : std::uint8_t { ideal, mems, tactical };
+
 struct BulletOptions {
   double settle_s = 0.0;
-  // sim_hal's IMU model (sim::ImuNoise): white noise per sample and a constant bias drawn once.
+  // The IMU and the wrist F/T the emulator publishes through sim_hal's sensor model: a preset's
+  // IMU (ideal, a BMI088-class mems, a KVH 1775-class tactical) and, for mems and tactical, its
+  // realistic wrist F/T (ATI Mini45 class), seeded. The encoders and joint torques stay exact:
+  // the drives' replies quantise them in their own protocol. A preset other than ideal and the
+  // legacy imu_* below are refused together (the world's configure fails).
+  SensorsPreset sensors_preset = SensorsPreset::ideal;
+  std::uint64_t sensors_seed = 1;
+  // sim_hal's legacy IMU model (sim::ImuNoise): white noise per sample and a constant bias drawn once.
   double imu_gyro_noise_rad_s = 0.0;
   double imu_accel_noise_m_s2 = 0.0;
   double imu_gyro_bias_rad_s = 0.0;
