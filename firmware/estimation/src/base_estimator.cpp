@@ -35,6 +35,12 @@ EkfParams ekf_params(const EstimatorParams& p) noexcept {
   e.gravity_m_s2 = kGravity_m_s2;
   return e;
 }
+// q's quaternion coefficients (xyzw) with w >= 0 (q and -q are one orientation).
+Eigen::Vector4d with_positive_w(Quat quat) noexcept {
+  quat.normalize();
+  if (quat.w() < 0.0) quat.coeffs() = -quat.coeffs();
+  return quat.coeffs();
+}
 ImuMounting imu_mounting(const dyn::Model& model) noexcept {
   const dyn::Placement& imu = model.frame_placement[kImuFrame];
   return ImuMounting{imu.rotation, imu.translation};
@@ -92,11 +98,8 @@ bool BaseEstimator::measurement_ok(const hal::Measurements& m) const noexcept {
 }
 
 void BaseEstimator::write_state(const hal::Measurements& m, const Mat3& rot_wb, const Vec3& omega_b) noexcept {
-  Quat quat(rot_wb);
-  quat.normalize();
-  if (quat.w() < 0.0) quat.coeffs() = -quat.coeffs();
   out_.q.head<3>() = position_w_;
-  out_.q.segment<4>(3) = quat.coeffs();
+  out_.q.segment<4>(3) = with_positive_w(Quat(rot_wb));
   out_.q.tail<kNj>() = m.q_rad;
   out_.v.head<3>() = rot_wb.transpose() * velocity_w_;
   out_.v.segment<3>(3) = omega_b;
@@ -106,7 +109,6 @@ void BaseEstimator::write_state(const hal::Measurements& m, const Mat3& rot_wb, 
 // rt: no alloc
 EstimateStatus BaseEstimator::reset(const hal::Measurements& m, const Stance& stance,
                                     const Eigen::Vector2d& xy_m) noexcept {
-  if (params_.filter == BaseFilter::ekf) return reset_ekf(m, stance, xy_m);
   int feet = 0;
   for (bool s : stance) feet += s ? 1 : 0;
   if (!measurement_ok(m) || feet == 0) return EstimateStatus::bad_input;
@@ -118,7 +120,9 @@ EstimateStatus BaseEstimator::reset(const hal::Measurements& m, const Stance& st
     if (stance[f]) mean_contact_w += rot * contact_point_b(f, rot);
   }
   mean_contact_w /= feet;
-  position_w_ << xy_m.x(), xy_m.y(), params_.ground_height_m - mean_contact_w.z();
+  const Vec3 start_w(xy_m.x(), xy_m.y(), params_.ground_height_m - mean_contact_w.z());
+  if (params_.filter == BaseFilter::ekf) return reset_ekf(m, stance, rot, start_w);
+  position_w_ = start_w;
   velocity_w_.setZero();
   for (int f = 0; f < kFeet; ++f) {
     out_.anchor_world_m[f] = position_w_ + rot * contact_point_b(f, rot);
@@ -291,10 +295,8 @@ void BaseEstimator::ekf_feet(const hal::Measurements& m, const Stance& stance, c
 }
 
 void BaseEstimator::write_ekf_state(const hal::Measurements& m) noexcept {
-  Quat quat = ekf_.orientation_wb();
-  if (quat.w() < 0.0) quat.coeffs() = -quat.coeffs();
   out_.q.head<3>() = ekf_.position_w_m();
-  out_.q.segment<4>(3) = quat.coeffs();
+  out_.q.segment<4>(3) = with_positive_w(ekf_.orientation_wb());
   out_.q.tail<kNj>() = m.q_rad;
   out_.v.head<3>() = ekf_.velocity_b_m_s();
   out_.v.segment<3>(3) = ekf_.angular_rate_b_rad_s();
@@ -303,24 +305,13 @@ void BaseEstimator::write_ekf_state(const hal::Measurements& m) noexcept {
 }
 
 // rt: no alloc
-EstimateStatus BaseEstimator::reset_ekf(const hal::Measurements& m, const Stance& stance,
-                                        const Eigen::Vector2d& xy_m) noexcept {
-  int feet = 0;
-  for (bool s : stance) feet += s ? 1 : 0;
-  if (!measurement_ok(m) || feet == 0) return EstimateStatus::bad_input;
-  const Mat3 rot = trunk_rotation(m.imu.orientation);
-  kinematics(m.q_rad);
+EstimateStatus BaseEstimator::reset_ekf(const hal::Measurements& m, const Stance& stance, const Mat3& rot_wb,
+                                        const Vec3& position_w) noexcept {
   FootMeasurements fm{};
-  ekf_feet(m, stance, rot, trunk_angular_rate(m.imu.angular_rate_rad_s), fm);
-  // The trunk origin above the mean contact point of the stance feet, at rest, no bias known.
-  Vec3 mean_contact_w = Vec3::Zero();
-  for (int f = 0; f < kFeet; ++f) {
-    if (stance[f]) mean_contact_w += rot * fm[static_cast<std::size_t>(f)].contact_point_b_m;
-  }
-  mean_contact_w /= feet;
-  EkfInitialState start;
-  start.position_w_m << xy_m.x(), xy_m.y(), params_.ground_height_m - mean_contact_w.z();
-  start.orientation_wb = Quat(rot).normalized();
+  ekf_feet(m, stance, rot_wb, trunk_angular_rate(m.imu.angular_rate_rad_s), fm);
+  EkfInitialState start;  // at rest
+  start.position_w_m = position_w;
+  start.orientation_wb = Quat(rot_wb).normalized();
   // The biases: what the filter learnt when it ran before (a restart after a gap), else the
   // start-up calibration's gyro bias.
   if (ekf_.started()) {
@@ -343,12 +334,9 @@ EstimateStatus BaseEstimator::reset_ekf(const hal::Measurements& m, const Stance
 // rt: no alloc, no block
 void BaseEstimator::calibrate(const hal::Measurements& m, double dt_s) noexcept {
   if (params_.filter != BaseFilter::ekf || reset_) return;
-  if (!m.imu.valid || !(dt_s > 0.0)) {
-    ekf_.restart_calibration();  // a gap: the recording is no longer one still stretch
-    return;
-  }
+  // A gap (no sample, a non-finite one, a bad dt): the recording is no longer one still stretch.
   const ImuSample sample{m.imu.angular_rate_rad_s, m.imu.linear_accel_m_s2};
-  const CalibrationStatus s = ekf_.calibrate_sample(sample, dt_s);
+  const CalibrationStatus s = m.imu.valid ? ekf_.calibrate_sample(sample, dt_s) : CalibrationStatus::bad_sample;
   if (s == CalibrationStatus::bad_sample) {
     ekf_.restart_calibration();
     return;

@@ -172,7 +172,9 @@ class BaseEstimator {
   void rebase_tilt_integrals(double block_s) noexcept;
   void write_state(const hal::Measurements& m, const Mat3& rot_wb, const Vec3& omega_b) noexcept;
   // filter ekf: reset() and update() through the EKF. rt: no alloc
-  EstimateStatus reset_ekf(const hal::Measurements& m, const Stance& stance, const Eigen::Vector2d& xy_m) noexcept;
+  // reset()'s checks and start position done (rot_wb: the IMU's; position_w: the trunk above the feet).
+  EstimateStatus reset_ekf(const hal::Measurements& m, const Stance& stance, const Mat3& rot_wb,
+                           const Vec3& position_w) noexcept;
   const BaseEstimate& update_ekf(const hal::Measurements& m, const Stance& stance, double dt_s) noexcept;
   // The feet's measurements for the EKF at its last orientation (kinematics() done). rt: no alloc
   void ekf_feet(const hal::Measurements& m, const Stance& stance, const Mat3& rot_wb, const Vec3& omega_b,
