@@ -149,7 +149,7 @@ TEST(Cia402StateMachine, ControlwordWalkToOperationEnabled) {
 TEST(Cia402StateMachine, AStepsTimeIsTheCyclesTheDriveAnswered) {
   constexpr std::int64_t ms = 1000000;
   StepClock clock(100, 1000);
-  clock.restart(500, 0);
+  clock.restart(500, 0, 0);
   // 90 cycles answered over 90 ms, then a 60 ms stall of the host's (no SYNC, no answer), then
   // 10 more: 100 cycles of the drive's, 160 ms of the host's clock, not overdue.
   std::int64_t t = 0;
@@ -160,26 +160,48 @@ TEST(Cia402StateMachine, AStepsTimeIsTheCyclesTheDriveAnswered) {
   // The 101st cycle answered in the same state is one too many.
   EXPECT_TRUE(clock.overdue(601, t += ms));
   // A new state restarts it.
-  clock.restart(601, t);
+  clock.restart(601, 0, t);
   EXPECT_FALSE(clock.overdue(650, t + 50 * ms));
   // A drive that answers nothing for the limit's time is overdue: after 100 ms of silence, not at 100.
-  clock.restart(700, 0);
+  clock.restart(700, 0, 0);
   EXPECT_FALSE(clock.overdue(700, 100 * ms));
   EXPECT_TRUE(clock.overdue(700, 100 * ms + 1));
   // Silence counts from the last answer, not from the step's start.
-  clock.restart(800, 0);
+  clock.restart(800, 0, 0);
   EXPECT_FALSE(clock.overdue(850, 80 * ms));
   EXPECT_FALSE(clock.overdue(850, 179 * ms));
   EXPECT_TRUE(clock.overdue(850, 181 * ms));
   // At another SYNC period the count scales: 100 ms at 2 ms per SYNC is 50 cycles.
   StepClock slow(100, 2000);
-  slow.restart(0, 0);
+  slow.restart(0, 0, 0);
   EXPECT_FALSE(slow.overdue(50, 100 * ms));
   EXPECT_TRUE(slow.overdue(51, 102 * ms));
   // Default-made: a zero limit, overdue at the first answer.
   StepClock none;
-  none.restart(0, 0);
+  none.restart(0, 0, 0);
   EXPECT_TRUE(none.overdue(1, 0));
+}
+
+// A drive running behind answers, after the step began, SYNCs sent before it: those are not the
+// step's cycles. Here 30 SYNCs were unanswered at the start; the drive answers them, then 100 of
+// the step's own, and only the 101st of those is one too many.
+TEST(Cia402StateMachine, TheSyncsUnansweredWhenAStepBeganAreNotItsCycles) {
+  constexpr std::int64_t ms = 1000000;
+  StepClock clock(100, 1000);
+  clock.restart(1000, 30, 0);
+  std::int64_t t = 0;
+  for (std::uint64_t n = 1001; n <= 1130; ++n) EXPECT_FALSE(clock.overdue(n, t += ms)) << n;
+  EXPECT_EQ(clock.cycles(1030), 0u);
+  EXPECT_EQ(clock.cycles(1130), 100u);
+  EXPECT_TRUE(clock.overdue(1131, t += ms));
+  // SYNCs lost for good count as unanswered too: at most the limit's count of them is taken, so a
+  // drive is given at most twice the limit.
+  clock.restart(2000, 5000, 0);
+  EXPECT_FALSE(clock.overdue(2200, 200 * ms));
+  EXPECT_TRUE(clock.overdue(2201, 201 * ms));
+  // Silence still counts from the last answer, whatever was unanswered.
+  clock.restart(3000, 50, 0);
+  EXPECT_TRUE(clock.overdue(3000, 100 * ms + 1));
 }
 
 TEST(Cia402Pdo, CompactMappingSequence) {

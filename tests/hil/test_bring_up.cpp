@@ -167,12 +167,9 @@ void bring_up_all_cia402_late(const std::vector<std::string>& late) {
 // stall of the host's spends none of a drive's 100 ms. Timed on the host's clock, these cases
 // failed now and then in a suite run: a step seen after 100 ms ("stuck in 'switched on' for
 // 100 ms", lh, at 80 ms brakes; "stuck in 'ready to switch on'", rh, 25 ms late), the step plus
-// the VM's stalls. The 90 ms and 80 ms cases are still DISABLED: an emulator running behind
-// answers, after a step began, the SYNCs sent before it, and those count in the step (a clean-
-// clone suite run: the shut-down's 0x0006 step on lf..arm0 given up after 100 answers, drives
-// 1-15 left switched on, 0x0233). Counting only the answers to SYNCs sent since the step began
-// (the SYNCs outstanding at its start subtracted) is the fix to make. By hand:
-//   test_hil --gtest_also_run_disabled_tests --gtest_filter='*StateStepsTake90Ms:*BrakesTake80Ms'
+// the VM's stalls. Counting every answer, they failed too: an emulator running behind answers,
+// after a step began, the SYNCs sent before it (the shut-down's 0x0006 step on lf..arm0 given up
+// after 100 answers, drives 1-15 left switched on, 0x0233); those SYNCs are now not the step's.
 
 // Until Operation enabled, each bus's drives send the TPDOs of a SYNC and their SDO answers 1 to
 // 50 ms late (lf 1 ms ... arm 50 ms): after the tick's receive deadline on every bus but lf.
@@ -185,7 +182,7 @@ TEST(Hil, BringUpAll19DrivesCia402AnsweringLate) {
 // (state_step_timeout_ms as shipped, CAN.md 4.3 step 4); the shut-down waits for each step too
 // (4.4 step 2: before, it sent NMT enter pre-operational one tick after 0x0006 and every drive
 // stayed Operation enabled).
-TEST(Hil, DISABLED_BringUpAll19DrivesCia402WhoseStateStepsTake90Ms) {
+TEST(Hil, BringUpAll19DrivesCia402WhoseStateStepsTake90Ms) {
   REQUIRE_VCAN(7);
   bring_up_all_cia402_late({"--cia402-state-step-ms", "90"});
 }
@@ -194,7 +191,7 @@ TEST(Hil, DISABLED_BringUpAll19DrivesCia402WhoseStateStepsTake90Ms) {
 // and to engage (the step out of it): bring-up waits for it within the 100 ms a step may take
 // (CAN.md 4.3 step 4), and the shut-down waits for it before NMT enter pre-operational, every bus
 // SYNCed meanwhile (4.4 step 2).
-TEST(Hil, DISABLED_BringUpAll19DrivesCia402WhoseBrakesTake80Ms) {
+TEST(Hil, BringUpAll19DrivesCia402WhoseBrakesTake80Ms) {
   REQUIRE_VCAN(7);
   bring_up_all_cia402_late({"--cia402-brake-ms", "80"});
 }

@@ -466,6 +466,20 @@ bool CanHardware::send_now(int b, const Frame& f) noexcept {
   return false;
 }
 
+bool CanHardware::send_sync(int b) noexcept {
+  Frame sync;
+  cia402::encode_sync(sync);
+  if (!send_now(b, sync)) return false;
+  ++buses_[static_cast<std::size_t>(b)].syncs_sent;
+  return true;
+}
+
+std::uint64_t CanHardware::unanswered_syncs(int j) const noexcept {
+  const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  const std::uint64_t sent = buses_[static_cast<std::size_t>(jr.bus)].syncs_sent - jr.syncs_before_walk;
+  return sent > jr.tpdo1_count ? sent - jr.tpdo1_count : 0;
+}
+
 void CanHardware::send_pending() noexcept {
   for (int b = 0; b < bus_count_; ++b) {
     Bus& bus = buses_[static_cast<std::size_t>(b)];
@@ -481,11 +495,9 @@ void CanHardware::send_pending() noexcept {
       if (send_now(b, jr.pending) && jr.cfg.protocol == Protocol::mit) jr.awaiting = true;
     }
     if (bus.any_cia) {
-      Frame sync;
-      cia402::encode_sync(sync);
       if (bus.tx_full.dropping()) {
         ++bus.diag.tx_dropped;
-      } else if (send_now(b, sync)) {
+      } else if (send_sync(b)) {
         for (int k = 0; k < bus.count; ++k) {
           JointRuntime& jr = joints_[static_cast<std::size_t>(bus.joints[k])];
           if (jr.cfg.protocol == Protocol::cia402) jr.awaiting = true;

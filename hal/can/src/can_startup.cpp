@@ -89,9 +89,7 @@ void CanHardware::keep_alive() noexcept {
       cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{cia402::controlword::enable_operation, 0}, f);
       send_now(b, f);
     }
-    Frame sync;
-    cia402::encode_sync(sync);
-    send_now(b, sync);
+    send_sync(b);
   }
   if (any) next_keep_alive_ns_ = now + 1000LL * config_.timing.tick_us;
 }
@@ -648,6 +646,8 @@ LifecycleResult CanHardware::enable_cia402(int b) {
   }
   // 3. NMT start; SYNC every cycle from now on; TPDOs must appear.
   for (int j : nodes) {
+    JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+    jr.syncs_before_walk = bus.syncs_sent - jr.tpdo1_count;
     Frame f;
     cia402::encode_nmt(cia402::NmtCommand::start, joints_[static_cast<std::size_t>(j)].cfg.drive_id, f);
     send_now(b, f);
@@ -658,7 +658,7 @@ LifecycleResult CanHardware::enable_cia402(int b) {
   std::vector<cia402::StepClock> step(nodes.size(),
                                       cia402::StepClock(config_.timing.state_step_timeout_ms, config_.timing.tick_us));
   for (std::size_t i = 0; i < nodes.size(); ++i) {
-    step[i].restart(joints_[static_cast<std::size_t>(nodes[i])].tpdo1_count, monotonic_ns());
+    step[i].restart(joints_[static_cast<std::size_t>(nodes[i])].tpdo1_count, 0, monotonic_ns());
   }
   for (JointRuntime& jr : joints_) jr.statusword = 0;
   const std::int64_t period_ns = 1000LL * config_.timing.tick_us;
@@ -671,7 +671,7 @@ LifecycleResult CanHardware::enable_cia402(int b) {
                                                                              : cia402::State::unknown;
       if (s != state[i]) {
         state[i] = s;
-        step[i].restart(jr.tpdo1_count, monotonic_ns());
+        step[i].restart(jr.tpdo1_count, unanswered_syncs(nodes[i]), monotonic_ns());
       } else if (s != cia402::State::operation_enabled && step[i].overdue(jr.tpdo1_count, monotonic_ns())) {
         return LifecycleResult::failure("CiA 402 enable: " + drive_name(nodes[i]) + " stuck in '" +
                                         cia402::to_string(s) + "' (statusword " + hex(jr.statusword, 4) + ") for " +
@@ -689,9 +689,7 @@ LifecycleResult CanHardware::enable_cia402(int b) {
       cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{jr.controlword, 0}, f);
       send_now(b, f);
     }
-    Frame sync;
-    cia402::encode_sync(sync);
-    send_now(b, sync);
+    send_sync(b);
     const auto all_tpdo = [&] {
       for (int j : nodes) {
         if (joints_[static_cast<std::size_t>(j)].replies_this_tick == 0) return false;
@@ -776,7 +774,7 @@ void CanHardware::disable_buses(int first, int last) noexcept {
     for (int j = 0; j < kNj; ++j) {
       const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
       step[static_cast<std::size_t>(j)] = cia402::StepClock(config_.timing.state_step_timeout_ms, config_.timing.tick_us);
-      step[static_cast<std::size_t>(j)].restart(jr.tpdo1_count, monotonic_ns());
+      step[static_cast<std::size_t>(j)].restart(jr.tpdo1_count, jr.bus >= 0 ? unanswered_syncs(j) : 0, monotonic_ns());
     }
     do {
       for (int b = first; b <= last; ++b) {
@@ -789,9 +787,7 @@ void CanHardware::disable_buses(int first, int last) noexcept {
           cia402::encode_rpdo1(jr.cfg.drive_id, cia402::Rpdo1{cw, 0}, f);
           send_now(b, f);
         }
-        Frame sync;
-        cia402::encode_sync(sync);
-        send_now(b, sync);
+        send_sync(b);
       }
       pump_until(monotonic_ns() + 1000LL * config_.timing.tick_us, [] { return false; });
     } while (!step_over(cw));

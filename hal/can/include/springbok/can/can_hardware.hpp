@@ -147,6 +147,7 @@ struct JointRuntime {
   bool awaiting = false;          // a command / SYNC went out: a reply is due at the next read
   int replies_this_tick = 0;      // MIT replies / CiA TPDO1 since the last read
   std::uint64_t tpdo1_count = 0;  // CiA 402: TPDO1 frames taken, ever (the drive's answered cycles, cia402::StepClock)
+  std::uint64_t syncs_before_walk = 0;  // its bus's syncs_sent less tpdo1_count when its walk began
   bool tpdo2_this_tick = false;
   int implausible_in_row = 0;
   std::uint64_t last_heartbeat_tick = 0;
@@ -250,6 +251,7 @@ class CanHardware final : public hal::Hardware {
     // Its CiA 402 nodes are Operation enabled: SYNC goes every tick from then on (CAN.md 4.3
     // step 3), while later buses are enabled too (keep_alive) until read() takes over.
     bool synced = false;
+    std::uint64_t syncs_sent = 0;  // ever (CiA 402 step times: unanswered_syncs)
     BusDiagnostics diag;
   };
   struct SdoOutcome {
@@ -310,6 +312,11 @@ class CanHardware final : public hal::Hardware {
   void queue_command(int j, const hal::JointCommands& cmd) noexcept;
   void queue_zero_command(int j) noexcept;
   bool send_now(int b, const Frame& f) noexcept;
+  // A SYNC on bus `b`, counted in Bus::syncs_sent when sent.
+  bool send_sync(int b) noexcept;
+  // The SYNCs sent on joint j's bus since its walk began (enable_cia402) that it has not answered:
+  // those still on their way, and those it lost.
+  std::uint64_t unanswered_syncs(int j) const noexcept;
   int handles(std::array<int, kMaxBuses>& out) const noexcept;
 
   CanConfig config_;

@@ -2,6 +2,7 @@
 // CANopen fields are little-endian, packed byte by byte.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 
@@ -129,9 +130,13 @@ class StepClock {
   StepClock(std::uint32_t limit_ms, std::uint32_t tick_us) noexcept
       : limit_cycles_(1000ULL * limit_ms / (tick_us > 0 ? tick_us : 1)), limit_ns_(1000000LL * limit_ms) {}
   // A step starts (a new state seen, a controlword sent): `tpdo1_count` is the drive's TPDO1
-  // count so far, `now_ns` the host's clock.
-  void restart(std::uint64_t tpdo1_count, std::int64_t now_ns) noexcept {
-    start_count_ = heard_count_ = tpdo1_count;
+  // count so far, `unanswered_syncs` the SYNCs sent to it before now that it has not answered yet
+  // (a drive or bus running behind answers them after the step began: they are not the step's
+  // cycles; at most the limit's count of them is taken so, a drive that lost SYNCs for good is
+  // given at most twice the limit), `now_ns` the host's clock.
+  void restart(std::uint64_t tpdo1_count, std::uint64_t unanswered_syncs, std::int64_t now_ns) noexcept {
+    start_count_ = tpdo1_count + std::min(unanswered_syncs, limit_cycles_);
+    heard_count_ = tpdo1_count;
     heard_ns_ = now_ns;
   }
   // True once the drive has answered more cycles than the limit in this step, or none for the
@@ -141,10 +146,12 @@ class StepClock {
       heard_count_ = tpdo1_count;
       heard_ns_ = now_ns;
     }
-    return tpdo1_count - start_count_ > limit_cycles_ || now_ns - heard_ns_ > limit_ns_;
+    return cycles(tpdo1_count) > limit_cycles_ || now_ns - heard_ns_ > limit_ns_;
   }
   // The cycles the drive answered in this step.
-  std::uint64_t cycles(std::uint64_t tpdo1_count) const noexcept { return tpdo1_count - start_count_; }
+  std::uint64_t cycles(std::uint64_t tpdo1_count) const noexcept {
+    return tpdo1_count > start_count_ ? tpdo1_count - start_count_ : 0;
+  }
 
  private:
   std::uint64_t limit_cycles_ = 0;
