@@ -61,8 +61,7 @@ TEST(AppConfig, TheShippedFileLoads) {
   EXPECT_EQ(c.operator_socket, "/run/springbok/operator.sock");
   EXPECT_EQ(c.control_mode, ControlModeKind::wbc);
   EXPECT_EQ(c.control.wbc.template_params.mass_base_kg.x(), 92.0);
-  EXPECT_EQ(c.control.estimator.velocity_gain_per_s, 30.0);
-  EXPECT_EQ(c.control.estimator.tilt_gain_per_s, 1.0);  // the CAN IMU's pitch is not on the wire: aided
+  EXPECT_EQ(c.control.estimator.filter, est::BaseFilter::ekf);  // the IMU's biases estimated
   EXPECT_FALSE(c.stand_weight_feed_forward);
 }
 
@@ -80,8 +79,11 @@ TEST(AppConfig, ControlSectionErrorsNameTheField) {
             "control.controller: must be one of wbc, joint_pd, got 'mpc'");
   EXPECT_EQ(only_error(load_config_text(with("base: {mass: 92,", "base: {mass: -92,"))).rfind("control.wbc.template.base.mass", 0),
             0u);
-  EXPECT_EQ(only_error(load_config_text(with("{velocity_gain: 30,", "{velocity_gian: 30,")))
+  EXPECT_EQ(only_error(load_config_text(with("estimator: {filter: ekf}", "estimator: {filter: ekf, velocity_gian: 30}")))
                 .rfind("control.estimator.velocity_gian: unknown key", 0),
+            0u);
+  EXPECT_EQ(only_error(load_config_text(with("estimator: {filter: ekf}", "estimator: {filter: ukf}")))
+                .rfind("control.estimator.filter: must be one of complementary, ekf, got 'ukf'", 0),
             0u);
   // joint_pd needs no wbc map; wbc does.
   const std::string text = shipped_text();
