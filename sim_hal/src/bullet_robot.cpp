@@ -200,6 +200,7 @@ struct BulletRobot::Impl {
   bool configured = false;
   bool active = false;
   std::int64_t tick = 0;
+  std::int64_t sample_tick = 0;  // the sensors' samples: tick plus the ticks held still
   std::uint64_t read_sequence = 0;
   hal::JointCommands command;  // the last write()
   hal::JointCommands applied;  // what the drives apply in this step (command, `command_ticks` ago)
@@ -502,7 +503,7 @@ void BulletRobot::Impl::accumulate_contacts(double weight) noexcept {
 
 void BulletRobot::Impl::update_sensors(bool first) noexcept {
   const double t_s = static_cast<double>(tick) * config.step_s;
-  const auto stamp_ns = static_cast<std::int64_t>(std::llround(t_s * 1e9));
+  const auto stamp_ns = static_cast<std::int64_t>(std::llround(static_cast<double>(sample_tick) * config.step_s * 1e9));
   truth.time_s = t_s;
   read_state(truth.q, truth.v);
 
@@ -557,7 +558,7 @@ void BulletRobot::Impl::update_sensors(bool first) noexcept {
   if (first) {
     sampled.fill(now);  // as if at rest there for as long as the latency reaches back
   } else {
-    sampled[slot(tick, 0)] = now;
+    sampled[slot(sample_tick, 0)] = now;
   }
 }
 
@@ -592,8 +593,8 @@ hal::IoStatus BulletRobot::read(hal::Measurements& out) noexcept {
   Impl& s = *impl_;
   if (!s.configured) return hal::IoStatus::error;
   out.sequence = ++s.read_sequence;
-  const Impl::Sampled& joints = s.sampled[Impl::slot(s.tick, s.config.latency.joint_measurement_ticks)];
-  const Impl::Sampled& sensors = s.sampled[Impl::slot(s.tick, s.config.latency.sensor_measurement_ticks)];
+  const Impl::Sampled& joints = s.sampled[Impl::slot(s.sample_tick, s.config.latency.joint_measurement_ticks)];
+  const Impl::Sampled& sensors = s.sampled[Impl::slot(s.sample_tick, s.config.latency.sensor_measurement_ticks)];
   out.q_rad = joints.q_rad;
   out.qd_rad_s = joints.qd_rad_s;
   out.tau_nm = joints.tau_nm;
@@ -652,6 +653,14 @@ void BulletRobot::step() noexcept {
     s.accumulate_contacts(1.0 / s.config.substeps);
   }
   ++s.tick;
+  ++s.sample_tick;
+  s.update_sensors(false);
+}
+
+void BulletRobot::hold_still() noexcept {
+  Impl& s = *impl_;
+  if (!s.configured) return;
+  ++s.sample_tick;
   s.update_sensors(false);
 }
 

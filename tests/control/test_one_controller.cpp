@@ -29,7 +29,7 @@ std::string scenario_yaml(bool trot) {
   std::string y =
       "name: one_controller\n" +
       test::wbc_scenario_head("2.0", "0.5", "{mass: 92, damping: 610, stiffness: 1000}", "{mass: 10, damping: 142, stiffness: 500}") +
-      "    estimator: {velocity_gain: 30, position_gain: 10}\n";
+      "    estimator: {filter: complementary, velocity_gain: 30, position_gain: 10}\n";
   if (trot) y += "    gait: {step_frequency: 1.4, duty_factor: 0.65, step_height: 0.08}\n";
   y += "external_wrenches:\n"
        "  - {frame: end_effector, axis: [1, 0, 0], profile: step, amplitude: 40, start_s: 0.8}\n";

@@ -15,6 +15,14 @@
 #include "springbok/estimation/base_estimator.hpp"
 
 namespace {
+
+// The complementary filter (the cases below are its; filter ekf, the default, has its own).
+springbok::est::EstimatorParams complementary() {
+  springbok::est::EstimatorParams p;
+  p.filter = springbok::est::BaseFilter::complementary;
+  return p;
+}
+
 using namespace springbok;
 
 const VecNj kStance = [] {
@@ -81,7 +89,7 @@ hal::Measurements at_rest(const Quat& orientation = Quat::Identity()) {
 TEST(BaseEstimator, ImuMountingIsRemoved) {
   const dyn::Model model;
   auto data = std::make_unique<dyn::Data>();
-  est::BaseEstimator estimator;
+  est::BaseEstimator estimator(complementary());
   std::mt19937_64 rng(11);
   for (int trial = 0; trial < 20; ++trial) {
     const Quat o = random_orientation(rng, 3.0);
@@ -100,7 +108,7 @@ TEST(BaseEstimator, LegOdometryMatchesFiniteDifferencesOfTheContactPoint) {
   // differences of forward kinematics along q(t), is R (v_B - leg_odometry_velocity).
   const dyn::Model model;
   auto data = std::make_unique<dyn::Data>();
-  est::BaseEstimator estimator;
+  est::BaseEstimator estimator(complementary());
   std::mt19937_64 rng(5);
   std::normal_distribution<double> n(0.0, 1.0);
   const double r = kFootRadius_m;
@@ -140,7 +148,7 @@ TEST(BaseEstimator, ResetPutsTheTrunkAboveTheFeetOnTheGround) {
     double ground = 0.0;
     for (int f : kFootFrames) ground += data->frames[f].translation.z() - kFootRadius_m;
     ground /= kFeet;
-    est::EstimatorParams params;
+    est::EstimatorParams params = complementary();
     params.ground_height_m = ground;
     est::BaseEstimator estimator(params);
     const hal::Measurements m = measure(model, *data, q, VecNv::Zero());
@@ -158,7 +166,7 @@ TEST(BaseEstimator, ResetPutsTheTrunkAboveTheFeetOnTheGround) {
 
 TEST(BaseEstimator, StandingStillStaysStillAndDoesNotAllocate) {
   const hal::Measurements m = at_rest(Quat(Eigen::AngleAxisd(0.1, Vec3::UnitY())));
-  est::BaseEstimator estimator;
+  est::BaseEstimator estimator(complementary());
   const Stance all{true, true, true, true};
   ASSERT_EQ(estimator.reset(m, all, Eigen::Vector2d::Zero()), est::EstimateStatus::ok);
   const VecNq start = estimator.estimate().q;
@@ -223,19 +231,58 @@ TEST(BaseEstimator, TheEkfStartsFromTheStillRecordingsGyroBias) {
   EXPECT_LT(estimator.estimate().v.head<3>().norm(), 0.005);
 }
 
+// Successive still recordings average: 30 s of them give the bias to 1/sqrt(30) of one
+// recording's error, and the filter starts with that average's std as the bias's prior (the
+// gyro's noise density over the time, at least); the average keeps the newest 60 s.
+TEST(BaseEstimator, TheStillRecordingsAverageAndGiveTheBiasItsPrior) {
+  est::EstimatorParams params;
+  params.filter = est::BaseFilter::ekf;
+  params.ekf.gyro_noise_rad_s_per_sqrt_hz = 1e-5;  // below this test's noise: the spread rules
+  const Stance all{true, true, true, true};
+  const Vec3 bias(0.006, -0.004, 0.005);
+  constexpr double kNoise = 0.005;  // rad/s per sample at 1 kHz
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> normal(0.0, kNoise);
+  hal::Measurements m = at_rest(Quat::Identity());
+  const Vec3 rate0 = m.imu.angular_rate_rad_s;
+  est::BaseEstimator estimator(params);
+  for (int k = 0; k < 30000; ++k) {
+    m.imu.angular_rate_rad_s = rate0 + bias + Vec3(normal(rng), normal(rng), normal(rng));
+    estimator.calibrate(m, 0.001);
+  }
+  ASSERT_TRUE(estimator.gyro_calibrated());
+  EXPECT_NEAR(estimator.calibrated_time_s(), 30.0, 1e-6);
+  const double expected_std = kNoise / std::sqrt(30000.0);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(estimator.calibrated_gyro_bias_std_rad_s()[a], expected_std, 0.05 * expected_std) << a;
+    EXPECT_NEAR(estimator.calibrated_gyro_bias_i_rad_s()[a], bias[a], 4.0 * expected_std) << a;
+  }
+  ASSERT_EQ(estimator.reset(m, all, Eigen::Vector2d::Zero()), est::EstimateStatus::ok);
+  const auto& P = estimator.ekf().covariance();
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(std::sqrt(P(est::kEkfBg + a, est::kEkfBg + a)), estimator.calibrated_gyro_bias_std_rad_s()[a], 1e-12) << a;
+  }
+  est::BaseEstimator longer(params);
+  for (int k = 0; k < 90000; ++k) {
+    m.imu.angular_rate_rad_s = rate0 + bias + Vec3(normal(rng), normal(rng), normal(rng));
+    longer.calibrate(m, 0.001);
+  }
+  EXPECT_NEAR(longer.calibrated_time_s(), est::kCalibrationMemory_s, 1e-6);
+}
+
 TEST(BaseEstimator, MovingTrunkOverStillFeetIsTracked) {
   // The trunk sways over four fixed feet: the leg joint rates that keep each contact
   // point still are solved from the world foot Jacobian at the contact point (dynamics),
   // the estimator sees only the IMU and the joints.
   const dyn::Model model;
   auto data = std::make_unique<dyn::Data>();
-  est::BaseEstimator estimator;
+  est::BaseEstimator estimator(complementary());
   const Stance all{true, true, true, true};
   VecNq q = make_q(Vec3(0, 0, 0.6), Quat::Identity(), kStance);
   double ground = 0.0;
   dyn::forward_kinematics(model, *data, q);
   for (int f : kFootFrames) ground += (data->frames[f].translation.z() - kFootRadius_m) / kFeet;
-  est::EstimatorParams params;
+  est::EstimatorParams params = complementary();
   params.ground_height_m = ground;
   params.use_accelerometer = false;  // this synthetic motion has no IMU acceleration model
   estimator = est::BaseEstimator(params);
@@ -274,7 +321,7 @@ TEST(BaseEstimator, MovingTrunkOverStillFeetIsTracked) {
 
 TEST(BaseEstimator, BadInputHoldsTheLastEstimateAndSaysSo) {
   const hal::Measurements good = at_rest();
-  est::BaseEstimator estimator;
+  est::BaseEstimator estimator(complementary());
   const Stance all{true, true, true, true};
   EXPECT_EQ(estimator.update(good, all, 0.001).status, est::EstimateStatus::not_reset);
   EXPECT_EQ(estimator.reset(good, {false, false, false, false}, Eigen::Vector2d::Zero()), est::EstimateStatus::bad_input);
@@ -302,7 +349,7 @@ TEST(BaseEstimator, BadInputHoldsTheLastEstimateAndSaysSo) {
 
 TEST(BaseEstimator, WithoutStanceTheImuAlonePredicts) {
   hal::Measurements m = at_rest();
-  est::BaseEstimator estimator;
+  est::BaseEstimator estimator(complementary());
   ASSERT_EQ(estimator.reset(m, {true, true, true, true}, Eigen::Vector2d::Zero()), est::EstimateStatus::ok);
   const double z0 = estimator.estimate().q[2];
   m.imu.linear_accel_m_s2.setZero();  // free fall: the accelerometer reads zero specific force
@@ -342,7 +389,7 @@ SwayResult sway(double tilt_gain_per_s, double rebase_s = 60.0, double accel_bia
   double ground = 0.0;
   dyn::forward_kinematics(model, *data, q);
   for (int f : kFootFrames) ground += (data->frames[f].translation.z() - kFootRadius_m) / kFeet;
-  est::EstimatorParams params;
+  est::EstimatorParams params = complementary();
   params.ground_height_m = ground;
   params.tilt_gain_per_s = tilt_gain_per_s;
   params.tilt_window_s = 0.3;

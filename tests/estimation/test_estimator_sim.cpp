@@ -10,6 +10,14 @@
 #include "springbok/wbc/stand_controller.hpp"
 
 namespace {
+
+// The complementary filter (the cases below are its; filter ekf, the default, has its own).
+springbok::est::EstimatorParams complementary() {
+  springbok::est::EstimatorParams p;
+  p.filter = springbok::est::BaseFilter::complementary;
+  return p;
+}
+
 using namespace springbok;
 
 struct Errors {
@@ -47,7 +55,7 @@ Errors run(const sim::ImuNoise& noise) {
   push.profile.end_frequency_hz = 1.0;
   EXPECT_TRUE(robot.add_external_wrench(push));
   wbc::StandController stand(wbc::StandGains{}, wbc::nominal_stance());
-  est::BaseEstimator estimator;
+  est::BaseEstimator estimator(complementary());
   const Stance all{true, true, true, true};
   hal::Measurements m;
   hal::JointCommands cmd;

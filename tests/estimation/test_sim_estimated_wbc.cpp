@@ -21,7 +21,7 @@ std::string scenario(const std::string& estimator) {
 
 TEST(SimEstimatedWbc, StepWithTheEstimatedBaseState) {
   const fs::path dir = scratch("wbc_estimated");
-  std::ofstream(dir / "s.yaml") << scenario("{velocity_gain: 30, position_gain: 10}");
+  std::ofstream(dir / "s.yaml") << scenario("{filter: complementary, velocity_gain: 30, position_gain: 10}");
   std::string json;
   ASSERT_NO_FATAL_FAILURE(run_to_summary((dir / "s.yaml").string(), dir / "out", json));
   expect_upright_and_solved(json);
@@ -59,7 +59,7 @@ TEST(SimEstimatedWbc, TheEkfLearnsABiasedImuAndTheStepIsRenderedAsOnTheTruth) {
   truth.erase(truth.find("    estimator:"), truth.find("external_wrenches") - truth.find("    estimator:"));
   const std::string on_truth = summary("wbc_ekf_truth", truth + imu);
   const std::string ekf = summary("wbc_ekf", scenario("{filter: ekf}") + imu);
-  const std::string complementary = summary("wbc_ekf_complementary", scenario("{velocity_gain: 30, position_gain: 10}") + imu);
+  const std::string complementary = summary("wbc_ekf_complementary", scenario("{filter: complementary, velocity_gain: 30, position_gain: 10}") + imu);
   ASSERT_FALSE(on_truth.empty() || ekf.empty() || complementary.empty());
   expect_upright_and_solved(ekf);
   EXPECT_TRUE(json_true(ekf.substr(ekf.find("\"estimator\":")), "all_ok")) << ekf;
@@ -86,7 +86,7 @@ TEST(SimEstimatedWbc, TheEkfLearnsABiasedImuAndTheStepIsRenderedAsOnTheTruth) {
 
 TEST(SimEstimatedWbc, BadEstimatorParameterIsNamed) {
   const fs::path dir = scratch("wbc_estimated_bad");
-  std::ofstream(dir / "s.yaml") << scenario("{velocity_gain: -3}");
+  std::ofstream(dir / "s.yaml") << scenario("{filter: complementary, velocity_gain: -3}");
   const CliResult r = run((dir / "s.yaml").string(), dir / "out");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("controller.params.estimator.velocity_gain"), std::string::npos) << r.err;

@@ -250,27 +250,33 @@ TEST(EstimatorConfig, ErrorsNameTheFieldAndGoodValuesLoad) {
   const auto error_of = [](const std::string& yaml) {
     return errors_of(yaml, "estimator", [](const Field& f) { return params::read_estimator_params(f); });
   };
-  EXPECT_NE(error_of("{velocity_gain: -1}").find("estimator.velocity_gain: must be in"), std::string::npos);
+  EXPECT_NE(error_of("{filter: complementary, velocity_gain: -1}").find("estimator.velocity_gain: must be in"), std::string::npos);
   EXPECT_NE(error_of("{foot_radius: .nan}").find("estimator.foot_radius: must be a finite number"), std::string::npos);
   EXPECT_NE(error_of("{velocity_gian: 3}").find("estimator.velocity_gian: unknown key"), std::string::npos);
-  EXPECT_EQ(error_of("{use_accelerometer: yes}"), "estimator.use_accelerometer: must be true or false, got 'yes' (line 1)");
-  EXPECT_EQ(error_of("{velocity_gain: 20, use_accelerometer: false}"), "(no error)");
+  EXPECT_EQ(error_of("{filter: complementary, use_accelerometer: yes}"), "estimator.use_accelerometer: must be true or false, got 'yes' (line 1)");
+  EXPECT_EQ(error_of("{filter: complementary, velocity_gain: 20, use_accelerometer: false}"), "(no error)");
   Errors errors;
   const springbok::est::EstimatorParams p =
-      params::read_estimator_params(Field(YAML::Load("{velocity_gain: 20, position_gain: 0}"), "estimator", errors));
+      params::read_estimator_params(Field(YAML::Load("{filter: complementary, velocity_gain: 20, position_gain: 0}"), "estimator", errors));
   EXPECT_EQ(p.velocity_gain_per_s, 20.0);
   EXPECT_EQ(p.position_gain_per_s, 0.0);
   EXPECT_EQ(p.tilt_gain_per_s, 0.0);  // off unless asked for
-  EXPECT_NE(error_of("{tilt_gain: -0.5}").find("estimator.tilt_gain: must be in"), std::string::npos);
-  EXPECT_NE(error_of("{tilt_window: 2}").find("estimator.tilt_window: must be in"), std::string::npos);  // the ring holds 1.2 s
+  EXPECT_NE(error_of("{filter: complementary, tilt_gain: -0.5}").find("estimator.tilt_gain: must be in"), std::string::npos);
+  EXPECT_NE(error_of("{filter: complementary, tilt_window: 2}").find("estimator.tilt_window: must be in"), std::string::npos);  // the ring holds 1.2 s
   const springbok::est::EstimatorParams tilt =
-      params::read_estimator_params(Field(YAML::Load("{tilt_gain: 0.5, tilt_window: 0.4}"), "estimator", errors));
+      params::read_estimator_params(Field(YAML::Load("{filter: complementary, tilt_gain: 0.5, tilt_window: 0.4}"), "estimator", errors));
   EXPECT_TRUE(errors.empty()) << errors.joined();
   EXPECT_EQ(tilt.tilt_gain_per_s, 0.5);
   EXPECT_EQ(tilt.tilt_window_s, 0.4);
-  // filter: ekf, with its own keys.
+  // filter: ekf, the default, with its own keys; a key of the other filter is refused, naming it.
   EXPECT_EQ(params::read_estimator_params(Field(YAML::Load("{}"), "estimator", errors)).filter,
-            springbok::est::BaseFilter::complementary);
+            springbok::est::BaseFilter::ekf);
+  EXPECT_EQ(error_of("{velocity_gain: 30}"),
+            "estimator.velocity_gain: only for filter complementary (the filter is ekf, the default) (line 1)");
+  EXPECT_NE(error_of("{filter: ekf, tilt_gain: 1}").find("estimator.tilt_gain: only for filter complementary"),
+            std::string::npos);
+  EXPECT_NE(error_of("{filter: complementary, ekf: {slip_gate_chi2: 20}}").find("estimator.ekf: only for filter ekf"),
+            std::string::npos);
   EXPECT_NE(error_of("{filter: kalman}").find("estimator.filter"), std::string::npos);
   EXPECT_NE(error_of("{filter: ekf, ekf: {gyro_noise_density: -1}}").find("estimator.ekf.gyro_noise_density: must be in"),
             std::string::npos);

@@ -336,7 +336,7 @@ def trot_study(out, trot_runs, trots, stance, checks):
     lines = ["", "## Trotting in place with the 50 N step (push at 2 s): the paper's study", "",
              "The trot of `firmware/gait` (diagonal pairs, quintic + bump swing, planned in the trunk's "
              "horizontal frame, footholds re-planned every swing tick under the static ZMP of weight + wrist wrench) "
-             "starts with the WBC at 0.5 s; ground-truth base state; each run lasts 30 s. Scores from the WBC start. "
+             "starts with the WBC at 0.5 s; " + STATE["words"] + "; each run lasts 30 s. Scores from the WBC start. "
              "The template (M_b 92 kg, K_b 1000 N/m, K_e 500 N/m; M_e 0.4 / 4 / 10 kg) is the arm steps' one, so "
              "the stance runs `arm_step_me*` are the same rendering without the gait.", "",
              "### Rendering along the pushed axis", "",
@@ -541,7 +541,7 @@ def rotational_study(out, checks):
              "relative to the trunk (I_e 0.1 or 0.4 kg m^2, critically damped: D_re 4.5 or 9 N m s/rad, K_re 50 "
              "N m/rad), driven by the *measured* wrist torque; orientation displacements are rotation vectors of "
              "R R_rest^T (world axes), the template integrated exactly per axis. The arm task is 6-D (the hand's "
-             "position keeps the translational template, M_e 4). In stance, ground-truth base state; the torque acts "
+             "position keeps the translational template, M_e 4). In stance, " + STATE["words"] + "; the torque acts "
              "from 1 s: a 5 N m step (steady state T/K_rb = 10 mrad for the trunk, T/K_rb + T/K_re = 110 mrad for the "
              "hand) or a 3 N m chirp 0-5 Hz over 10 s.", "",
              "| scenario | axis | I_e [kg m^2] | NRMSE base | NRMSE hand | steady state base / hand | "
@@ -590,7 +590,7 @@ def robot_report(out, robot, present):
              "(`tools/scenarios/<robot>/`, or the robot-neutral `tools/scenarios/any_robot/`): each names its "
              "template and push in its opening comment. Scores and targets as in HyQ + Gen3's report: NRMSE = "
              "RMS(measured - template) / peak-to-peak(template) from the WBC start; steady state = |mean of the "
-             "last second - F/K| / |F/K|; ground-truth base state, Bullet at 1 kHz."]
+             "last second - F/K| / |F/K|; " + STATE["words"] + ", Bullet at 1 kHz."]
     checks, figs = [], []
     trot_header = ["| scenario | f_s [Hz] | d_f | NRMSE base x | NRMSE EE x | steady state base x | steady state EE x | "
                    "QP failures | max tau/limit | fell (s) | tick median / p99 [us] |",
@@ -610,7 +610,95 @@ def robot_report(out, robot, present):
                                "step_x.png"))
     if others:
         lines += ["", "Other runs (no target): " + ", ".join(others)]
+    lines += estimation_section(out, present, checks)
     return lines + targets_section(checks), figs, checks
+
+
+# What the runs' base state was (their summaries' state_source and sensors), for the text.
+STATE = {"words": "ground-truth base state"}
+
+
+def describe_state(out, present):
+    """STATE's words from the first run's summary: estimated (on which sensors) or the truth."""
+    s = load_summary(out, present[0]) if present else None
+    if s and s.get("state_source") == "estimated":
+        STATE["words"] = f"estimated base state ({s.get('sensors', 'ideal')} sensors)"
+    else:
+        STATE["words"] = "ground-truth base state"
+
+
+ESTIMATION_TARGETS = {"nrmse_ratio": 1.5, "tilt_mrad": 2.0, "velocity_m_s": 0.03, "yaw_deg_per_min": 1.0,
+                      "drift_percent": 2.0}
+
+
+def pushed_axis(n):
+    """The axis a run's push is along (its scores' key): r<axis> for the rotational runs, rx for the
+    hand's turn, y for the sideways chirps and the walks' sideways step, else x."""
+    if n.startswith(("rot_step_", "rot_chirp_")):
+        return "r" + n.split("_")[2]
+    if n == "hand_turn":
+        return "rx"
+    return "y" if n.startswith("walk_") or n.startswith("base_chirp_y") else "x"
+
+
+def estimation_section(out, present, checks):
+    """Each run on the estimated state against its ground-truth twin (run_all: OUT_DIR/truth/<run>/),
+    with the estimator's own errors against the simulator's truth, and the targets on them."""
+    truth_dir = os.path.join(out, "truth")
+    rows = []
+    for n in present:
+        s = load_summary(out, n)
+        t = load_summary(truth_dir, n)
+        e = s.get("estimator") or {}
+        if s.get("state_source") != "estimated" or not e:
+            continue
+        a = pushed_axis(n)
+        nr, tnr = s["nrmse"], (t or {}).get("nrmse", {})
+
+        def pair(key):
+            return f"{pct(tnr.get(key))} / {pct(nr.get(key))}"
+        drift = e.get("position_drift_percent")
+        rows.append(f"| {n} | {s.get('sensors', 'n/a')} | {a} | {pair('base_' + a)} | {pair('ee_' + a)} | "
+                    f"{1000 * e['velocity_rms_error_m_s']:.1f} | {e['tilt_rms_error_mrad']:.2f} | "
+                    f"{e['yaw_drift_deg_per_min']:.2f} | {e['distance_walked_m']:.2f} | "
+                    f"{'n/a' if drift is None else f'{drift:.2f} %'} | {e['all_ok']} |")
+        if n.startswith(("base_step_", "arm_step_", "base_chirp_")):
+            limit = ESTIMATION_TARGETS["nrmse_ratio"]
+            keys = ["base_" + a, "ee_" + a]
+            ok = t is not None and all(nr.get(k) is not None and tnr.get(k) is not None and nr[k] <= limit * tnr[k]
+                                       for k in keys)
+            checks.append((f"{n} estimated", ok and e["all_ok"],
+                           ", ".join(f"{k} NRMSE {pct(nr.get(k))} against {pct(tnr.get(k))} on the truth" for k in keys)
+                           + f" (target <= {limit}x)"))
+        elif n.startswith(("trot_", "walk_")):
+            why = [f"tilt {e['tilt_rms_error_mrad']:.2f} mrad rms (target {ESTIMATION_TARGETS['tilt_mrad']})",
+                   f"velocity {e['velocity_rms_error_m_s']:.3f} m/s rms (target {ESTIMATION_TARGETS['velocity_m_s']})"]
+            ok = (e["tilt_rms_error_mrad"] <= ESTIMATION_TARGETS["tilt_mrad"]
+                  and e["velocity_rms_error_m_s"] <= ESTIMATION_TARGETS["velocity_m_s"] and e["all_ok"])
+            if n.startswith("trot_"):  # in place: the heading's drift
+                ok = ok and abs(e["yaw_drift_deg_per_min"]) <= ESTIMATION_TARGETS["yaw_deg_per_min"]
+                why.append(f"yaw drift {e['yaw_drift_deg_per_min']:.2f} deg/min "
+                           f"(target {ESTIMATION_TARGETS['yaw_deg_per_min']})")
+            elif drift is not None:  # a walk of 0.5 m or more (a turn on the spot has none)
+                ok = ok and drift <= ESTIMATION_TARGETS["drift_percent"]
+                why.append(f"position drift {drift:.2f} % of {e['distance_walked_m']:.2f} m walked "
+                           f"(target {ESTIMATION_TARGETS['drift_percent']} %)")
+            checks.append((f"{n} estimator", ok, ", ".join(why)))
+    if not rows:
+        return []
+    return ["", "## The estimated state against the ground truth", "",
+            "Every run above is on the *estimated* base state: the firmware's estimator (the scenario's "
+            "`controller.params.estimator`, else the firmware's default) from the simulated sensors of the preset "
+            "named (`springbok-sim --sensors`; mems: a BMI088-class IMU with its noise, bias instability and turn-on "
+            "biases, encoders through the gear, joint torques and the wrist F/T with noise and offsets). Each was run "
+            "again with the base from the simulator's ground truth (`--state-source truth`, the same sensors "
+            "otherwise: `truth/<run>/`). NRMSE along the pushed axis, truth / estimated. The estimator's errors "
+            "against the truth over the WBC's ticks (`summary.json` `estimator`): trunk velocity rms, tilt (the "
+            "gravity direction in the trunk) rms, yaw drift per minute, horizontal position drift per metre walked "
+            "(runs of 0.5 m or more).", "",
+            "| run | sensors | axis | base NRMSE | EE NRMSE | velocity error [mm/s rms] | tilt error [mrad rms] | "
+            "yaw drift [deg/min] | walked [m] | position drift | every estimate ok |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"] + rows
 
 
 def targets_section(checks):
@@ -626,20 +714,17 @@ def main():
     parser.add_argument("out", metavar="OUT_DIR")
     args = parser.parse_args()
     out = args.out
+    present = list_runs(out)
+    if not present:
+        print(f"report.py: no runs in {out}", file=sys.stderr)
+        return 1
+    describe_state(out, present)
     if args.robot != "hyq_gen3":
-        present = list_runs(out)
-        if not present:
-            print(f"report.py: no runs in {out}", file=sys.stderr)
-            return 1
         lines, figs, checks = robot_report(out, args.robot, present)
         return write_report(out, lines, figs, checks, present, args.require)
     step_runs = [f"base_step_mb{t}" for t, _, _ in BASE_CASES] + [f"arm_step_me{t}" for t, _, _ in ARM_CASES]
     chirp_runs = [f"base_chirp_{a}_mb{t}" for a in "xy" for t, _, _ in BASE_CASES]
     summaries = {n: load_summary(out, n) for n in step_runs + chirp_runs}
-    present = list_runs(out)
-    if not present:
-        print(f"report.py: no runs in {out}", file=sys.stderr)
-        return 1
 
     figs = [
         plot_cases(out, "Base inertia shaping, 50 N step along x: base x",
@@ -656,7 +741,7 @@ def main():
                                 (f"EE {a}", f"ee_d{a}_m", f"template_ee_{a}_m")], f"base_chirp_{a}.png"))
 
     lines = ["# Stance experiments (SPEC section 7, paper section VI) in simulation", ""]
-    lines += ["Each run: `springbok-sim tools/scenarios/<scenario>.yaml` (Bullet, 1 kHz, ground-truth base state, "
+    lines += ["Each run: `springbok-sim tools/scenarios/<scenario>.yaml` (Bullet, 1 kHz, " + STATE["words"] + ", "
               "all four feet in stance, the wrist F/T sensor as F_e). The robot starts on the nominal stance with the "
               "arm bent ([0, 0.6, 0, 1.9, 0, 0.9, 0] rad), the stand controller holds it for 0.5 s, then the WBC "
               "takes over and holds that pose as its reference; the push starts at t = 1 s. The template is driven by "
@@ -756,6 +841,7 @@ def main():
     lines += rot_lines
     figs += rot_figs
 
+    lines += estimation_section(out, present, checks)
     lines += targets_section(checks)
 
     lines += ["", "## Compared with the paper's findings", ""]
@@ -788,18 +874,8 @@ def main():
                      + ", ".join(f"{num(r)} s (M_e {m})" for r, (_, m, _) in zip(rises, ARM_CASES))
                      + "; steady-state error " + ", ".join(pct(s["steady_state_error"]["ee_x"]) for s in arm)
                      + " of F/K_b + F/K_e.")
-    est = load_summary(out, "base_step_mb92_estimated")
-    if est is not None and est.get("estimator"):
-        e = est["estimator"]
-        lines.append("- The same base step (M_b 92) on the *estimated* base state (IMU + leg kinematics, "
-                     "`base_step_mb92_estimated`): NRMSE base x " + pct(est["nrmse"]["base_x"]) + ", EE x "
-                     + pct(est["nrmse"]["ee_x"]) + "; steady state base x " + pct(est["steady_state_error"]["base_x"])
-                     + "; estimator against the ground truth: velocity " + f"{1000 * e['velocity_rms_error_m_s']:.2f} "
-                     "mm/s rms, position up to " + f"{1000 * e['position_max_error_m']:.2f} mm"
-                     + ("" if e["all_ok"] else ", NOT every update ok")
-                     + ".")
     lines += ["- Differences from the paper's setup: simulation (Bullet), not the hardware; the base pose and twist "
-              "are the simulator's ground truth except in the run above; the sphere feet are modelled at their contact point "
+              "are the firmware's estimate from simulated sensors (the section above compares the simulator's ground truth); the sphere feet are modelled at their contact point "
               "(`contact.foot_radius`), without which the base settled 4 % (M_b 92) to 8 % (M_b 184) past F/K_b "
               "because the horizontal ground forces act 2 cm below the foot frame.", ""]
     return write_report(out, lines, figs, checks, present, args.require)

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -141,8 +142,34 @@ void append_row(std::string& out, const sim::GroundTruth& t) {
   for (int j = 0; j < kNj; ++j) put(out, t.tau_limit_nm[j]);
 }
 
-int run(const std::string& scenario_path, const std::filesystem::path& out_dir, const char* memory_locked) {
+// The command line's changes to the scenario (empty: the scenario's own).
+struct Overrides {
+  std::string state_source;    // controller.params.state_source (a wbc scenario's)
+  std::string sensors;         // sim.sensors.preset, the whole sensor model (sim.imu's legacy keys dropped)
+  std::int64_t sensors_seed = -1;  // sim.sensors.seed
+};
+
+void apply(const Overrides& o, simtool::Scenario& s) {
+  if (!o.state_source.empty() && s.controller_type == "wbc") {
+    if (!s.controller_params.IsMap()) s.controller_params = YAML::Node(YAML::NodeType::Map);
+    s.controller_params["state_source"] = o.state_source;
+  }
+  if (!o.sensors.empty()) {
+    const std::uint64_t seed = s.sim.sensors.seed;
+    s.sim.sensors = sim::sensor_preset(o.sensors == "mems"       ? sim::ImuPreset::mems
+                                       : o.sensors == "tactical" ? sim::ImuPreset::tactical
+                                                                 : sim::ImuPreset::ideal);
+    s.sim.sensors.seed = seed;
+    s.sim.imu.gyro_noise_rad_s = s.sim.imu.accel_noise_m_s2 = s.sim.imu.gyro_bias_rad_s = s.sim.imu.accel_bias_m_s2 = 0.0;
+    s.sensors = o.sensors;
+  }
+  if (o.sensors_seed >= 0) s.sim.sensors.seed = static_cast<std::uint64_t>(o.sensors_seed);
+}
+
+int run(const std::string& scenario_path, const Overrides& overrides, const std::filesystem::path& out_dir,
+        const char* memory_locked) {
   simtool::Scenario s = simtool::load_scenario(scenario_path);
+  apply(overrides, s);
   simtool::apply_feet_clearance(s);
   sim::BulletRobot hw(s.sim);
   if (auto r = hw.configure(); !r.ok) throw std::runtime_error(r.message);
@@ -210,6 +237,7 @@ int run(const std::string& scenario_path, const std::filesystem::path& out_dir, 
   json += fmt::format("  \"contact_fz_over_weight\": {},\n", ratio(fz_sum_n));
   json += fmt::format("  \"feet_fz_over_weight\": {},\n", ratio(feet_fz_sum_n));
   json += fmt::format("  \"final_base_position_m\": [{:.9g}, {:.9g}, {:.9g}],\n", q[0], q[1], q[2]);
+  json += fmt::format("  \"sensors\": \"{}\",\n", s.sensors);
   json += controller->summary_fields();
   json += fmt::format("  \"memory_locked\": {},\n", memory_locked);
   json += fmt::format("  \"write_errors\": {}\n", write_errors);
@@ -234,6 +262,16 @@ int main(int argc, char** argv) {
   app.add_flag("--lock-memory", lock_memory,
                "lock and prefault memory as the deployed binary does (RT.md: mlockall, heap and stack), so that "
                "tick_us carries no page faults of first use; without the privilege a warning, and the run goes on");
+  Overrides overrides;
+  app.add_option("--state-source", overrides.state_source,
+                 "the base state the WBC is given, over the scenario's controller.params.state_source: estimated "
+                 "(the firmware's estimator on the simulated sensors) or truth (the simulator's)")
+      ->check(CLI::IsMember({"truth", "estimated"}));
+  app.add_option("--sensors", overrides.sensors,
+                 "the sensor model's preset, over the scenario's sim.sensors and sim.imu (its seed kept)")
+      ->check(CLI::IsMember({"ideal", "mems", "tactical"}));
+  app.add_option("--sensors-seed", overrides.sensors_seed, "the sensor model's seed, over sim.sensors.seed")
+      ->check(CLI::Range(std::int64_t{0}, std::numeric_limits<std::int64_t>::max()));
   CLI11_PARSE(app, argc, argv);
   if (!isa::environment_error().empty()) {
     std::fprintf(stderr, "springbok-sim: %s\n", isa::environment_error().c_str());
@@ -256,7 +294,7 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    return run(scenario, out, lock_memory ? (rt_report.memory_locked ? "true" : "false") : "null");
+    return run(scenario, overrides, out, lock_memory ? (rt_report.memory_locked ? "true" : "false") : "null");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "springbok-sim: %s\n", e.what());
     return 2;

@@ -1,5 +1,6 @@
 #include "scenario.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -322,10 +323,22 @@ Scenario load_scenario(const std::string& path) {
                   "random_pushes", "summary"});
   if (top["duration_s"].require()) top["duration_s"].number(s.duration_s, 1e-3, 3600.0);
   read_sim(top["sim"], s.sim);
+  // The sensors' name in the summary: the preset, "custom" when keys change it.
+  if (const Field sensors = top["sim"]["sensors"]; sensors.present()) {
+    std::string preset = "ideal";
+    if (sensors["preset"].present()) (void)sensors["preset"].text(preset);
+    const bool changed = sensors.is_map() && std::ranges::any_of(sensors.keys(), [](const std::string& k) {
+      return k != "preset" && k != "seed";
+    });
+    s.sensors = changed ? preset + " (custom)" : preset;
+  } else if (const Field imu = top["sim"]["imu"]; imu.is_map() && !imu.keys().empty()) {
+    s.sensors = "ideal (custom: sim.imu)";
+  }
   read_initial(top["initial"], s);
   const Field controller = top["controller"];
-  if (controller.require() && controller.allow_only({"type", "params", "settle_s"})) {
+  if (controller.require() && controller.allow_only({"type", "params", "settle_s", "still_start_s"})) {
     controller["settle_s"].number(s.controller_settle_s, 0.0, 3600.0);
+    controller["still_start_s"].number(s.controller_still_start_s, 0.0, 3600.0);
     if (controller["type"].require()) controller["type"].text(s.controller_type);
     s.controller_params = controller["params"].node();
     s.controller_params_line = controller["params"].line();

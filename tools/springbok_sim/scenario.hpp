@@ -26,12 +26,17 @@ struct NamedWrench {
 struct Scenario {
   double duration_s = 0.0;
   sim::SimConfig sim;
+  std::string sensors = "ideal";      // the sensor model's name for the summary (sim.sensors.preset)
   bool has_feet_clearance = false;
   double feet_clearance_m = 0.0;
   std::string controller_type;        // stand | damping | none
   YAML::Node controller_params;       // read by the controller's adapter (make_controller)
   int controller_params_line = 0;
   double controller_settle_s = 0.0;   // wbc: stand controller for this long first
+  // wbc: before the operator's start, the firmware idles this long with the robot held still
+  // (sim::BulletRobot::hold_still: the sensors sample it, the world and its clock do not run):
+  // the estimator's start-up gyro calibration, as a robot lying still before it is started.
+  double controller_still_start_s = 10.0;
   std::vector<NamedWrench> wrenches;
   double fall_height_m = 0.25;
 };

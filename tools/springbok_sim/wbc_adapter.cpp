@@ -72,15 +72,17 @@ double percentile(std::vector<double> v, double fraction) {
 }  // namespace
 
 WbcAdapter::WbcAdapter(const Scenario& s, const yaml::Field& params, sim::BulletRobot& robot)
-    : dt_s_(s.sim.step_s), settle_s_(s.controller_settle_s),
+    : dt_s_(s.sim.step_s), settle_s_(s.controller_settle_s), still_start_s_(s.controller_still_start_s),
       idle_columns_(static_cast<int>(std::ranges::count(csv_columns(), ','))),
       data_(std::make_unique<dyn::Data>()) {
   control::ControlParams& cp = config_.control;  // the firmware's controller, as the scenario sets it
   // `estimator`, `gait` and `push_stepping` are the controller's own parts, every other key the WBC's.
-  if (params["estimator"].present()) {
-    cp.estimator = params::read_estimator_params(params["estimator"]);
-    use_estimator_ = true;
-  }
+  // state_source: the base state the controller is given, the estimator's (from the simulated
+  // sensors) or the simulator's truth; without it, the estimator's when the scenario configures
+  // one (`estimator`), else the truth. The estimator runs either way, and its errors are scored.
+  if (params["estimator"].present()) cp.estimator = params::read_estimator_params(params["estimator"]);
+  use_estimator_ = params["estimator"].present();
+  if (int source = 0; params["state_source"].choice(source, {"truth", "estimated"})) use_estimator_ = source == 1;
   if (params["push_stepping"].present()) cp.push_stepping = params::read_push_stepping(params["push_stepping"]);
   if (params["gait"].present()) {
     cp.gait.kind = control::GaitKind::trot;
@@ -212,6 +214,14 @@ bool WbcAdapter::tick(sim::BulletRobot& robot, std::int64_t k) noexcept {
   // first step), `mode control` at settle_s (again each tick while the robot stands, as an
   // operator would), the velocity schedule's walks.
   if (k == 0) {
+    // The still start-up: idle ticks on the motionless robot (none if it starts moving).
+    if (robot.ground_truth().v.isZero(0.0)) {
+      const auto still_ticks = static_cast<std::int64_t>(std::llround(still_start_s_ / dt_s_));
+      for (std::int64_t i = 0; i < still_ticks; ++i) {
+        firmware_tick(truth);
+        robot.hold_still();
+      }
+    }
     app::OperatorRequest start;
     start.command = safety::OperatorCommand::start;
     post(start);
@@ -231,7 +241,7 @@ bool WbcAdapter::tick(sim::BulletRobot& robot, std::int64_t k) noexcept {
     walk.request.velocity = {v.x(), v.y(), v.z()};
     post(walk);
   }
-  truth_before_step_p_ = truth.q.head<3>();
+  truth_before_step_pose_ = truth.q.head<7>();
   truth_before_step_v_ = truth.v.head<3>();
 
   // The thread's page faults and context switches across the tick (read outside the timed
@@ -251,7 +261,6 @@ bool WbcAdapter::tick(sim::BulletRobot& robot, std::int64_t k) noexcept {
   if (tick_mode_ == safety::Mode::control) {
     if (previous_mode != safety::Mode::control) template_->reset();  // engaged anew
     status_ = control.report().status;
-    estimator_ok_ = estimator_ok_ && control.estimate().status == est::EstimateStatus::ok;
     ticked_ = control.engaged();
     if (ticked_) {
       template_->step(control.output().external_force_world_n);
@@ -344,11 +353,10 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
     const Vec3 v_h = yaw.transpose() * (rot * truth.v.head<3>());
     trunk_velocity_h_.push_back(Vec3(v_h.x(), v_h.y(), (rot * truth.v.segment<3>(3)).z()));
   }
-  const RobotState& used = controller().state();
-  if (use_estimator_) {  // the estimate the WBC used this tick vs the truth of that tick (before the step)
-    estimator_velocity_sq_sum_ += (used.v.head<3>() - truth_before_step_v_).squaredNorm();
-    estimator_position_max_m_ = std::max(estimator_position_max_m_, (used.q.head<3>() - truth_before_step_p_).norm());
-    ++estimator_samples_;
+  {  // this tick's estimate vs the truth of that tick (before the step)
+    const est::BaseEstimate& e = controller().estimate();
+    estimator_errors_.add(e.q.head<7>(), e.v.head<3>(), truth_before_step_pose_, truth_before_step_v_,
+                          e.status == est::EstimateStatus::ok, dt_s_);
   }
   if (tick_us_ > slowest_.tick_us) {
     slowest_ = {tick_us_, truth.time_s, tick_faults_, tick_switches_, o.qp_iterations, o.qp_from_hint, tick_us_all_.empty()};
@@ -581,14 +589,8 @@ std::string WbcAdapter::summary_fields() const {
   } else {
     j += "  \"gait\": null,\n";
   }
-  if (use_estimator_) {
-    j += fmt::format("  \"estimator\": {{\"all_ok\": {}, \"velocity_rms_error_m_s\": {:.6g}, \"position_max_error_m\": {:.6g}}},\n",
-                     estimator_ok_ ? "true" : "false",
-                     estimator_samples_ ? std::sqrt(estimator_velocity_sq_sum_ / static_cast<double>(estimator_samples_)) : 0.0,
-                     estimator_position_max_m_);
-  } else {
-    j += "  \"estimator\": null,\n";
-  }
+  j += fmt::format("  \"state_source\": \"{}\",\n", use_estimator_ ? "estimated" : "truth");
+  j += "  \"estimator\": " + estimator_errors_.json() + ",\n";
   // The slowest tick and what it met: a page fault or a context switch during it (the OS),
   // else the WBC's first tick (its code and data come from memory, not from a cache: 60-75 us
   // with memory locked and no QP iteration), else a solve of more QP iterations than the

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "controller.hpp"
+#include "estimator_errors.hpp"
 #include "scenario.hpp"
 #include "springbok/app/config.hpp"
 #include "springbok/app/firmware.hpp"
@@ -91,11 +92,12 @@ class WbcAdapter final : public Controller {
   wbc::WbcParams params_;
   double dt_s_;
   double settle_s_;
+  double still_start_s_;
   int idle_columns_;  // csv_columns()'s count: the zeros of a row before the WBC's first tick
   bool step_profile_ = false;                       // only step/constant forces: steady state is scored
   std::optional<sim::ForceProfile> chirp_;          // the first chirp, for the gain estimate
   Vec3 chirp_axis_ = Vec3::UnitX();
-  bool use_estimator_ = false;                      // false: the base from the ground truth
+  bool use_estimator_ = false;                      // state_source: estimated (false: truth)
   bool trot_ = false;
   // controller.params.gait.velocity_schedule: at at_s, request_velocity(velocity).
   struct VelocityChange {
@@ -124,11 +126,9 @@ class WbcAdapter final : public Controller {
   void post(const app::OperatorRequest& request) noexcept;
   // One tick of the firmware (read -> observe -> compute -> finish -> write; no physics step).
   void firmware_tick(const sim::GroundTruth& truth) noexcept;
-  bool estimator_ok_ = true;                        // every control tick's estimate was ok
-  double estimator_velocity_sq_sum_ = 0.0;          // vs ground truth, WBC ticks
-  double estimator_position_max_m_ = 0.0;
-  std::uint64_t estimator_samples_ = 0;
-  Vec3 truth_before_step_p_ = Vec3::Zero(), truth_before_step_v_ = Vec3::Zero();
+  EstimatorErrors estimator_errors_;                // the estimate vs the ground truth, WBC ticks
+  Eigen::Matrix<double, 7, 1> truth_before_step_pose_ = Eigen::Matrix<double, 7, 1>::Zero();
+  Vec3 truth_before_step_v_ = Vec3::Zero();
   dyn::Model model_;
   std::unique_ptr<dyn::Data> data_;                 // the ground truth's kinematics, for scoring
   bool ticked_ = false;                             // the controller ran this tick

@@ -319,6 +319,7 @@ EstimateStatus BaseEstimator::reset_ekf(const hal::Measurements& m, const Stance
     start.accel_bias_i_m_s2 = ekf_.accel_bias_i_m_s2();
   } else if (gyro_calibrated_) {
     start.gyro_bias_i_rad_s = calibrated_gyro_bias_;
+    start.gyro_bias_std_rad_s = calibrated_gyro_bias_std_rad_s();
   }
   start.has_imu = true;
   start.imu.rate_i_rad_s = m.imu.angular_rate_rad_s;
@@ -343,11 +344,24 @@ void BaseEstimator::calibrate(const hal::Measurements& m, double dt_s) noexcept 
   }
   if (s != CalibrationStatus::ready) return;
   const CalibrationResult& r = ekf_.evaluate_calibration();
-  if (r.status == CalibrationStatus::ready) {  // still: the newest recording's bias is the one to start from
-    calibrated_gyro_bias_ = r.gyro_bias_i_rad_s;
+  if (r.status == CalibrationStatus::ready && r.duration_s > 0.0) {
+    // Still: into the average of the newest kCalibrationMemory_s of still recordings.
+    const double held_s = std::clamp(kCalibrationMemory_s - r.duration_s, 0.0, calibrated_time_s_);
+    const double a = r.duration_s / (held_s + r.duration_s);
+    calibrated_gyro_bias_ += a * (r.gyro_bias_i_rad_s - calibrated_gyro_bias_);
+    calibrated_rate_variance_ += a * (r.gyro_spread_i_rad_s.cwiseAbs2() - calibrated_rate_variance_);
+    calibrated_rate_hz_ += a * (r.samples / r.duration_s - calibrated_rate_hz_);
+    calibrated_time_s_ = held_s + r.duration_s;
     gyro_calibrated_ = true;
   }
   ekf_.restart_calibration();
+}
+
+Vec3 BaseEstimator::calibrated_gyro_bias_std_rad_s() const noexcept {
+  if (!gyro_calibrated_) return Vec3::Constant(params_.ekf.initial_gyro_bias_std_rad_s);
+  const double samples = calibrated_time_s_ * calibrated_rate_hz_;
+  const double floor = params_.ekf.gyro_noise_rad_s_per_sqrt_hz / std::sqrt(calibrated_time_s_);
+  return (calibrated_rate_variance_ / samples).cwiseSqrt().cwiseMax(floor);
 }
 
 // rt: no alloc, no block

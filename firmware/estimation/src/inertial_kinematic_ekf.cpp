@@ -265,7 +265,8 @@ EkfStatus InertialKinematicEkf::start_at(const EkfInitialState& s, const FootMea
   sd << Vec3::Constant(params_.initial_position_std_m), Vec3::Constant(params_.initial_velocity_std_m_s),
       params_.initial_tilt_std_rad, params_.initial_tilt_std_rad, params_.initial_yaw_std_rad,
       Eigen::Matrix<double, 12, 1>::Zero(), Vec3::Constant(params_.initial_accel_bias_std_m_s2),
-      Vec3::Constant(params_.initial_gyro_bias_std_rad_s);
+      (s.gyro_bias_std_rad_s.array() > 0.0)
+          .select(s.gyro_bias_std_rad_s, Vec3::Constant(params_.initial_gyro_bias_std_rad_s));
   x.P = sd.cwiseProduct(sd).asDiagonal();
   const bool imu = s.has_imu && s.imu.rate_i_rad_s.allFinite() && s.imu.specific_force_i_m_s2.allFinite();
   const Vec3 w_b = imu ? Vec3(mounting_.rotation_bi * (s.imu.rate_i_rad_s - x.b_g)) : Vec3::Zero();

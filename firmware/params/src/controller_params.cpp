@@ -76,7 +76,7 @@ void read_rotational_template(const Field& f, wbc::RotationalTemplateParams& t) 
 wbc::WbcParams read_wbc_params(const Field& f, WithControllerParts parts) {
   if (parts == WithControllerParts::yes) {
     f.allow_only({"template", "rotational_template", "base_orientation", "arm", "weights", "contact", "limits", "swing",
-                  "joint_friction", "estimator", "gait", "push_stepping", "hand_trajectory"});
+                  "joint_friction", "estimator", "gait", "push_stepping", "hand_trajectory", "state_source"});
   } else {
     f.allow_only({"template", "rotational_template", "base_orientation", "arm", "weights", "contact", "limits", "swing",
                   "joint_friction"});
@@ -158,6 +158,12 @@ est::EstimatorParams read_estimator_params(const Field& f) {
   est::EstimatorParams p;
   int filter = static_cast<int>(p.filter);
   if (f["filter"].choice(filter, {"complementary", "ekf"})) p.filter = static_cast<est::BaseFilter>(filter);
+  // Each filter's own keys: one given for the other filter would be ignored.
+  const bool ekf = p.filter == est::BaseFilter::ekf;
+  for (const char* key : {"velocity_gain", "position_gain", "use_accelerometer", "tilt_gain", "tilt_window"}) {
+    if (ekf && f[key].present()) f[key].fail("only for filter complementary (the filter is ekf, the default)");
+  }
+  if (!ekf && f["ekf"].present()) f["ekf"].fail("only for filter ekf (the filter is complementary)");
   f["velocity_gain"].number(p.velocity_gain_per_s, 1e-3, 1e3);
   f["position_gain"].number(p.position_gain_per_s, 0.0, 1e3);
   f["foot_radius"].number(p.foot_radius_m, 0.0, 0.5);

@@ -105,6 +105,11 @@ class BulletRobot final : public hal::Hardware {
   bool add_external_wrench(const ExternalWrench& wrench) noexcept;
   // Advances the world by one tick (step_s, in `substeps` physics steps).
   void step() noexcept;
+  // One tick of the robot held where it is: the sensors take their next sample of it, motionless
+  // (the IMU its gravity, noise and biases; stamps one tick on); the world, its clock (time_s,
+  // the ground truth's) and the wrenches' do not run. A still start-up before the run: the
+  // estimator's gyro calibration. rt: no alloc
+  void hold_still() noexcept;
   double time_s() const noexcept;
   const GroundTruth& ground_truth() const noexcept;
   // Teleports the robot (after configure); clears the contact report.

@@ -2,7 +2,10 @@
 // the trunk IMU (orientation, angular rate, specific force) and the joint
 // encoders, with the stance feet as the kinematic anchors.
 //
-// One tick:
+// Two filters (EstimatorParams::filter): ekf, the default (below), and the complementary
+// filter of steps 1-5, whose tilt and yaw are the IMU's orientation output as reported.
+//
+// filter: complementary, one tick:
 //  1. orientation R_WB and angular rate w_B from the IMU through its mounting
 //     (robot::kFrame_trunk_imu): R_WB = R_WI R_BI', w_B = R_BI w_I;
 //  2. leg odometry: the material point of each stance foot that touches the
@@ -47,17 +50,19 @@
 // Without a stance foot the filter predicts from the IMU alone and says so.
 // A non-finite or invalid measurement holds the last estimate and reports it.
 //
-// filter: ekf replaces steps 1-5 with est::InertialKinematicEkf (inertial_kinematic_ekf.hpp:
+// filter: ekf (the default) replaces steps 1-5 with est::InertialKinematicEkf (inertial_kinematic_ekf.hpp:
 // the IMU's biases in its state, the raw gyro and specific force, each stance foot's contact
 // point as a measurement, a slipping foot rejected). This class gives it what it needs from
 // the robot: the IMU's mounting (robot::kFrame_trunk_imu), each foot's contact point from the
 // encoders (the sphere's lowest point, as step 2) with its covariance (encoder_std_rad through
 // the leg's Jacobian, plus kinematics_std_m), and the rolling sphere's contact-point motion
 // (step 4's w_shin x r z) as the anchor's known velocity. reset() starts it from the IMU's
-// orientation output, with the gyro bias of the newest still recording calibrate() took before
-// it (the robot lying or standing still before start-up: calibration_time_s of samples whose
-// spread says still; a recording that moved is dropped, and the next one begins), else zero;
-// the accelerometer's bias starts at zero. Both are learnt online from there.
+// orientation output, with the gyro bias the still recordings calibrate() took before it gave
+// (the robot lying or standing still before start-up: recordings of calibration_time_s of
+// samples whose spread says still, averaged over the newest kCalibrationMemory_s of them; a
+// recording that moved is dropped, and the next one begins) and that average's own std as the
+// bias's prior, else zero and initial_gyro_bias_std; the accelerometer's bias starts at zero.
+// Both are learnt online from there.
 //
 // Conventions are CONVENTIONS.md's: q = [p_WB, quaternion xyzw, joints],
 // v = [v_B, w_B (trunk frame), joint rates].
@@ -79,7 +84,7 @@ enum class BaseFilter : std::uint8_t { complementary, ekf };
 const char* to_string(BaseFilter f) noexcept;
 
 struct EstimatorParams {
-  BaseFilter filter = BaseFilter::complementary;
+  BaseFilter filter = BaseFilter::ekf;
   double velocity_gain_per_s = 30.0;  // leg odometry vs IMU integration crossover
   double position_gain_per_s = 10.0;  // pull towards the stance anchors
   double foot_radius_m = kFootRadius_m;
@@ -94,7 +99,9 @@ struct EstimatorParams {
   double encoder_std_rad = 2e-4;   // a joint angle's error (the encoder's resolution, backlash)
   double kinematics_std_m = 2e-3;  // what the kinematics do not know (where the sphere touches, flex)
 };
-inline constexpr double kMaxTiltWindow_s = 1.2;  // the ring below holds 2 T at 10 ms per entry
+inline constexpr double kMaxTiltWindow_s = 1.2;
+// The still time the start-up gyro calibration averages at most (the newest): the bias walks.
+inline constexpr double kCalibrationMemory_s = 60.0;  // the ring below holds 2 T at 10 ms per entry
 
 enum class EstimateStatus : std::uint8_t {
   ok,
@@ -130,6 +137,10 @@ class BaseEstimator {
   // ekf); the filter's estimate of both biases once it runs.
   bool gyro_calibrated() const noexcept { return gyro_calibrated_; }
   const Vec3& calibrated_gyro_bias_i_rad_s() const noexcept { return calibrated_gyro_bias_; }
+  // Its std per axis (the recordings' spread over the root of their samples, at least the gyro
+  // noise density's over the recorded time) and the still time it averages.
+  Vec3 calibrated_gyro_bias_std_rad_s() const noexcept;
+  double calibrated_time_s() const noexcept { return calibrated_time_s_; }
   const InertialKinematicEkf& ekf() const noexcept { return ekf_; }
 
   const BaseEstimate& estimate() const noexcept { return out_; }
@@ -208,7 +219,9 @@ class BaseEstimator {
 
   InertialKinematicEkf ekf_;  // filter ekf
   bool gyro_calibrated_ = false;
-  Vec3 calibrated_gyro_bias_ = Vec3::Zero();  // IMU axes
+  Vec3 calibrated_gyro_bias_ = Vec3::Zero();     // IMU axes
+  Vec3 calibrated_rate_variance_ = Vec3::Zero();  // a sample's, per axis
+  double calibrated_time_s_ = 0.0, calibrated_rate_hz_ = 0.0;
 
   BaseEstimate out_;
 };

@@ -294,6 +294,8 @@ struct EkfInitialState {
   Eigen::Quaterniond orientation_wb = Eigen::Quaterniond::Identity();
   Eigen::Vector3d accel_bias_i_m_s2 = Eigen::Vector3d::Zero();
   Eigen::Vector3d gyro_bias_i_rad_s = Eigen::Vector3d::Zero();
+  // The gyro bias's prior std per axis (a calibration's); zero: initial_gyro_bias_std_rad_s.
+  Eigen::Vector3d gyro_bias_std_rad_s = Eigen::Vector3d::Zero();
   // The IMU's sample at the start instant, if the caller has it: the first tick's previous
   // sample (without it the first tick takes its own sample over the whole interval).
   bool has_imu = false;
