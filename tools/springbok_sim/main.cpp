@@ -160,7 +160,7 @@ void apply(const Overrides& o, simtool::Scenario& s) {
                                        : o.sensors == "tactical" ? sim::ImuPreset::tactical
                                                                  : sim::ImuPreset::ideal);
     s.sim.sensors.seed = seed;
-    s.sim.imu.gyro_noise_rad_s = s.sim.imu.accel_noise_m_s2 = s.sim.imu.gyro_bias_rad_s = s.sim.imu.accel_bias_m_s2 = 0.0;
+    s.sim.imu = sim::ImuNoise{};
     s.sensors = o.sensors;
   }
   if (o.sensors_seed >= 0) s.sim.sensors.seed = static_cast<std::uint64_t>(o.sensors_seed);

@@ -476,6 +476,7 @@ bool CanHardware::send_sync(int b) noexcept {
 
 std::uint64_t CanHardware::unanswered_syncs(int j) const noexcept {
   const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
+  if (jr.bus < 0) return 0;  // on no bus
   const std::uint64_t sent = buses_[static_cast<std::size_t>(jr.bus)].syncs_sent - jr.syncs_before_walk;
   return sent > jr.tpdo1_count ? sent - jr.tpdo1_count : 0;
 }

@@ -649,7 +649,7 @@ LifecycleResult CanHardware::enable_cia402(int b) {
     JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
     jr.syncs_before_walk = bus.syncs_sent - jr.tpdo1_count;
     Frame f;
-    cia402::encode_nmt(cia402::NmtCommand::start, joints_[static_cast<std::size_t>(j)].cfg.drive_id, f);
+    cia402::encode_nmt(cia402::NmtCommand::start, jr.cfg.drive_id, f);
     send_now(b, f);
   }
   // 4. Walk the state machine with the controlword in RPDO1, target torque 0.
@@ -774,7 +774,7 @@ void CanHardware::disable_buses(int first, int last) noexcept {
     for (int j = 0; j < kNj; ++j) {
       const JointRuntime& jr = joints_[static_cast<std::size_t>(j)];
       step[static_cast<std::size_t>(j)] = cia402::StepClock(config_.timing.state_step_timeout_ms, config_.timing.tick_us);
-      step[static_cast<std::size_t>(j)].restart(jr.tpdo1_count, jr.bus >= 0 ? unanswered_syncs(j) : 0, monotonic_ns());
+      step[static_cast<std::size_t>(j)].restart(jr.tpdo1_count, unanswered_syncs(j), monotonic_ns());
     }
     do {
       for (int b = first; b <= last; ++b) {
