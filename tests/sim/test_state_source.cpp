@@ -132,6 +132,12 @@ TEST(SimStateSource, TheCommandLineChoosesTheStateAndTheSensors) {
   const CliResult k = run((dir / "k.yaml").string(), dir / "bad");
   EXPECT_EQ(k.exit_code, 2);
   EXPECT_NE(k.err.find("controller.params.state_source"), std::string::npos) << k.err;
+  std::string still = stand_wbc(1.0);
+  still.replace(still.find("settle_s:"), 0, "still_start_s: -1, ");
+  std::ofstream(dir / "still.yaml") << still;
+  const CliResult st = run((dir / "still.yaml").string(), dir / "bad");
+  EXPECT_EQ(st.exit_code, 2);
+  EXPECT_NE(st.err.find("controller.still_start_s"), std::string::npos) << st.err;
 }
 
 }  // namespace
