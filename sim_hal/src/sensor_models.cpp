@@ -53,6 +53,7 @@ std::string check_triad(const InertialTriadConfig& c, const char* name) {
   for (const auto& [field, v] : fields) {
     if (!finite_nonnegative(v)) return p + field + " must be finite and >= 0";
   }
+  if (!c.bias_offset.allFinite()) return p + "bias_offset must be finite";
   if (c.delay_ticks < 0 || c.delay_ticks > kMaxSensorDelayTicks) {
     return p + "delay_ticks must be in [0, " + std::to_string(kMaxSensorDelayTicks) + "]";
   }
@@ -160,6 +161,7 @@ SensorModelConfig sensor_preset(ImuPreset p) noexcept {
 namespace {
 bool is_ideal(const InertialTriadConfig& c) noexcept {
   return c.noise_per_sqrt_hz == 0.0 && c.bias_walk_per_sqrt_hz == 0.0 && c.turn_on_bias == 0.0 &&
+         c.bias_offset.isZero(0.0) &&
          c.scale_factor_std == 0.0 && c.lsb == 0.0 && c.range == 0.0 && c.sample_rate_hz == 0.0 && c.delay_ticks == 0;
 }
 }  // namespace
@@ -262,8 +264,8 @@ std::string SensorModel::configure(const SensorModelConfig& c, double step_s, st
   ft_rng_.seed(splitmix64(c.seed ^ 0x6674000000000000ULL));
   gyro_ = Triad{};
   accel_ = Triad{};
-  gyro_.bias0 = imu_rng_.gaussian3(c.imu.gyro.turn_on_bias);
-  accel_.bias0 = imu_rng_.gaussian3(c.imu.accel.turn_on_bias);
+  gyro_.bias0 = c.imu.gyro.bias_offset + imu_rng_.gaussian3(c.imu.gyro.turn_on_bias);
+  accel_.bias0 = c.imu.accel.bias_offset + imu_rng_.gaussian3(c.imu.accel.turn_on_bias);
   if (c.imu.gyro.scale_factor_std > 0.0) gyro_.scale = imu_rng_.gaussian3(c.imu.gyro.scale_factor_std);
   if (c.imu.accel.scale_factor_std > 0.0) accel_.scale = imu_rng_.gaussian3(c.imu.accel.scale_factor_std);
   orientation_ = Orientation{};

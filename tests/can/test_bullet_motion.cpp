@@ -252,5 +252,33 @@ TEST(BulletMotion, TheSensorsPresetShapesThePublishedSamples) {
   for (std::size_t k = 0; k < imu.size(); ++k) EXPECT_EQ(again[k].angular_rate_rad_s, imu[k].angular_rate_rad_s) << k;
 }
 
+// A known gyro turn-on bias (a HIL case's 20 mrad/s): on the exact IMU every published rate is
+// the world's plus the offset, and the emulator's truth reports it as the bias.
+TEST(BulletMotion, AGyroBiasOffsetAddsToEveryRateAndIsReported) {
+  const Eigen::Vector3d offset(0.02, -0.01, 0.03);
+  const auto run = [](const Eigen::Vector3d& gyro_offset, Eigen::Vector3d& reported) {
+    BulletOptions o;
+    o.gyro_bias_offset_rad_s = gyro_offset;
+    Rig rig(o);
+    std::vector<hal::Imu> imu;
+    rig.world.set_step_callback([&](const hal::Imu& i, const hal::Wrench&) { imu.push_back(i); });
+    can::mit::Command zero[kNj]{};
+    rig.send_all(zero, true);
+    for (int k = 0; k < 50; ++k) rig.send_all(zero);
+    reported = rig.world.truth().imu_gyro_bias_rad_s;
+    return imu;
+  };
+  Eigen::Vector3d reported, reported_exact;
+  const std::vector<hal::Imu> biased = run(offset, reported), exact = run(Eigen::Vector3d::Zero(), reported_exact);
+  ASSERT_EQ(biased.size(), 50u);
+  ASSERT_EQ(exact.size(), 50u);
+  for (std::size_t k = 0; k < biased.size(); ++k) {
+    EXPECT_LT((biased[k].angular_rate_rad_s - exact[k].angular_rate_rad_s - offset).norm(), 1e-12) << k;
+    EXPECT_EQ(biased[k].linear_accel_m_s2, exact[k].linear_accel_m_s2) << k;
+  }
+  EXPECT_EQ(reported, offset);
+  EXPECT_EQ(reported_exact, Eigen::Vector3d::Zero());
+}
+
 }  // namespace
 }  // namespace springbok::emu

@@ -744,6 +744,26 @@ TEST(DriveEmulatorCli, SensorsPresetIsParsedAndRefusedWhenBad) {
   out.clear();
   EXPECT_EQ(run(config + "--sensors-preset mems --duration-s 0.01", out), 2);
   EXPECT_NE(out.find("--sensors-preset needs --motion bullet"), std::string::npos) << out;
+  // A known gyro turn-on bias: three numbers, over the preset, not with the legacy options.
+  out.clear();
+  EXPECT_EQ(run(config + "--print-layout --sensors-preset mems --imu-gyro-bias-offset-rad-s 0.02,-0.02,0.02", out), 0)
+      << out;
+  out.clear();
+  EXPECT_NE(run(config + "--print-layout --imu-gyro-bias-offset-rad-s 0.02,0.02", out), 0);
+  EXPECT_NE(out.find("--imu-gyro-bias-offset-rad-s"), std::string::npos) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--print-layout --imu-gyro-bias-offset-rad-s 0.02,nan,0", out), 0);
+  EXPECT_NE(out.find("--imu-gyro-bias-offset-rad-s"), std::string::npos) << out;
+  EXPECT_NE(out.find("not a finite number: nan"), std::string::npos) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--print-layout --hand-force-n nan", out), 0);
+  EXPECT_NE(out.find("--hand-force-n"), std::string::npos) << out;
+  out.clear();
+  EXPECT_NE(run(config + "--print-layout --imu-gyro-bias-offset-rad-s 0,0,0 --imu-gyro-bias-rad-s 0.01", out), 0);
+  EXPECT_NE(out.find("excludes"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(run(config + "--imu-gyro-bias-offset-rad-s 0,0,0.02 --duration-s 0.01", out), 2);
+  EXPECT_NE(out.find("--imu-gyro-bias-offset-rad-s needs --motion bullet"), std::string::npos) << out;
 }
 
 TEST(DriveEmulatorCli, RejectsABadConfigOrFaultScript) {

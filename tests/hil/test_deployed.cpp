@@ -2,6 +2,8 @@
 // emulator: standing, the whole-body controller with the trunk IMU and the wrist F/T, and what it
 // does when they fail, and the flight recorder's file of it; the bus round-trip time.
 #include <array>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 
 #include "deployed_rig.hpp"
@@ -199,14 +201,38 @@ std::uint32_t wbc_hil_stale_ticks() {
   return cfg.sensors.imu.stale_ticks;
 }
 
-// The operator's path to the control mode: start (stand-up from the crouch), stand, the wrist
-// F/T tared, mode control. Returns the simulated time control was entered (< 0: it was not).
-double enter_control(Firmware& fw, const std::string& truth, double wall_per_sim_s, std::string& why) {
+// The number after `key=` in an operator reply (NaN without it); `axis` picks one of a list.
+double reply_number(const std::string& reply, const std::string& key, int axis = 0) {
+  std::size_t at = reply.find(" " + key + "=");
+  if (at == std::string::npos) return std::nan("");
+  at += key.size() + 2;
+  for (int a = 0; a < axis; ++a) {
+    at = reply.find(',', at);
+    if (at == std::string::npos) return std::nan("");
+    ++at;
+  }
+  return std::strtod(reply.c_str() + at, nullptr);
+}
+
+// The operator's path to the control mode: (with calibrate_s > 0: wait until the estimator's
+// start-up gyro calibration has averaged that much still time, the robot lying idle) start
+// (stand-up from the crouch), stand, the wrist F/T tared, mode control. Returns the simulated
+// time control was entered (< 0: it was not).
+double enter_control(Firmware& fw, const std::string& truth, double wall_per_sim_s, std::string& why,
+                     double calibrate_s = 0.0) {
   std::string reply;
-  if (!wait_for(fw, 120.0, [&] { return !(reply = operator_line(kWbcSocket, "start")).empty(); })) {
+  if (!wait_for(fw, 120.0, [&] { return !(reply = operator_line(kWbcSocket, "status")).empty(); })) {
     why = "no operator socket";
     return -1.0;
   }
+  if (calibrate_s > 0.0 && !wait_for(fw, (calibrate_s + 3.0) * wall_per_sim_s, [&] {
+        reply = operator_line(kWbcSocket, "controller");
+        return reply_number(reply, "gyro_calibrated_s") >= calibrate_s;
+      })) {
+    why = "no gyro calibration: " + reply;
+    return -1.0;
+  }
+  reply = operator_line(kWbcSocket, "start");
   if (reply.rfind("ok start", 0) != 0) {
     why = reply;
     return -1.0;
@@ -245,8 +271,12 @@ unsigned long long first_damping_step(const std::vector<TruthSample>& samples, u
   return 0;
 }
 
-// Cases 1 and 2: stand, tare, control; a 30 N step at the hand rendered as the template; trot
-// 4.5 s on the operator's command; then a streak of corrupt quaternions. Its in-process twin
+// Cases 1 and 2: the IMU and the wrist F/T with the MEMS preset (BMI088 class, Mini45 class) and
+// a known 20 mrad/s gyro turn-on bias on every axis on top of the preset's draw; the robot lies
+// idle until the estimator's start-up calibration has a second of still samples, then stand,
+// tare, control (the bias taken out by the calibration: the estimate within a mrad/s of the
+// emulator's); a 30 N step at the hand rendered as the template; trot 4.5 s on the operator's
+// command; then a streak of corrupt quaternions. Its in-process twin
 // (tests/app/timing: TheHilConfigRendersAPushThenTrotsWithTheCanPathsDelays) runs the same
 // config and the same operator steps through the MIT codec, the emulator's joint friction and
 // the CAN path's delays, deterministically; it found what made this case fail: the replies'
@@ -267,25 +297,31 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
   const double wall_per_sim_s = time_scale * 1.3 + 5.0;
   const app::AppConfig config = wbc_hil_config();
   const std::uint32_t stale_ticks = wbc_hil_stale_ticks();
-  constexpr double kPushStart_s = 5.0, kPushEnd_s = 8.5, kForce_n = 30.0, kTrotAt_s = 9.0, kTrotUntil_s = 13.5;
-  constexpr unsigned long long kStreakAt = 14000;
+  constexpr double kPushStart_s = 7.0, kPushEnd_s = 10.5, kForce_n = 30.0, kTrotAt_s = 11.0, kTrotUntil_s = 15.5;
+  constexpr unsigned long long kBurstAt = 6500, kStreakAt = 16000;
+  constexpr double kGyroBiasOffset_rad_s = 0.02, kCalibration_s = 1.0;
   const std::string truth = "/tmp/springbok_hil_wbc_truth_" + std::to_string(::getpid()) + ".txt";
   std::filesystem::remove_all(kRecorderDir);
   Emulator emu(kWbcConfig,
                "faults:\n"
-               "  - {kind: corrupt_quaternion, sensor: imu, at: 4500, count: 3}\n"
-               "  - {kind: corrupt_quaternion, sensor: imu, at: 14000, count: 1000000}\n",
+               "  - {kind: corrupt_quaternion, sensor: imu, at: " + std::to_string(kBurstAt) + ", count: 3}\n"
+               "  - {kind: corrupt_quaternion, sensor: imu, at: " + std::to_string(kStreakAt) + ", count: 1000000}\n",
                {"--motion", "bullet", "--truth-log", truth, "--truth-every", "1", "--settle-s", "0.1",
-                "--hand-force-n", std::to_string(kForce_n), "--hand-force-axis", "x", "--hand-force-start-s",
-                std::to_string(kPushStart_s), "--hand-force-duration-s", std::to_string(kPushEnd_s - kPushStart_s)});
+                "--sensors-preset", "mems", "--imu-gyro-bias-offset-rad-s",
+                std::to_string(kGyroBiasOffset_rad_s) + "," + std::to_string(kGyroBiasOffset_rad_s) + "," +
+                    std::to_string(kGyroBiasOffset_rad_s),
+                "--hand-force-n", std::to_string(kForce_n),
+                "--hand-force-axis", "x", "--hand-force-start-s", std::to_string(kPushStart_s),
+                "--hand-force-duration-s", std::to_string(kPushEnd_s - kPushStart_s)});
   ASSERT_TRUE(emu.ready());
   ::unlink(kWbcSocket.c_str());
   const auto wall_start = std::chrono::steady_clock::now();
   Firmware fw(kWbcConfig, time_scale);
   std::string why;
-  const double t_control_s = enter_control(fw, truth, wall_per_sim_s, why);
+  const double t_control_s = enter_control(fw, truth, wall_per_sim_s, why, kCalibration_s);
   ASSERT_GE(t_control_s, 0.0) << why << "\n" << fw.stop();
-  ASSERT_LT(t_control_s, 4.4) << "the control mode must be on before the IMU burst and the push";
+  ASSERT_LT(t_control_s, kBurstAt / 1000.0 - 0.1) << "the control mode must be on before the IMU burst and the push";
+  const std::string at_control = operator_line(kWbcSocket, "controller");
 
   ASSERT_TRUE(wait_for(fw, (kTrotAt_s - t_control_s + 1.0) * wall_per_sim_s,
                        [&] { return truth_time(truth) >= kTrotAt_s; }));
@@ -313,6 +349,21 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const std::string summary = emu.stop();
   const std::vector<TruthSample> samples = read_truth(truth);
+  // The gyro's bias: the emulator's (the preset's draw plus the offset; its walk is micro-rad/s
+  // over the run) against the estimator's at the control mode's start.
+  Eigen::Vector3d bias_truth = Eigen::Vector3d::Constant(std::nan(""));
+  if (const auto b = summary.find("imu gyro_bias_rad_s "); b != std::string::npos) {
+    (void)std::sscanf(summary.c_str() + b, "imu gyro_bias_rad_s %lf %lf %lf", &bias_truth[0], &bias_truth[1],
+                      &bias_truth[2]);
+  }
+  std::printf("HIL wbc: gyro bias at control %s (calibrated %.1f s of still), emulator's %.5f,%.5f,%.5f rad/s\n",
+              at_control.substr(at_control.find("gyro_bias_rad_s=")).c_str(),
+              reply_number(at_control, "gyro_calibrated_s"), bias_truth.x(), bias_truth.y(), bias_truth.z());
+  EXPECT_GE(reply_number(at_control, "gyro_calibrated_s"), kCalibration_s) << at_control;
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_GT(std::abs(bias_truth[a]), 0.5 * kGyroBiasOffset_rad_s) << summary;
+    EXPECT_NEAR(reply_number(at_control, "gyro_bias_rad_s", a), bias_truth[a], 1e-3) << a << ": " << at_control;
+  }
   if (keep != nullptr) {
     std::ofstream(std::string(keep) + "/truth.txt") << std::ifstream(truth).rdbuf();
     std::ofstream(std::string(keep) + "/firmware.txt") << fw_out;
@@ -390,7 +441,7 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
   ASSERT_GT(damped_at, 0u) << fw_out;
   EXPECT_LE(damped_at, kStreakAt + stale_ticks + kDampingSlackTicks);
   EXPECT_GE(damped_at, kStreakAt + stale_ticks - 1) << "damped before the IMU was lost";
-  // Logged with the sensor's name; the burst at 2.5 s counted, never a fault before the streak:
+  // Logged with the sensor's name; the burst counted, never a fault before the streak:
   // the first fault is the IMU's. (The damped robot then collapses; the emulator caps the
   // light wrist joints' damping at what a 1 ms step can render, so a wrist may outrun its
   // velocity limit and its drive be faulted for implausible positions afterwards.)

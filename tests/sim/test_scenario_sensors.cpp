@@ -25,7 +25,8 @@ TEST(ScenarioSensors, TheDefaultIsIdeal) {
 TEST(ScenarioSensors, APresetThenSectionPresetsThenKeys) {
   const simtool::Scenario s = load("sensors_layers",
                                    "sim:\n  sensors:\n    preset: mems\n    seed: 11\n"
-                                   "    imu: {gyro: {noise_rad_s_per_sqrt_hz: 0.001, delay_ticks: 2}}\n"
+                                   "    imu: {gyro: {noise_rad_s_per_sqrt_hz: 0.001, delay_ticks: 2, bias_offset_rad_s: [0.02, 0, -0.01]},\n"
+                                   "          accel: {bias_offset_m_s2: [0, 0.3, 0]}}\n"
                                    "    encoders: {preset: ideal}\n"
                                    "    joint_torque: {noise_std_nm: [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18]}\n"
                                    "    wrist_ft: {force_range_n: [10, 20, 30]}\n");
@@ -34,6 +35,8 @@ TEST(ScenarioSensors, APresetThenSectionPresetsThenKeys) {
   EXPECT_EQ(c.seed, 11u);
   EXPECT_EQ(c.imu.gyro.noise_per_sqrt_hz, 0.001);
   EXPECT_EQ(c.imu.gyro.delay_ticks, 2);
+  EXPECT_EQ(c.imu.gyro.bias_offset, Vec3(0.02, 0.0, -0.01));
+  EXPECT_EQ(c.imu.accel.bias_offset, Vec3(0.0, 0.3, 0.0));
   EXPECT_EQ(c.imu.gyro.lsb, mems.imu.gyro.lsb) << "the preset's other values stay";
   EXPECT_EQ(c.imu.accel.noise_per_sqrt_hz, mems.imu.accel.noise_per_sqrt_hz);
   EXPECT_TRUE(sim::is_ideal(c.encoders));

@@ -189,6 +189,27 @@ TEST(SensorModels, TurnOnBiasAndScaleFactorDrawTheirStdsOverSeeds) {
   EXPECT_LT(std::abs(moments(bg).mean), 5.0 * 0.01 / std::sqrt(6000.0));
 }
 
+// A known part of the turn-on bias: the same seed's draw plus the offset, exactly; a
+// non-finite offset refused naming the field.
+TEST(SensorModels, ABiasOffsetAddsToTheSameDraw) {
+  SensorModelConfig c;
+  c.seed = 9;
+  c.imu.gyro.turn_on_bias = 0.01;
+  c.imu.accel.turn_on_bias = 0.2;
+  const ImuErrorState drawn = configured(c).imu_errors();
+  c.imu.gyro.bias_offset = Vec3(0.02, -0.02, 0.02);
+  c.imu.accel.bias_offset = Vec3(0.0, 0.5, 0.0);
+  const ImuErrorState offset = configured(c).imu_errors();
+  EXPECT_LT((offset.gyro_bias_rad_s - drawn.gyro_bias_rad_s - c.imu.gyro.bias_offset).norm(), 1e-15);
+  EXPECT_LT((offset.accel_bias_m_s2 - drawn.accel_bias_m_s2 - c.imu.accel.bias_offset).norm(), 1e-15);
+  c = SensorModelConfig{};
+  c.imu.gyro.bias_offset = Vec3(0.0, 0.0, 1e-3);
+  EXPECT_FALSE(is_ideal(c.imu)) << "an offset alone is not the exact IMU";
+  c.imu.gyro.bias_offset.x() = std::nan("");
+  SensorModel m;
+  EXPECT_EQ(m.configure(c, 1e-3), "imu.gyro.bias_offset must be finite");
+}
+
 TEST(SensorModels, QuantisationStepsAreOneLsb) {
   SensorModelConfig c;
   c.imu.gyro.lsb = 0.01;

@@ -17,14 +17,16 @@
 // With --motion bullet the sensors of `can.sensors` (CAN.md 6) publish one sample per
 // world step on their buses: the IMU from the trunk's motion through trunk_imu (sim_hal's
 // IMU model: --sensors-preset ideal|mems|tactical --sensors-seed N, or the legacy --imu-* noise
-// and bias), the wrist F/T from the wrench scripted on the hand (--hand-force-n N
+// and bias; --imu-gyro-bias-offset-rad-s X,Y,Z adds a known gyro turn-on bias), the wrist F/T from the wrench scripted on the hand (--hand-force-n N
 // --hand-force-axis x|y|z|-x|-y|-z --hand-force-start-s T; with --sensors-preset mems or
 // tactical through the realistic F/T model).
 #include <signal.h>
 
 #include <CLI/CLI.hpp>
 #include <atomic>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <deque>
 #include <fstream>
 #include <memory>
@@ -94,15 +96,25 @@ int main(int argc, char** argv) {
   std::uint64_t imu_seed = 1;
   std::string sensors_preset = "ideal";
   std::uint64_t sensors_seed = 1;
+  std::vector<double> gyro_bias_offset_rad_s;
   int mit_master_id = -1;  // -1: as the config says
   emu::MitReplyOptions mit_reply;
   emu::Cia402Options cia402;
   std::uint32_t cia402_boot_after_ms = 0;
   std::vector<std::uint32_t> cia402_answer_delay_ms, cia402_state_step_ms;  // per bus, or one for all
+  // CLI11's Range lets a NaN through (every comparison with it is false): each real number is
+  // checked finite first.
+  const CLI::Validator finite(
+      [](std::string& text) {
+        return std::isfinite(std::strtod(text.c_str(), nullptr)) ? std::string() : "not a finite number: " + text;
+      },
+      "FINITE");
   app.add_option("--config", config_path, "YAML file with the `can:` section (the same the firmware reads)")->required();
   app.add_option("--faults", faults_path, "YAML fault script (`faults:` list)");
   app.add_option("--pose", pose, "initial joint positions")->check(CLI::IsMember({"stance", "zero"}));
-  app.add_option("--duration-s", duration_s, "stop after this many seconds (0 = until SIGTERM)")->check(CLI::NonNegativeNumber);
+  app.add_option("--duration-s", duration_s, "stop after this many seconds (0 = until SIGTERM)")
+      ->check(finite)
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--can-timeout-ms", can_timeout_ms, "MIT CAN_TIMEOUT: zero the stored command after this silence (0 = off)");
   app.add_option("--ready-file", ready_file, "written once the buses are open and the drives booted");
   // The MIT drives' own flash settings, where they differ from what the host's config says
@@ -115,6 +127,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({5, 6, 7, 8}));
   app.add_option("--mit-bus-voltage-v", mit_reply.bus_voltage_v,
                  "MIT: the drives' bus voltage, sent in byte 6 of 7-byte replies, V")
+      ->check(finite)
       ->check(CLI::Range(0.0, 40.0));
   // The CiA 402 drives' stored 0x1017 and when they are powered on (CAN.md 4.3 step 1: the host
   // waits for each node's boot-up, and resets a node it hears heartbeats from).
@@ -159,14 +172,18 @@ int main(int argc, char** argv) {
                  "bullet: trace of the ground truth, one line per --truth-every steps (columns: bullet_motion.hpp)");
   app.add_option("--truth-every", truth_every, "bullet: one trace line every this many steps")->check(CLI::Range(1, 1000000));
   app.add_option("--settle-s", settle_s, "bullet: the robot lies unpowered this long before the drives boot")
+      ->check(finite)
       ->check(CLI::Range(0.0, 60.0));
   app.add_flag("--print-layout", layout_only, "print frames per tick and worst-case load per bus, then exit");
-  app.add_option("--hand-force-n", hand_force_n, "bullet: a step force on the hand (EE frame origin), N (0 = none)");
+  app.add_option("--hand-force-n", hand_force_n, "bullet: a step force on the hand (EE frame origin), N (0 = none)")
+      ->check(finite);
   app.add_option("--hand-force-axis", hand_force_axis, "bullet: its direction, world axes")
       ->check(CLI::IsMember({"x", "y", "z", "-x", "-y", "-z"}));
   app.add_option("--hand-force-start-s", hand_force_start_s, "bullet: when it starts, s after the settling")
+      ->check(finite)
       ->check(CLI::NonNegativeNumber);
   app.add_option("--hand-force-duration-s", hand_force_duration_s, "bullet: how long it lasts (0 = until the end)")
+      ->check(finite)
       ->check(CLI::NonNegativeNumber);
   CLI::Option* preset_opt =
       app.add_option("--sensors-preset", sensors_preset,
@@ -176,21 +193,33 @@ int main(int argc, char** argv) {
           ->check(CLI::IsMember({"ideal", "mems", "tactical"}));
   CLI::Option* seed_opt = app.add_option("--sensors-seed", sensors_seed, "bullet: seed of the sensor model (>= 0)")
                               ->check(CLI::NonNegativeNumber);
+  CLI::Option* offset_opt =
+      app.add_option("--imu-gyro-bias-offset-rad-s", gyro_bias_offset_rad_s,
+                     "bullet: a known gyro turn-on bias X,Y,Z (IMU axes, rad/s) added to the sensor model's draw")
+          ->delimiter(',')
+          ->expected(3)
+          ->check(finite)
+          ->check(CLI::Range(-10.0, 10.0));
   // The legacy IMU options: sim_hal's model as a white noise std per sample and a turn-on std
   // (mapped onto the sensor model as sim.imu is); not together with --sensors-*.
   CLI::Option* legacy[] = {
       app.add_option("--imu-gyro-noise-rad-s", imu_gyro_noise, "bullet: IMU gyro white noise std per sample (legacy)")
+          ->check(finite)
           ->check(CLI::Range(0.0, 10.0)),
       app.add_option("--imu-accel-noise-m-s2", imu_accel_noise, "bullet: IMU accelerometer white noise std (legacy)")
+          ->check(finite)
           ->check(CLI::Range(0.0, 100.0)),
       app.add_option("--imu-gyro-bias-rad-s", imu_gyro_bias, "bullet: std of the IMU gyro bias drawn once (legacy)")
+          ->check(finite)
           ->check(CLI::Range(0.0, 10.0)),
       app.add_option("--imu-accel-bias-m-s2", imu_accel_bias, "bullet: std of the accelerometer bias drawn once (legacy)")
+          ->check(finite)
           ->check(CLI::Range(0.0, 100.0)),
       app.add_option("--imu-seed", imu_seed, "bullet: seed of the IMU noise (legacy)")};
   for (CLI::Option* o : legacy) {
     preset_opt->excludes(o);
     seed_opt->excludes(o);
+    offset_opt->excludes(o);
   }
   CLI11_PARSE(app, argc, argv);
 
@@ -288,6 +317,10 @@ int main(int argc, char** argv) {
                              : sensors_preset == "tactical" ? emu::SensorsPreset::tactical
                                                             : emu::SensorsPreset::ideal;
     options.sensors_seed = sensors_seed;
+    if (!gyro_bias_offset_rad_s.empty()) {
+      options.gyro_bias_offset_rad_s = Eigen::Vector3d(gyro_bias_offset_rad_s[0], gyro_bias_offset_rad_s[1],
+                                                       gyro_bias_offset_rad_s[2]);
+    }
     if (hand_force_n != 0.0) {
       options.hand_force = true;
       options.hand.force_n = hand_force_n;
@@ -314,6 +347,9 @@ int main(int argc, char** argv) {
     return 2;
   } else if (sensors_preset != "ideal") {
     std::fprintf(stderr, "drive_emulator: --sensors-preset needs --motion bullet (the sensors publish only then)\n");
+    return 2;
+  } else if (!gyro_bias_offset_rad_s.empty()) {
+    std::fprintf(stderr, "drive_emulator: --imu-gyro-bias-offset-rad-s needs --motion bullet\n");
     return 2;
   }
 
@@ -525,6 +561,9 @@ int main(int argc, char** argv) {
     std::printf("truth steps %llu time_s %.3f trunk_z_m %.5f trunk_tilt_rad %.5f non_foot_contact %d forced_steps %llu\n",
                 static_cast<unsigned long long>(t.steps), t.time_s, t.trunk_z_m, t.trunk_tilt_rad,
                 t.non_foot_ground_contact ? 1 : 0, static_cast<unsigned long long>(t.forced_steps));
+    std::printf("imu gyro_bias_rad_s %.6f %.6f %.6f accel_bias_m_s2 %.6f %.6f %.6f\n", t.imu_gyro_bias_rad_s.x(),
+                t.imu_gyro_bias_rad_s.y(), t.imu_gyro_bias_rad_s.z(), t.imu_accel_bias_m_s2.x(),
+                t.imu_accel_bias_m_s2.y(), t.imu_accel_bias_m_s2.z());
   }
 #endif
   if (truth_file != nullptr) std::fclose(truth_file);

@@ -21,13 +21,17 @@ void read_triad(const Field& f, sim::InertialTriadConfig& c, bool gyro) {
   const char* noise = gyro ? "noise_rad_s_per_sqrt_hz" : "noise_m_s2_per_sqrt_hz";
   const char* walk = gyro ? "bias_walk_rad_s2_per_sqrt_hz" : "bias_walk_m_s3_per_sqrt_hz";
   const char* bias = gyro ? "turn_on_bias_rad_s" : "turn_on_bias_m_s2";
+  const char* offset = gyro ? "bias_offset_rad_s" : "bias_offset_m_s2";
   const char* lsb = gyro ? "lsb_rad_s" : "lsb_m_s2";
   const char* range = gyro ? "range_rad_s" : "range_m_s2";
-  if (!f.allow_only({noise, walk, bias, "scale_factor_std", lsb, range, "sample_rate_hz", "delay_ticks"})) return;
+  if (!f.allow_only({noise, walk, bias, offset, "scale_factor_std", lsb, range, "sample_rate_hz", "delay_ticks"})) {
+    return;
+  }
   const double scale = gyro ? 1.0 : 10.0;  // the accelerometer's limits: m/s^2 span ~10x rad/s
   f[noise].number(c.noise_per_sqrt_hz, 0.0, 1.0 * scale);
   f[walk].number(c.bias_walk_per_sqrt_hz, 0.0, 1.0 * scale);
   f[bias].number(c.turn_on_bias, 0.0, 10.0 * scale);
+  f[offset].vector(c.bias_offset, -10.0 * scale, 10.0 * scale);
   f["scale_factor_std"].number(c.scale_factor_std, 0.0, 0.5);
   f[lsb].number(c.lsb, 0.0, 1.0 * scale);
   f[range].number(c.range, 0.0, 1e4 * scale);

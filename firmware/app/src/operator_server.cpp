@@ -123,19 +123,20 @@ std::string OperatorServer::controller_line() {
   // The base estimate's position and its velocity in world axes.
   const Quat orientation = Quat(c.base_pose[6], c.base_pose[3], c.base_pose[4], c.base_pose[5]).normalized();
   const Vec3 p = c.base_pose.head<3>(), v = orientation * c.base_twist.head<3>();
-  char text[640];
+  char text[768];
   const control::Tare& t = c.tare;
   std::snprintf(
       text, sizeof text,
       "ok controller controller=wbc engaged=%d gait=%s step_frequency=%.3g duty_factor=%.3g stance=%s "
       "last_tick=%s failed_ticks=%llu stance_changes=%llu tare=%s tares=%u tare_force_n=%.3f,%.3f,%.3f "
       "wrist_force_n=%.3f,%.3f,%.3f base_position_m=%.4f,%.4f,%.4f base_velocity_m_s=%.4f,%.4f,%.4f "
-      "stepping_for_push=%d",
+      "stepping_for_push=%d gyro_bias_rad_s=%.5f,%.5f,%.5f gyro_calibrated_s=%.1f",
       c.engaged ? 1 : 0, control::to_string(c.gait), c.trot.step_frequency_hz, c.trot.duty_factor,
       stance_list(c.stance).c_str(), control::to_string(c.status), static_cast<unsigned long long>(c.failed_ticks),
       static_cast<unsigned long long>(c.stance_changes), t.running ? "collecting" : (t.completed > 0 ? "done" : "none"),
       t.completed, t.force_n.x(), t.force_n.y(), t.force_n.z(), c.wrist_force_n.x(), c.wrist_force_n.y(),
-      c.wrist_force_n.z(), p.x(), p.y(), p.z(), v.x(), v.y(), v.z(), c.stepping_for_push ? 1 : 0);
+      c.wrist_force_n.z(), p.x(), p.y(), p.z(), v.x(), v.y(), v.z(), c.stepping_for_push ? 1 : 0,
+      c.gyro_bias_i_rad_s.x(), c.gyro_bias_i_rad_s.y(), c.gyro_bias_i_rad_s.z(), c.gyro_calibrated_s);
   return text;
 }
 

@@ -145,6 +145,17 @@ void RobotController::observe(const hal::Measurements& m, double dt_s, bool stan
   (void)report_tick(report_.status, false);
 }
 
+void RobotController::calibrate(const hal::Measurements& m, double dt_s) noexcept {
+  estimator_.calibrate(m, dt_s);
+  report_gyro_bias();
+}
+
+void RobotController::report_gyro_bias() noexcept {
+  report_.gyro_bias_i_rad_s = estimator_.ekf().started() ? estimator_.ekf().gyro_bias_i_rad_s()
+                                                         : estimator_.calibrated_gyro_bias_i_rad_s();
+  report_.gyro_calibrated_s = estimator_.gyro_calibrated() ? estimator_.calibrated_time_s() : 0.0;
+}
+
 TickStatus RobotController::report_tick(TickStatus status, bool control_tick) noexcept {
   TickReport& r = report_;
   if (control_tick) r.status = status;
@@ -160,6 +171,7 @@ TickStatus RobotController::report_tick(TickStatus status, bool control_tick) no
   const est::BaseEstimate& e = estimator_.estimate();
   r.base_pose = e.q.head<7>();
   r.base_twist = e.v.head<6>();
+  report_gyro_bias();
   if (control_tick && status != TickStatus::estimate_failed) {  // the WBC ran
     const wbc::WbcOutput& o = wbc_->output();
     const wbc::WbcReference& ref = wbc_->reference();

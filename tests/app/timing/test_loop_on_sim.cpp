@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 
 #include "alloc_trap.hpp"
 #include "springbok/app/control_mode.hpp"
@@ -287,6 +288,11 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
       << report;
   EXPECT_NE(report.find("tare=collecting tares=2 "), std::string::npos) << report;
   EXPECT_NE(report.find(" stepping_for_push=0"), std::string::npos) << report;
+  const control::TickReport& tick = rig->control.controller().report();
+  char bias[128];
+  std::snprintf(bias, sizeof bias, " gyro_bias_rad_s=%.5f,%.5f,%.5f gyro_calibrated_s=%.1f", tick.gyro_bias_i_rad_s.x(),
+                tick.gyro_bias_i_rad_s.y(), tick.gyro_bias_i_rad_s.z(), tick.gyro_calibrated_s);
+  EXPECT_NE(report.find(bias), std::string::npos) << report;
   EXPECT_EQ(rig->supervisor.mode(), safety::Mode::control);
   EXPECT_EQ(rig->supervisor.faults(), 0u) << fault_list(rig->supervisor.faults());
   EXPECT_GT(robot.robot().ground_truth().q[2], 0.5);

@@ -17,6 +17,7 @@ sim::SimConfig sim_config(const BulletOptions& o) {
   const sim::SensorModelConfig preset = sim::sensor_preset(kPresets[static_cast<int>(o.sensors_preset)]);
   c.sensors.seed = o.sensors_seed;
   c.sensors.imu = preset.imu;
+  c.sensors.imu.gyro.bias_offset = o.gyro_bias_offset_rad_s;
   c.sensors.wrist_ft = preset.wrist_ft;
   c.imu.gyro_noise_rad_s = o.imu_gyro_noise_rad_s;
   c.imu.accel_noise_m_s2 = o.imu_accel_noise_m_s2;
@@ -155,6 +156,9 @@ void BulletMotion::step() {
   const double cos_tilt = std::clamp(q_wb.normalized().toRotationMatrix()(2, 2), -1.0, 1.0);
   truth_.trunk_tilt_rad = std::acos(cos_tilt);
   truth_.non_foot_ground_contact = gt.non_foot_ground_contact;
+  const sim::ImuErrorState imu_errors = robot_->robot().sensor_model().imu_errors();
+  truth_.imu_gyro_bias_rad_s = imu_errors.gyro_bias_rad_s;
+  truth_.imu_accel_bias_m_s2 = imu_errors.accel_bias_m_s2;
   truth_.trunk_orientation = q_wb.normalized();
   if (const std::optional<sim::FrameRef> ee = sim::find_frame(robot::kFrames[kEeFrame].name)) {
     truth_.ee_orientation = Eigen::Quaterniond(robot_->robot().frame_placement(*ee).linear()).normalized();

@@ -7,7 +7,7 @@
 // ---- the equations (per axis i of a triad; k the tick, dt the tick, T = 1 / rate the sample
 // period of a sensor, n ~ N(0, 1) a fresh draw) ----
 //   IMU triad (gyro in rad/s, accelerometer in m/s^2), at its sample instants:
-//     b_i      = b0_i + w_i                    b0_i ~ N(0, turn_on_bias^2), drawn once per run
+//     b_i      = b0_i + w_i                    b0_i = bias_offset_i + N(0, turn_on_bias^2), drawn once per run
 //     w_i     += bias_walk * sqrt(T) * n       the bias random walk (density bias_walk, per sqrt(Hz))
 //     y_i      = (1 + s_i) x_i + b_i + noise * sqrt(rate) * n       s_i ~ N(0, scale_factor_std^2), once
 //     y_i      = clamp(y_i, -range, range)     (clipping set when |y_i| >= range; range 0: none)
@@ -79,6 +79,8 @@ struct InertialTriadConfig {
   double noise_per_sqrt_hz = 0.0;      // white noise density [unit/sqrt(Hz)]; per sample std = it * sqrt(rate)
   double bias_walk_per_sqrt_hz = 0.0;  // bias random walk density [unit/s/sqrt(Hz)]: var grows by it^2 per s
   double turn_on_bias = 0.0;           // std of the per-run constant bias [unit]
+  // A known part of the turn-on bias, added to the drawn one [unit] (a test's bias of given size).
+  Vec3 bias_offset = Vec3::Zero();
   double scale_factor_std = 0.0;       // std of the per-run, per-axis scale factor error [-]
   double lsb = 0.0;                    // quantisation step [unit]; 0: none
   double range = 0.0;                  // saturation at +-range [unit]; 0: none

@@ -187,6 +187,10 @@ struct TickReport {
   // The base estimate: q[0:7] = [p_WB, quaternion xyzw], v[0:6] = [v_B, w_B] (trunk axes).
   Vec<7> base_pose = Vec<7>::Zero();
   Vec6 base_twist = Vec6::Zero();
+  // The estimator's gyro bias (filter ekf: the EKF's estimate once it runs, before it the start-up
+  // calibration's; IMU axes) and the still time that calibration averaged (0: none).
+  Vec3 gyro_bias_i_rad_s = Vec3::Zero();
+  double gyro_calibrated_s = 0.0;
   // The whole-body controller's, from its last engaged tick.
   qp::Status qp_status = qp::Status::bad_input;
   int qp_iterations = 0;
@@ -220,7 +224,7 @@ class RobotController {
   void observe(const hal::Measurements& m, double dt_s, bool standing_still) noexcept;
   // A tick before the first observe() (idle: the robot lying, damped): the estimator's start-up
   // gyro calibration (BaseEstimator::calibrate). rt: no alloc, no block
-  void calibrate(const hal::Measurements& m, double dt_s) noexcept { estimator_.calibrate(m, dt_s); }
+  void calibrate(const hal::Measurements& m, double dt_s) noexcept;
 
   // One control-mode tick. Writes `cmd` (torque mode) only when it returns ok.
   // `truth` (tool only) replaces the estimated base. rt: no alloc, no block
@@ -288,6 +292,7 @@ class RobotController {
  private:
   // The tick's report; `control_tick`: a control-mode tick, whose status it is. rt: no alloc
   TickStatus report_tick(TickStatus status, bool control_tick) noexcept;
+  void report_gyro_bias() noexcept;  // the report's gyro bias and calibration. rt: no alloc
   // The estimator's tick (reset on the first one and after a gap in m.sequence).
   est::EstimateStatus estimate(const hal::Measurements& m, double dt_s, const Stance& stance) noexcept;
   void take_wrist(const hal::Measurements& m, bool collect) noexcept;

@@ -35,6 +35,8 @@ struct TruthSummary {
   std::uint64_t forced_steps = 0;         // steps without every enabled drive's command (a frame was lost)
   Eigen::Quaterniond trunk_orientation = Eigen::Quaterniond::Identity();  // now: trunk to world
   Eigen::Quaterniond ee_orientation = Eigen::Quaterniond::Identity();     // now: end-effector frame to world
+  Eigen::Vector3d imu_gyro_bias_rad_s = Eigen::Vector3d::Zero();  // now: the IMU's gyro bias (IMU axes)
+  Eigen::Vector3d imu_accel_bias_m_s2 = Eigen::Vector3d::Zero();  // now: its accelerometer's
 };
 
 // A force scripted on the hand (CAN.md 6.5): a step of `force_n` along `axis_world` from
@@ -65,6 +67,8 @@ struct BulletOptions {
   // legacy imu_* below are refused together (the world's configure fails).
   SensorsPreset sensors_preset = SensorsPreset::ideal;
   std::uint64_t sensors_seed = 1;
+  // A known part of the IMU's gyro turn-on bias, added to the preset's draw (IMU axes, rad/s).
+  Eigen::Vector3d gyro_bias_offset_rad_s = Eigen::Vector3d::Zero();
   // sim_hal's legacy IMU model (sim::ImuNoise): white noise per sample and a constant bias drawn once.
   double imu_gyro_noise_rad_s = 0.0;
   double imu_accel_noise_m_s2 = 0.0;
