@@ -291,6 +291,14 @@ void BaseEstimator::ekf_feet(const hal::Measurements& m, const Stance& stance, c
         contact_point_covariance_b(data_.J_feet[f].block<3, kLegJoints>(0, 6 + first), joint_std, params_.kinematics_std_m);
     const Vec3 omega_shin_w = rot_wb * shin_angular_velocity_b(f, omega_b, m.qd_rad_s);
     fm.anchor_velocity_w_m_s = omega_shin_w.cross(Vec3(0.0, 0.0, params_.foot_radius_m));
+    // Leg odometry's joint part (leg_odometry_velocity without the trunk's rate: the EKF adds w x s).
+    const auto leg_jacobian = data_.J_feet[f].block<3, kLegJoints>(0, 6 + first);
+    const Vec3 down_b = -rot_wb.row(2).transpose();
+    fm.velocity_valid = true;
+    fm.velocity_b_m_s = leg_jacobian * m.qd_rad_s.segment<kLegJoints>(first) +
+                        shin_angular_velocity_b(f, Vec3::Zero(), m.qd_rad_s).cross(params_.foot_radius_m * down_b);
+    fm.velocity_covariance_b_m2_s2 =
+        contact_point_covariance_b(leg_jacobian, Vec3::Constant(params_.encoder_rate_std_rad_s), 0.0);
   }
 }
 

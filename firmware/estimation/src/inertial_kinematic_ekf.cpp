@@ -370,6 +370,10 @@ bool InertialKinematicEkf::input_ok(const EkfInput& in, double dt_s) const noexc
                       !m.anchor_velocity_w_m_s.allFinite())) {
       return false;
     }
+    if (m.contact && m.velocity_valid && params_.use_leg_velocity &&
+        (!m.velocity_b_m_s.allFinite() || !m.velocity_covariance_b_m2_s2.allFinite())) {
+      return false;
+    }
   }
   if (params_.orientation_aid == OrientationAid::yaw && in.orientation_valid &&
       (!in.orientation_wi.coeffs().allFinite() || !(in.orientation_wi.norm() > 0.5))) {
@@ -411,7 +415,12 @@ EkfStatus InertialKinematicEkf::update(const EkfInput& in, double dt_s) noexcept
       mode = FootMode::anchored;
     }
     switch (fuse_foot(f, m, gate)) {
-      case Fused::yes: ++fused; break;
+      case Fused::yes:
+        ++fused;
+        if (params_.use_leg_velocity && m.velocity_valid) {
+          (void)fuse_leg_velocity(m, mounting_.rotation_bi * (in.imu.rate_i_rad_s - x_.b_g), dt_s, gate);
+        }
+        break;
       case Fused::gated:
         mode = FootMode::rejected;
         x_.probe_count[idx(f)] = 0;
@@ -580,6 +589,41 @@ InertialKinematicEkf::Fused InertialKinematicEkf::fuse_foot_rows(int foot, const
   x.mahalanobis2[idx(foot)] = d2;
   if (gate && d2 > params_.slip_gate_chi2) return Fused::gated;
   fuse<M>(pht, llt, innovation);
+  return Fused::yes;
+}
+
+// rt: no alloc
+InertialKinematicEkf::Fused InertialKinematicEkf::fuse_leg_velocity(const FootMeasurement& m, const Vec3& w_b,
+                                                                    double dt_s, bool gate) noexcept {
+  const EkfCovariance& P = x_.P;  // its lower triangle (see sym_cols3)
+  const Mat3 rot = x_.q.toRotationMatrix();
+  const Vec3 a = m.contact_point_b_m - mounting_.position_bi_m;
+  const Vec3 c_w = rot * (w_b.cross(a) + m.velocity_b_m_s);
+  const Vec3 y = -(x_.v + c_w);
+  const Mat3 hth = -skew(c_w);
+  const Mat3 ax = skew(a);
+  const Mat3 hbg = rot * ax * mounting_.rotation_bi;
+  const double qg = params_.gyro_noise_rad_s_per_sqrt_hz * params_.gyro_noise_rad_s_per_sqrt_hz / dt_s;
+  const double model = params_.leg_velocity_std_m_s * params_.leg_velocity_std_m_s;
+  Mat3 noise_b = m.velocity_covariance_b_m2_s2;
+  noise_b.noalias() += qg * ax * ax.transpose();
+  const Mat3 noise = rot * noise_b * rot.transpose() + model * Mat3::Identity();
+
+  // P H^T and H P H^T + N: H = [I (v), -[R^ c]x (th), R^ [a]x R_BI (b_g)].
+  Eigen::Matrix<double, kN, 3> cols_th, cols_bg, pht;
+  sym_cols3(P, kEkfV, pht);
+  sym_cols3(P, kEkfTh, cols_th);
+  sym_cols3(P, kEkfBg, cols_bg);
+  pht.noalias() += cols_th * hth.transpose();
+  pht.noalias() += cols_bg * hbg.transpose();
+  Mat3 s3 = pht.middleRows<3>(kEkfV);
+  s3.noalias() += hth * pht.middleRows<3>(kEkfTh);
+  s3.noalias() += hbg * pht.middleRows<3>(kEkfBg);
+  const Mat3 s = 0.5 * (s3 + s3.transpose()) + noise;
+  const Eigen::LLT<Mat3> llt(s);
+  if (llt.info() != Eigen::Success) return Fused::failed;
+  if (gate && llt.matrixL().solve(y).squaredNorm() > params_.slip_gate_chi2) return Fused::gated;
+  fuse<3>(pht, llt, y);
   return Fused::yes;
 }
 

@@ -175,8 +175,8 @@ est::EstimatorParams read_estimator_params(const Field& f) {
   const Field e = f["ekf"];
   if (e.present()) {
     e.allow_only({"gyro_noise_density", "accel_noise_density", "gyro_bias_walk", "accel_bias_walk", "foot_anchored_walk",
-                  "slip_gate_chi2", "use_ground", "ground_std", "encoder_std", "kinematics_std", "initial_gyro_bias_std",
-                  "initial_accel_bias_std"});
+                  "slip_gate_chi2", "use_ground", "ground_std", "encoder_std", "kinematics_std", "use_leg_velocity",
+                  "encoder_rate_std", "leg_velocity_std", "initial_gyro_bias_std", "initial_accel_bias_std"});
     est::EkfParams& k = p.ekf;
     e["gyro_noise_density"].number(k.gyro_noise_rad_s_per_sqrt_hz, 1e-7, 1.0);
     e["accel_noise_density"].number(k.accel_noise_m_s2_per_sqrt_hz, 1e-7, 10.0);
@@ -188,6 +188,9 @@ est::EstimatorParams read_estimator_params(const Field& f) {
     e["ground_std"].number(k.ground_std_m, 1e-5, 1.0);
     e["encoder_std"].number(p.encoder_std_rad, 0.0, 0.1);
     e["kinematics_std"].number(p.kinematics_std_m, 1e-5, 0.1);
+    e["use_leg_velocity"].boolean(k.use_leg_velocity);
+    e["encoder_rate_std"].number(p.encoder_rate_std_rad_s, 0.0, 10.0);
+    e["leg_velocity_std"].number(k.leg_velocity_std_m_s, 1e-5, 1.0);
     e["initial_gyro_bias_std"].number(k.initial_gyro_bias_std_rad_s, 1e-6, 1.0);
     e["initial_accel_bias_std"].number(k.initial_accel_bias_std_m_s2, 1e-6, 10.0);
   }

@@ -98,6 +98,7 @@ struct EstimatorParams {
   EkfParams ekf;
   double encoder_std_rad = 2e-4;   // a joint angle's error (the encoder's resolution, backlash)
   double kinematics_std_m = 2e-3;  // what the kinematics do not know (where the sphere touches, flex)
+  double encoder_rate_std_rad_s = 0.02;  // a joint rate's error (a differenced encoder's, a drive's filter)
 };
 inline constexpr double kMaxTiltWindow_s = 1.2;
 // The still time the start-up gyro calibration averages at most (the newest): the bias walks.

@@ -40,6 +40,9 @@
 //           (the trunk origin's acceleration is p'' - R (w' x r + w x (w x r)))
 //   feet    s_i = R^T (d_i - p_B) + n_s,i = R^T (d_i - p) + r + n_s,i,
 //           n_s,i ~ N(0, Sigma_i) trunk axes (the caller's)
+//   legs    e_i = the contact point's velocity relative to the trunk from the joint rates
+//           (trunk axes, the caller's), noise N(0, Sigma_v,i): an anchored foot's material
+//           contact point stands, so v_B + R (w x s_i + e_i) = 0
 //   n_g, n_a white, densities sigma_g [rad/s/sqrt(Hz)], sigma_a [m/s^2/sqrt(Hz)]: a sample
 //   over dt has std sigma / sqrt(dt). The earth's rate is neglected (it goes into b_g).
 //
@@ -86,6 +89,18 @@
 //   z_i = R^ (s_i - r) = (d_i - p) + R^ n_s,i      predicted  d_i^ - p^
 //   H: dp -> -I,  dth -> [d_i^ - p^]x,  dd_i -> I;   noise R^ Sigma_i R^^T
 //   (from R^ R^T = Exp(-dth):  R^ R^T (d - p) = (I - [dth]x)(d - p) = (d - p) + [d - p]x dth)
+// Leg velocity (option, default on; after the same foot's kinematics, when they were fused):
+// the stance foot's material contact point stands (leg odometry), with a = s_i - r and
+// c = w x a + e_i (w this tick's corrected rate):
+//   0 = v + R c + n_v,   predicted v^ + R^ c;   innovation y = -(v^ + R^ c)
+//   H: dv -> I,  dth -> -[R^ c]x,  db_g -> R^ [a]x R_BI   (w x a = -[a]x w, dw/db_g = -R_BI)
+//   noise R^ (Sigma_v,i + [a]x [a]x^T sigma_g^2 / dt) R^^T + leg_velocity_std^2 I
+//   (the gyro sample's noise through the lever arm; its correlation with the prediction's
+//   use of the same sample is neglected). Without it the velocity is known only as the
+//   kinematic position's derivative over the accelerometer's integration: the low
+//   frequencies of a tilt error (g dth of false acceleration) stay in the velocity for the
+//   position fusion's time constant. A velocity innovation outside slip_gate_chi2 is not
+//   fused (a touch-down's impact, a slip starting; the position's gate judges the foot).
 // Flat ground (option, default on), with the kinematics of the same foot (one 4-row update):
 //   d_i,z = ground height + n_h,  n_h ~ N(0, sigma_h^2);  H: dd_i,z -> 1
 // Without it a foot's position and the trunk's tilt enter the kinematics only as d_i - p in
@@ -188,6 +203,14 @@ struct FootMeasurement {
   // w_shin x (r e_z) (w_shin its lower leg's angular velocity, world axes), as BaseEstimator's
   // anchors do. Not checked, and not used, without contact.
   Eigen::Vector3d anchor_velocity_w_m_s = Eigen::Vector3d::Zero();
+  // e_i: the material contact point's velocity relative to the trunk from the joint rates alone,
+  // trunk axes [m/s] (the leg's Jacobian times its rates, plus the rates' part of the lower
+  // leg's rotation times the sphere's radius to the contact; the trunk's own rotation, w x s_i,
+  // the filter adds), and its covariance [m^2/s^2]. Used with EkfParams::use_leg_velocity, in
+  // contact; `velocity_valid` false: not used this tick.
+  bool velocity_valid = false;
+  Eigen::Vector3d velocity_b_m_s = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d velocity_covariance_b_m2_s2 = Eigen::Matrix3d::Identity() * 1e-4;
 };
 using FootMeasurements = std::array<FootMeasurement, kEkfFeet>;
 
@@ -212,7 +235,7 @@ struct EkfParams {
   double gyro_bias_walk_rad_s2_per_sqrt_hz = 1e-5;   // rate random walk
   double accel_bias_walk_m_s3_per_sqrt_hz = 1e-4;
   // Feet: an anchored foot's drift (the contact point rolls and creeps), a free one's.
-  double foot_anchored_walk_m_s_per_sqrt_hz = 2e-3;
+  double foot_anchored_walk_m_s_per_sqrt_hz = 1e-4;
   double foot_free_walk_m_s_per_sqrt_hz = 10.0;
   double foot_reset_std_m = 1.0;  // a foot's std at touch-down (and its bound)
   // Slip: chi-square gate on a foot's 3-dof kinematic innovation (21.1: p = 1e-4 per tick for
@@ -220,6 +243,10 @@ struct EkfParams {
   // after this long standing still.
   double slip_gate_chi2 = 21.1;
   double slip_accept_s = 0.05;
+  // Leg velocity: the stance feet's joint rates (leg odometry) as a velocity measurement, with
+  // an isotropic term for what the kinematics do not know (impacts, the links' flex) [m/s].
+  bool use_leg_velocity = true;
+  double leg_velocity_std_m_s = 0.01;
   // Flat ground under the feet.
   bool use_ground = true;
   double ground_height_m = 0.0;  // world z of the contact points
@@ -383,6 +410,8 @@ class InertialKinematicEkf {
   void reset_foot(int foot, const FootMeasurement& m) noexcept;
   template <int M>  // M = 4: with the ground row
   Fused fuse_foot_rows(int foot, const FootMeasurement& m, bool gate) noexcept;
+  // The foot's leg velocity (w_b: this tick's corrected rate, trunk axes), or gated. rt: no alloc
+  Fused fuse_leg_velocity(const FootMeasurement& m, const Eigen::Vector3d& w_b, double dt_s, bool gate) noexcept;
   // The update with P H^T (overwritten), the Cholesky factor of S and the innovation.
   template <int M>
   void fuse(Eigen::Matrix<double, kEkfErrorDim, M>& pht, const Eigen::LLT<Eigen::Matrix<double, M, M>>& llt,
