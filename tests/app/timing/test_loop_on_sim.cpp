@@ -140,7 +140,9 @@ TEST(LoopOnSim, ControlModeRunsTheWholeBodyControllerOnTheEstimatedState) {
   auto rig = std::make_unique<LoopRig<SteppedBulletRobot, ControlMode>>(clock, robot, config);
   rig->executive->run_ticks(10);
   ASSERT_EQ(rig->command(safety::OperatorCommand::start), safety::Verdict::accepted);
-  rig->executive->run_ticks(3000);
+  // The crouch's straight arm bends to the posture's: the stand-up takes 4.1 s, not 1 s (the
+  // elbow's 1.9 rad at half its velocity limit, kStandUpSpeedFraction).
+  rig->executive->run_ticks(5500);
   ASSERT_EQ(rig->supervisor.mode(), safety::Mode::stand);
   ASSERT_EQ(rig->command(safety::OperatorCommand::mode_control), safety::Verdict::accepted);
   rig->executive->run_ticks(300);  // hold the reference
@@ -202,7 +204,7 @@ TEST(LoopOnSim, TheOperatorSwitchesStandTrotStandAndRetares) {
   rig->executive->run_ticks(10);
   EXPECT_STREQ(rig->request(trot), "gait changes need mode control");
   ASSERT_EQ(rig->command(safety::OperatorCommand::start), safety::Verdict::accepted);
-  rig->executive->run_ticks(2500);
+  rig->executive->run_ticks(5000);  // the arm's bend at half its velocity limits: 4.1 s
   ASSERT_EQ(rig->supervisor.mode(), safety::Mode::stand);
   EXPECT_STREQ(rig->request(trot), "gait changes need mode control");
   EXPECT_EQ(rig->control.controller().tare().completed, 1u) << "tared in stand";

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <memory>
 
 #include "alloc_trap.hpp"
@@ -38,6 +40,10 @@ struct StandUp {
   std::size_t allocations = 1;
   VecNj posture_error_rad = VecNj::Zero();
   double lying_z_m = 0.0, trunk_z_m = 0.0;
+  double expected_ramp_s = 0.0;   // stand_up_ramp_s from the lying pose
+  double stand_up_s = 0.0;        // start to the stand mode
+  double peak_speed_fraction = 0.0;  // max over joints and ticks of |qd| / velocity limit
+  int peak_joint = -1;
 };
 StandUp stand_up(const AppConfig& config) {
   rt::SteppedClock clock(0);
@@ -50,7 +56,20 @@ StandUp stand_up(const AppConfig& config) {
   r.lying_z_m = robot.robot().ground_truth().q[2];
   EXPECT_EQ(rig->command(safety::OperatorCommand::start), safety::Verdict::accepted);
   springbok::test::AllocationTrap trap;
-  rig->executive->run_ticks(static_cast<int>(1000.0 * config.stand_up_duration_s) + 2000);
+  r.expected_ramp_s = stand_up_ramp_s(config.stand_posture_rad - rig->loop.measurements().q_rad, config.stand_up_duration_s);
+  const int ticks = static_cast<int>(1000.0 * r.expected_ramp_s) + 2000;
+  for (int t = 0; t < ticks; ++t) {
+    rig->executive->run_tick();
+    if (r.stand_up_s == 0.0 && rig->supervisor.mode() == safety::Mode::stand) r.stand_up_s = 1e-3 * (t + 1);
+    const VecNj& qd = rig->loop.measurements().qd_rad_s;
+    for (int j = 0; j < kNj; ++j) {
+      const double fraction = std::abs(qd[j]) / robot::kJoints[static_cast<std::size_t>(j)].limits.velocity_rad_s;
+      if (fraction > r.peak_speed_fraction) {
+        r.peak_speed_fraction = fraction;
+        r.peak_joint = j;
+      }
+    }
+  }
   r.allocations = trap.disarm();
   r.mode = rig->supervisor.mode();
   r.faults = rig->supervisor.faults();
@@ -70,6 +89,13 @@ AppConfig shipped_config() {
 TEST(StandUpOnSim, TheShippedConfigStandsTheRobotUpFromLying) {
   const AppConfig config = shipped_config();
   const StandUp r = stand_up(config);
+  // The arm lies straight and stands bent: its ramp is stretched past stand_up_duration_s where
+  // a joint would need more than kStandUpSpeedFraction of its velocity limit, and no joint
+  // reaches its limit (the drives' replies would be implausible, CAN.md 4.1).
+  std::printf("stand-up %.3f s (ramp %.3f s, configured %.1f s); peak speed %.2f of joint %d's limit\n", r.stand_up_s,
+              r.expected_ramp_s, config.stand_up_duration_s, r.peak_speed_fraction, r.peak_joint);
+  EXPECT_GE(r.stand_up_s, r.expected_ramp_s);
+  EXPECT_LT(r.peak_speed_fraction, 0.9);
   EXPECT_EQ(r.allocations, 0u) << "stand-up and stand allocate nothing";
   EXPECT_EQ(r.faults, 0u) << fault_list(r.faults);
   ASSERT_EQ(r.mode, safety::Mode::stand) << "posture error [rad]: " << r.posture_error_rad.transpose();

@@ -4,7 +4,9 @@
 //   idle, damping: nothing (the supervisor writes those commands in finish()); the control
 //             law sees the idle ticks (idle(): its estimator's start-up calibration);
 //   stand_up: the desired posture moves from the pose at entry to the stand
-//             posture along a smoothstep in stand_up_duration_s (with
+//             posture along a smoothstep in stand_up_duration_s, or longer where a
+//             joint would move faster than kStandUpSpeedFraction of its velocity
+//             limit (from a pose far from the stand's: an arm fallen while idle) (with
 //             gains.stand_feed_forward weight, the feed-forward takes over the
 //             robot's weight along the same smoothstep); done when the ramp
 //             ended and every leg joint is within stand_tolerance_rad;
@@ -20,6 +22,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <concepts>
 #include <memory>
 
@@ -27,11 +30,29 @@
 #include "springbok/app/operator.hpp"
 #include "springbok/app/telemetry.hpp"
 #include "springbok/hal/types.hpp"
+#include "springbok/model/model.hpp"
 #include "springbok/model/robot_state.hpp"
 #include "springbok/safety/supervisor.hpp"
 #include "springbok/wbc/stand_controller.hpp"
 
 namespace springbok::app {
+
+// The stand-up's peak joint speed at most this fraction of the joint's velocity limit: the PD
+// lags and overshoots its reference, and a joint past its limit reads as an implausible reply
+// (CAN.md 4.1).
+inline constexpr double kStandUpSpeedFraction = 0.5;
+
+// The stand-up's duration for this span (stand posture - pose at entry): configured_s, or
+// longer where the smoothstep's peak speed (1.5 span / T) would pass kStandUpSpeedFraction of
+// a joint's velocity limit. rt: no alloc
+inline double stand_up_ramp_s(const VecNj& span_rad, double configured_s) noexcept {
+  double t_s = configured_s;
+  for (int j = 0; j < kNj; ++j) {
+    const double limit_rad_s = robot::kJoints[static_cast<std::size_t>(j)].limits.velocity_rad_s;
+    if (limit_rad_s > 0.0) t_s = std::max(t_s, 1.5 * std::abs(span_rad[j]) / (kStandUpSpeedFraction * limit_rad_s));
+  }
+  return t_s;
+}
 
 struct ControlInput {
   safety::Mode mode = safety::Mode::idle;
@@ -108,11 +129,14 @@ class ModeController {
     switch (in.mode) {
       case safety::Mode::stand_up: {
         control_.observe(in);
-        if (in.ticks_in_mode == 0) start_rad_ = m.q_rad;
+        if (in.ticks_in_mode == 0) {
+          start_rad_ = m.q_rad;
+          ramp_s_ = stand_up_ramp_s(posture_rad_ - start_rad_, duration_s_);
+        }
         const double t_s = static_cast<double>(in.ticks_in_mode) * in.dt_s;
-        const double s = std::clamp(t_s / duration_s_, 0.0, 1.0);
+        const double s = std::clamp(t_s / ramp_s_, 0.0, 1.0);
         const double blend = s * s * (3.0 - 2.0 * s);                      // smoothstep
-        const double blend_rate = s < 1.0 ? 6.0 * s * (1.0 - s) / duration_s_ : 0.0;
+        const double blend_rate = s < 1.0 ? 6.0 * s * (1.0 - s) / ramp_s_ : 0.0;
         const VecNj span = posture_rad_ - start_rad_;
         joint_pd_command(start_rad_ + blend * span, blend_rate * span, gains_, cmd);
         if (weight_feed_forward_) cmd.tau_ff_nm = blend * weight_feed_forward(m.q_rad);
@@ -167,6 +191,7 @@ class ModeController {
   VecNj start_rad_ = VecNj::Zero();
   JointGains gains_;
   double duration_s_;
+  double ramp_s_ = 0.0;  // this stand-up's (stand_up_ramp_s at its entry)
   double tolerance_rad_;
   bool weight_feed_forward_;
 };
