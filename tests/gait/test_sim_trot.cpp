@@ -4,6 +4,8 @@
 // a bad gait parameter is refused naming its field.
 #include <gtest/gtest.h>
 
+#include <array>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -220,6 +222,46 @@ TEST(SimWalk, AVelocityScheduleChangesTheCommand) {
   const CliResult untimed = run((dir / "untimed.yaml").string(), dir / "untimed");
   EXPECT_NE(untimed.exit_code, 0);
   EXPECT_NE(untimed.err.find("controller.params.gait.velocity_schedule[0].at_s"), std::string::npos) << untimed.err;
+}
+
+// The schedule's gait entries: the operator's stand (the swinging feet land, all four stand),
+// then the trot again (in place), then a walk; each entry needs velocity or gait, not both.
+TEST(SimWalk, AScheduleStandsAndTrotsAgain) {
+  const fs::path dir = scratch("walk_schedule_gait");
+  std::string yaml = scenario(
+      "{step_frequency: 1.4, duty_factor: 0.65,\n"
+      "           velocity_schedule: [{at_s: 1.2, gait: stand}, {at_s: 2.2, gait: trot}, {at_s: 2.6, velocity: [0.1, 0, 0]}]}");
+  yaml.replace(yaml.find("duration_s: 2.5"), 15, "duration_s: 4.0");
+  std::ofstream(dir / "s.yaml") << yaml;
+  std::string json;
+  ASSERT_NO_FATAL_FAILURE(run_to_summary((dir / "s.yaml").string(), dir / "out", json));
+  EXPECT_FALSE(json_true(json, "fell")) << json;
+  EXPECT_NE(json.find("\"operator_refusals\": []"), std::string::npos) << json;
+  EXPECT_NEAR(json_number(json.substr(json.find("\"commanded_velocity\"")), "x"), 0.1, 1e-12) << json;
+  const std::vector<double> t = log_column(dir / "out" / "log.csv", "time_s");
+  std::array<std::vector<double>, 4> stance;
+  const char* feet[] = {"lf_stance", "rf_stance", "lh_stance", "rh_stance"};
+  for (int f = 0; f < 4; ++f) stance[static_cast<std::size_t>(f)] = log_column(dir / "out" / "log.csv", feet[f]);
+  bool all_stood = true, lifted_before = false, lifted_after = false;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    for (const auto& foot : stance) {
+      if (t[k] >= 1.6 && t[k] < 2.2) all_stood = all_stood && foot[k] == 1.0;
+      if (t[k] >= 0.6 && t[k] < 1.2) lifted_before = lifted_before || foot[k] == 0.0;
+      if (t[k] >= 2.5) lifted_after = lifted_after || foot[k] == 0.0;
+    }
+  }
+  EXPECT_TRUE(lifted_before && all_stood && lifted_after) << lifted_before << all_stood << lifted_after;
+
+  std::ofstream(dir / "both.yaml") << scenario("{velocity_schedule: [{at_s: 1.0, velocity: [0.1, 0, 0], gait: stand}]}");
+  const CliResult both = run((dir / "both.yaml").string(), dir / "both");
+  EXPECT_NE(both.exit_code, 0);
+  EXPECT_NE(both.err.find("controller.params.gait.velocity_schedule[0]: needs velocity or gait (one of them)"),
+            std::string::npos)
+      << both.err;
+  std::ofstream(dir / "walk.yaml") << scenario("{velocity_schedule: [{at_s: 1.0, gait: walk}]}");
+  const CliResult walk = run((dir / "walk.yaml").string(), dir / "walk");
+  EXPECT_NE(walk.exit_code, 0);
+  EXPECT_NE(walk.err.find("controller.params.gait.velocity_schedule[0].gait"), std::string::npos) << walk.err;
 }
 
 // The shipped trot `name` cut to 12 s, with `random_pushes: {seed: <seed>, <pushes>}`: its

@@ -50,6 +50,29 @@ TEST(EstimatorErrors, TiltYawAndDriftAreTheirDefinitions) {
   EXPECT_NE(e.json().find("\"all_ok\": true"), std::string::npos) << e.json();
 }
 
+// The heading error split by turning: the truth turns at 0.5 rad/s for 20 s (10 rad; the estimate
+// turns 1 % more: a gyro scale error), then stands 40 s while the estimate drifts at 1 mrad/s.
+// In place: the drift's 0.06 rad/min; per turn: 1 % (the low-pass's onset counts as in place,
+// its decay after the turn, 1.2 s of drift, as turning: 1.01 %).
+TEST(EstimatorErrors, TheHeadingErrorIsSplitIntoTurningAndInPlace) {
+  constexpr double dt = 1e-3, kTurn = 0.5, kScale = 0.01, kDrift = 1e-3;
+  simtool::EstimatorErrors e;
+  double yaw_true = 0.0, yaw_est = 0.0;
+  for (int k = 0; k <= 60000; ++k) {
+    const bool turning = k > 0 && k <= 20000;
+    yaw_true += turning ? kTurn * dt : 0.0;
+    yaw_est += turning ? (1.0 + kScale) * kTurn * dt : (k > 20000 ? kDrift * dt : 0.0);
+    e.add(pose(0, 0, 0.6, Eigen::Quaterniond(Eigen::AngleAxisd(yaw_est, Eigen::Vector3d::UnitZ()))),
+          Eigen::Vector3d::Zero(), pose(0, 0, 0.6, Eigen::Quaterniond(Eigen::AngleAxisd(yaw_true, Eigen::Vector3d::UnitZ()))),
+          Eigen::Vector3d::Zero(), true, dt);
+  }
+  EXPECT_NEAR(e.turned_rad(), 10.0, 0.1);
+  EXPECT_NEAR(e.yaw_error_per_turn_percent(), 100.0 * kScale, 0.02);
+  EXPECT_NEAR(e.yaw_drift_in_place_rad_per_min(), kDrift * 60.0, 0.002);
+  EXPECT_NEAR(e.yaw_drift_rad_per_min(), (kScale * 10.0 + kDrift * 40.0) / 1.0, 1e-6);
+  EXPECT_NE(e.json().find("\"yaw_error_per_turn_percent\": 1.0"), std::string::npos) << e.json();
+}
+
 // A heading error that crosses +-pi is one error, not a jump of 2 pi; under 0.5 m walked there is
 // no drift per distance; one bad estimate says so.
 TEST(EstimatorErrors, TheHeadingUnwrapsAndShortWalksHaveNoDrift) {
@@ -63,6 +86,7 @@ TEST(EstimatorErrors, TheHeadingUnwrapsAndShortWalksHaveNoDrift) {
   EXPECT_NEAR(e.yaw_drift_rad_per_min(), 0.1 * 60.0, 1e-9);
   EXPECT_LT(e.position_drift_percent(), 0.0);
   EXPECT_NE(e.json().find("\"position_drift_percent\": null"), std::string::npos) << e.json();
+  EXPECT_NE(e.json().find("\"yaw_error_per_turn_percent\": null"), std::string::npos) << e.json();
   EXPECT_NE(e.json().find("\"all_ok\": false"), std::string::npos) << e.json();
 }
 

@@ -88,17 +88,30 @@ WbcAdapter::WbcAdapter(const Scenario& s, const yaml::Field& params, sim::Bullet
     cp.gait.kind = control::GaitKind::trot;
     cp.gait.trot = params::read_trot_params(params["gait"], params::WithVelocitySchedule::yes);
     trot_ = true;
-    // velocity_schedule: [{at_s, velocity: [v_x, v_y, yaw_rate]}, ...], times increasing.
+    // velocity_schedule: [{at_s, velocity: [v_x, v_y, yaw_rate]} or {at_s, gait: stand | trot}, ...],
+    // times increasing: the operator's walk and gait requests (a trot resumed in place, with the
+    // scenario's gait parameters).
     const yaml::Field list = params["gait"]["velocity_schedule"];
     if (list.present() && list.expect_list()) {
       for (std::size_t i = 0; i < list.size(); ++i) {
         const yaml::Field e = list[i];
-        if (!e.allow_only({"at_s", "velocity"})) continue;
-        VelocityChange change{0.0, Vec3::Zero()};
+        if (!e.allow_only({"at_s", "velocity", "gait"})) continue;
+        ScheduledRequest change{0.0, {}};
         if (e["at_s"].require()) e["at_s"].number(change.at_s, 0.0, 1e6);  // as hand_trajectory's: no default
-        gait::TrotParams v = cp.gait.trot;
-        if (e["velocity"].require()) (void)params::read_walking_velocity(e["velocity"], v);
-        change.velocity = Vec3(v.velocity_x_m_s, v.velocity_y_m_s, v.yaw_rate_rad_s);
+        if (e["velocity"].present() == e["gait"].present()) {
+          e.fail("needs velocity or gait (one of them)");
+        } else if (e["velocity"].present()) {
+          gait::TrotParams v = cp.gait.trot;
+          (void)params::read_walking_velocity(e["velocity"], v);
+          change.request.kind = app::ControllerRequest::Kind::walk;
+          change.request.velocity = {v.velocity_x_m_s, v.velocity_y_m_s, v.yaw_rate_rad_s};
+        } else if (int kind = 0; e["gait"].choice(kind, {"stand", "trot"})) {
+          change.request.kind = app::ControllerRequest::Kind::gait;
+          change.request.gait.kind = kind == 0 ? control::GaitKind::stand : control::GaitKind::trot;
+          change.request.gait.trot = cp.gait.trot;
+          change.request.gait.trot.velocity_x_m_s = change.request.gait.trot.velocity_y_m_s =
+              change.request.gait.trot.yaw_rate_rad_s = 0.0;
+        }
         if (!velocity_schedule_.empty() && change.at_s <= velocity_schedule_.back().at_s) {
           e["at_s"].fail("must be after the previous change's");
         }
@@ -234,12 +247,10 @@ bool WbcAdapter::tick(sim::BulletRobot& robot, std::int64_t k) noexcept {
   }
   while (next_velocity_change_ < velocity_schedule_.size() &&
          t_s + 0.5 * dt_s_ >= velocity_schedule_[next_velocity_change_].at_s) {
-    app::OperatorRequest walk;
-    walk.for_controller = true;
-    walk.request.kind = app::ControllerRequest::Kind::walk;
-    const Vec3& v = velocity_schedule_[next_velocity_change_++].velocity;
-    walk.request.velocity = {v.x(), v.y(), v.z()};
-    post(walk);
+    app::OperatorRequest change;
+    change.for_controller = true;
+    change.request = velocity_schedule_[next_velocity_change_++].request;
+    post(change);
   }
   truth_before_step_pose_ = truth.q.head<7>();
   truth_before_step_v_ = truth.v.head<3>();

@@ -99,12 +99,12 @@ class WbcAdapter final : public Controller {
   Vec3 chirp_axis_ = Vec3::UnitX();
   bool use_estimator_ = false;                      // state_source: estimated (false: truth)
   bool trot_ = false;
-  // controller.params.gait.velocity_schedule: at at_s, request_velocity(velocity).
-  struct VelocityChange {
+  // controller.params.gait.velocity_schedule: at at_s, the operator's walk or gait request.
+  struct ScheduledRequest {
     double at_s;
-    Vec3 velocity;
+    app::ControllerRequest request;
   };
-  std::vector<VelocityChange> velocity_schedule_;
+  std::vector<ScheduledRequest> velocity_schedule_;
   std::size_t next_velocity_change_ = 0;
   // The trunk's velocity in its horizontal frame [x, y, yaw rate], control ticks (gait.mean_velocity).
   std::vector<Vec3> trunk_velocity_h_;
