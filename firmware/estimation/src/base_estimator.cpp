@@ -83,13 +83,16 @@ Vec3 BaseEstimator::leg_odometry_velocity(int foot, const Mat3& rot_wb, const Ve
                                           const VecNj& qd) const noexcept {
   // At the identity base pose the foot Jacobian's base columns are [I, -[p_f]x] and its
   // joint columns give the centre's velocity in trunk axes.
-  const Mat3Nv& jac = data_.J_feet[foot];
-  const int first = leg_first_joint(foot);
-  Vec3 centre = jac.block<3, 3>(0, 3) * omega_b + jac.block<3, kLegJoints>(0, 6 + first) * qd.segment<kLegJoints>(first);
-  const Vec3 omega_shin = shin_angular_velocity_b(foot, omega_b, qd);
   const Vec3 down_b = -rot_wb.row(2).transpose();
-  const Vec3 contact = centre + omega_shin.cross(params_.foot_radius_m * down_b);
-  return -contact;  // v_B + contact-point velocity relative to the trunk origin = 0
+  const Vec3 trunk_part = data_.J_feet[foot].block<3, 3>(0, 3) * omega_b + omega_b.cross(params_.foot_radius_m * down_b);
+  return -(trunk_part + leg_contact_velocity_b(foot, down_b, qd));  // v_B + the contact point's velocity = 0
+}
+
+// rt: no alloc
+Vec3 BaseEstimator::leg_contact_velocity_b(int foot, const Vec3& down_b, const VecNj& qd) const noexcept {
+  const int first = leg_first_joint(foot);
+  return data_.J_feet[foot].block<3, kLegJoints>(0, 6 + first) * qd.segment<kLegJoints>(first) +
+         shin_angular_velocity_b(foot, Vec3::Zero(), qd).cross(params_.foot_radius_m * down_b);
 }
 
 bool BaseEstimator::measurement_ok(const hal::Measurements& m) const noexcept {
@@ -282,21 +285,18 @@ void BaseEstimator::rebase_tilt_integrals(double block_s) noexcept {
 void BaseEstimator::ekf_feet(const hal::Measurements& m, const Stance& stance, const Mat3& rot_wb,
                              const Vec3& omega_b, FootMeasurements& feet) const noexcept {
   const Vec3 joint_std = Vec3::Constant(params_.encoder_std_rad);
+  const Vec3 down_b = -rot_wb.row(2).transpose();
   for (int f = 0; f < kFeet; ++f) {
     FootMeasurement& fm = feet[static_cast<std::size_t>(f)];
     fm.contact = stance[f];
     fm.contact_point_b_m = contact_point_b(f, rot_wb);
-    const int first = leg_first_joint(f);
-    fm.covariance_b_m2 =
-        contact_point_covariance_b(data_.J_feet[f].block<3, kLegJoints>(0, 6 + first), joint_std, params_.kinematics_std_m);
+    const auto leg_jacobian = data_.J_feet[f].block<3, kLegJoints>(0, 6 + leg_first_joint(f));
+    fm.covariance_b_m2 = contact_point_covariance_b(leg_jacobian, joint_std, params_.kinematics_std_m);
     const Vec3 omega_shin_w = rot_wb * shin_angular_velocity_b(f, omega_b, m.qd_rad_s);
     fm.anchor_velocity_w_m_s = omega_shin_w.cross(Vec3(0.0, 0.0, params_.foot_radius_m));
-    // Leg odometry's joint part (leg_odometry_velocity without the trunk's rate: the EKF adds w x s).
-    const auto leg_jacobian = data_.J_feet[f].block<3, kLegJoints>(0, 6 + first);
-    const Vec3 down_b = -rot_wb.row(2).transpose();
+    // Leg odometry's joint part (the EKF adds the trunk's rate, w x s).
     fm.velocity_valid = true;
-    fm.velocity_b_m_s = leg_jacobian * m.qd_rad_s.segment<kLegJoints>(first) +
-                        shin_angular_velocity_b(f, Vec3::Zero(), m.qd_rad_s).cross(params_.foot_radius_m * down_b);
+    fm.velocity_b_m_s = leg_contact_velocity_b(f, down_b, m.qd_rad_s);
     fm.velocity_covariance_b_m2_s2 =
         contact_point_covariance_b(leg_jacobian, Vec3::Constant(params_.encoder_rate_std_rad_s), 0.0);
   }

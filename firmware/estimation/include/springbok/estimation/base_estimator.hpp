@@ -153,6 +153,10 @@ class BaseEstimator {
   // orientation, its angular rate (trunk frame) and the joint state: leg odometry,
   // exposed for tests. Uses the kinematics last computed by kinematics(). rt: no alloc
   Vec3 leg_odometry_velocity(int foot, const Mat3& rot_wb, const Vec3& omega_b, const VecNj& qd) const noexcept;
+  // The joint rates' part of a stance foot's contact-point velocity relative to the trunk,
+  // trunk axes: the leg Jacobian's and the lower leg's turn about the sphere's contact (down_b:
+  // world down in trunk axes; after kinematics()). rt: no alloc
+  Vec3 leg_contact_velocity_b(int foot, const Vec3& down_b, const VecNj& qd) const noexcept;
   // Angular velocity of a foot's lower leg, trunk axes (after kinematics()). rt: no alloc
   Vec3 shin_angular_velocity_b(int foot, const Vec3& omega_b, const VecNj& qd) const noexcept;
   // Foot kinematics at the identity base pose for joint angles q. rt: no alloc
