@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -24,6 +25,7 @@
 
 #include "springbok/dynamics/dynamics.hpp"
 #include "springbok/model/model.hpp"
+#include "template_oracle.hpp"
 
 namespace springbok::can::hil {
 
@@ -189,10 +191,11 @@ inline StandUp stand_up(Firmware& fw, const std::string& socket_path, const std:
 }
 
 // The trace over [from_s, to_s]: the trunk's height range (and over [settled_from_s, to_s]), the
-// largest tilt, the samples with a non-foot contact.
+// largest tilt, the samples with a non-foot contact, the feet that left the ground.
 struct Standing {
   int samples = 0, non_foot = 0;
   double z_min = 1e9, z_max = -1e9, z_min_settled = 1e9, z_max_settled = -1e9, tilt_max = 0.0;
+  std::array<bool, kFeet> lifted{};
 };
 inline Standing standing(const std::vector<TruthSample>& trace, double from_s, double to_s, double settled_from_s) {
   Standing s;
@@ -203,12 +206,73 @@ inline Standing standing(const std::vector<TruthSample>& trace, double from_s, d
     s.z_max = std::max(s.z_max, t.trunk_z_m);
     s.tilt_max = std::max(s.tilt_max, t.tilt_rad);
     s.non_foot += t.non_foot_contact;
+    for (int f = 0; f < kFeet; ++f) s.lifted[static_cast<std::size_t>(f)] |= (t.foot_contacts & (1 << f)) == 0;
     if (t.t_s >= settled_from_s) {
       s.z_min_settled = std::min(s.z_min_settled, t.trunk_z_m);
       s.z_max_settled = std::max(s.z_max_settled, t.trunk_z_m);
     }
   }
   return s;
+}
+
+// The operator's path to the control mode: start (the stand-up), stand within `stand_up_s`
+// simulated seconds, the wrist F/T tared, mode control. Returns the simulated time control was
+// entered (< 0: it was not, and `why` says what stopped it).
+inline double enter_control(Firmware& fw, const std::string& socket_path, const std::string& truth, double stand_up_s,
+                            double wall_per_sim_s, std::string& why) {
+  std::string reply;
+  if (!wait_for(fw, 120.0, [&] { return !(reply = operator_line(socket_path, "start")).empty(); })) {
+    why = "no operator socket";
+    return -1.0;
+  }
+  if (reply.rfind("ok start", 0) != 0) {
+    why = reply;
+    return -1.0;
+  }
+  if (!wait_for(fw, (stand_up_s + 1.0) * wall_per_sim_s, [&] {
+        reply = operator_line(socket_path, "status");
+        return reply.find("mode=stand ") != std::string::npos || reply.find("mode=damping") != std::string::npos;
+      }) ||
+      reply.find("mode=stand ") == std::string::npos) {
+    why = "no stand: " + reply;
+    return -1.0;
+  }
+  if (!wait_for(fw, 2.0 * wall_per_sim_s, [&] {
+        reply = operator_line(socket_path, "controller");
+        return reply.find("tare=done") != std::string::npos;
+      })) {
+    why = "no tare: " + reply;
+    return -1.0;
+  }
+  reply = operator_line(socket_path, "mode control");
+  if (reply.rfind("ok mode control", 0) != 0) {
+    why = reply;
+    return -1.0;
+  }
+  return truth_time(truth);
+}
+
+// A push along x at the hand over [start_s, end_s], scored against the template driven by the
+// force on the hand (what the tared F/T measures), integrated from rest at the push's start;
+// the trunk's and the hand's displacements from their means over the 0.1 s before it.
+// `samples` 0: the trace holds no pose before the push.
+inline test::PushScore score_push(const std::vector<TruthSample>& trace, const test::TemplateAxis& axis, double start_s,
+                                  double end_s) {
+  test::PushScore score(axis, start_s, end_s, 0.5);
+  double base0 = 0.0, hand0 = 0.0;
+  int n0 = 0;
+  for (const TruthSample& t : trace) {
+    if (t.t_s >= start_s - 0.1 && t.t_s < start_s) {
+      base0 += t.trunk_x_m;
+      hand0 += t.hand_m.x();
+      ++n0;
+    }
+  }
+  if (n0 < 50) return score;
+  base0 /= n0;
+  hand0 /= n0;
+  for (const TruthSample& t : trace) score.add(t.t_s, t.hand_force_n.x(), t.trunk_x_m - base0, t.hand_m.x() - hand0);
+  return score;
 }
 
 }  // namespace springbok::can::hil

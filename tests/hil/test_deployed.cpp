@@ -214,41 +214,6 @@ double reply_number(const std::string& reply, const std::string& key, int axis =
   return std::strtod(reply.c_str() + at, nullptr);
 }
 
-// The operator's path to the control mode: start (stand-up from the crouch), stand, the wrist
-// F/T tared, mode control. Returns the simulated time control was entered (< 0: it was not).
-double enter_control(Firmware& fw, const std::string& truth, double wall_per_sim_s, std::string& why) {
-  std::string reply;
-  if (!wait_for(fw, 120.0, [&] { return !(reply = operator_line(kWbcSocket, "start")).empty(); })) {
-    why = "no operator socket";
-    return -1.0;
-  }
-  if (reply.rfind("ok start", 0) != 0) {
-    why = reply;
-    return -1.0;
-  }
-  if (!wait_for(fw, 4.0 * wall_per_sim_s, [&] {
-        reply = operator_line(kWbcSocket, "status");
-        return reply.find("mode=stand ") != std::string::npos || reply.find("mode=damping") != std::string::npos;
-      }) ||
-      reply.find("mode=stand ") == std::string::npos) {
-    why = "no stand: " + reply;
-    return -1.0;
-  }
-  if (!wait_for(fw, 2.0 * wall_per_sim_s, [&] {
-        reply = operator_line(kWbcSocket, "controller");
-        return reply.find("tare=done") != std::string::npos;
-      })) {
-    why = "no tare: " + reply;
-    return -1.0;
-  }
-  reply = operator_line(kWbcSocket, "mode control");
-  if (reply.rfind("ok mode control", 0) != 0) {
-    why = reply;
-    return -1.0;
-  }
-  return truth_time(truth);
-}
-
 // The host's damping (CAN.md 4.4: kd = D in the drives, no target).
 bool damps(char command) { return command == 'd'; }
 
@@ -300,7 +265,7 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
   const auto wall_start = std::chrono::steady_clock::now();
   Firmware fw(kWbcConfig, time_scale);
   std::string why;
-  const double t_control_s = enter_control(fw, truth, wall_per_sim_s, why);
+  const double t_control_s = enter_control(fw, kWbcSocket, truth, config.stand_up_duration_s, wall_per_sim_s, why);
   ASSERT_GE(t_control_s, 0.0) << why << "\n" << fw.stop();
   ASSERT_LT(t_control_s, kBurstAt / 1000.0 - 0.1) << "the control mode must be on before the IMU burst and the push";
 
@@ -347,23 +312,9 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
   EXPECT_EQ(first_actuating, 'd');
   EXPECT_EQ(zero_torque_steps, 0);
 
-  // 1: the push, rendered. Displacements from the pose just before it; the template driven by
-  // the force on the hand (what the tared F/T measures), integrated here from rest.
-  springbok::test::PushScore score(springbok::test::template_axis_x(config.control.wbc.template_params), kPushStart_s,
-                                   kPushEnd_s, 0.5);
-  double base0 = 0.0, hand0 = 0.0;
-  int n0 = 0;
-  for (const TruthSample& t : samples) {
-    if (t.t_s >= kPushStart_s - 0.1 && t.t_s < kPushStart_s) {
-      base0 += t.trunk_x_m;
-      hand0 += t.hand_m.x();
-      ++n0;
-    }
-  }
-  ASSERT_GT(n0, 50);
-  base0 /= n0;
-  hand0 /= n0;
-  for (const TruthSample& t : samples) score.add(t.t_s, t.hand_force_n.x(), t.trunk_x_m - base0, t.hand_m.x() - hand0);
+  // 1: the push, rendered.
+  const springbok::test::PushScore score =
+      score_push(samples, springbok::test::template_axis_x(config.control.wbc.template_params), kPushStart_s, kPushEnd_s);
   ASSERT_GT(score.samples(), 3000);
   ASSERT_GT(score.end_samples(), 400);
   const double nrmse_b = score.nrmse_base(), nrmse_e = score.nrmse_hand();
@@ -371,16 +322,10 @@ TEST(Hil, DeployedWholeBodyControllerRendersTheTemplateThenTrots) {
   const double fk_b = score.static_base_m(kForce_n), fk_e = score.static_hand_m(kForce_n);
 
   // 2: the trot, from the emulator's ground truth.
-  std::array<bool, kFeet> lifted{};
-  int non_foot = 0;
-  double z_min = 1e9, tilt_max = 0.0;
-  for (const TruthSample& t : samples) {
-    if (t.t_s < t_trot_s || t.t_s > kTrotUntil_s) continue;
-    for (int f = 0; f < kFeet; ++f) lifted[f] = lifted[f] || (t.foot_contacts & (1 << f)) == 0;
-    non_foot += t.non_foot_contact;
-    z_min = std::min(z_min, t.trunk_z_m);
-    tilt_max = std::max(tilt_max, t.tilt_rad);
-  }
+  const Standing trotting = standing(samples, t_trot_s, kTrotUntil_s, t_trot_s);
+  const std::array<bool, kFeet>& lifted = trotting.lifted;
+  const int non_foot = trotting.non_foot;
+  const double z_min = trotting.z_min, tilt_max = trotting.tilt_max;
   // 3: the streak of corrupt quaternions: damping within stale_ticks + kDampingSlackTicks steps of its first sample.
   const unsigned long long damped_at = first_damping_step(samples, kStreakAt);
 
@@ -441,7 +386,7 @@ void expect_sensor_loss_damps(const std::string& fault_yaml, unsigned long long 
   ::unlink(kWbcSocket.c_str());
   Firmware fw(kWbcConfig, time_scale);
   std::string why;
-  const double t_control_s = enter_control(fw, truth, wall_per_sim_s, why);
+  const double t_control_s = enter_control(fw, kWbcSocket, truth, wbc_hil_config().stand_up_duration_s, wall_per_sim_s, why);
   ASSERT_GE(t_control_s, 0.0) << why << "\n" << fw.stop();
   ASSERT_LT(t_control_s, fault_at / 1000.0 - 0.2) << "the control mode must be on before the fault";
   ASSERT_TRUE(wait_for(fw, (fault_at / 1000.0 - t_control_s + 0.5) * wall_per_sim_s,
@@ -539,7 +484,7 @@ TEST(Hil, DeployedWholeBodyControllerStartsDampedAndRejectsCorruptQuaternions) {
   ::unlink(kWbcSocket.c_str());
   Firmware fw(kWbcConfig, time_scale);
   std::string why;
-  const double t_control_s = enter_control(fw, truth, wall_per_sim_s, why);
+  const double t_control_s = enter_control(fw, kWbcSocket, truth, wbc_hil_config().stand_up_duration_s, wall_per_sim_s, why);
   ASSERT_GE(t_control_s, 0.0) << why << "\n" << fw.stop();
   ASSERT_LT(t_control_s, kBurstAt / 1000.0 - 0.2) << "the control mode must be on before the burst";
   ASSERT_TRUE(wait_for(fw, (kStreakAt / 1000.0 - t_control_s + 0.5) * wall_per_sim_s,
