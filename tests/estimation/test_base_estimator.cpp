@@ -360,18 +360,18 @@ TEST(BaseEstimator, WithoutStanceTheImuAlonePredicts) {
   EXPECT_NEAR(estimator.estimate().q[2], z0 - kGravity_m_s2 * 1e-6 * 100 * 101 / 2, 1e-12);
 }
 
-// Step 5 (position-aided tilt). The IMU, mounted upside down as on the robot, reports a q_w
-// 0.0018 off (what the CAN IMU loses: its q_w is not on the wire), a 3.6 mrad tilt the trunk
-// does not have, while its accelerometer measures the true specific force; the trunk sways
-// along x and y over four still, rolling feet with 0.5 m/s^2 (the tilt an accelerometer-only
-// estimate would see: 50 mrad). With the aid on, the tilt error goes below 0.1 mrad within
-// 30 s (the base's acceleration cancels); off, it stays where the IMU put it.
+// The case the complementary filter's position-aided tilt (retired) was for, which the EKF
+// covers: the IMU, mounted upside down as on the robot, reports a q_w 0.0018 off (what the CAN
+// IMU loses: its q_w is not on the wire), a 3.6 mrad tilt the trunk does not have, while its gyro
+// and accelerometer measure the true rate and specific force; the trunk sways along x and y over
+// four still, rolling feet with 0.5 m/s^2 (the tilt an accelerometer-only estimate would see:
+// 50 mrad). The EKF starts from the reported orientation and takes the tilt error below 0.1 mrad
+// within 30 s (the base's acceleration is what the feet's kinematics see); the complementary
+// filter keeps the IMU's.
 struct SwayResult {
   double tilt_error_rad = -1.0;    // estimate against truth at the end (< 0: the reset failed)
   double reported_error_rad = 0.0;  // what the IMU's q_w error alone makes of it
   std::size_t allocations = 0;
-  double force_integral_m = 0.0;    // the aid's doubly integrated specific force at the end
-  VecNq q = VecNq::Zero();          // the estimate at the end
 };
 
 double tilt_between(const Mat3& a, const Mat3& b) {
@@ -379,7 +379,7 @@ double tilt_between(const Mat3& a, const Mat3& b) {
   return std::asin(std::min(1.0, up_a.cross(up_b).norm()));
 }
 
-SwayResult sway(double tilt_gain_per_s, double rebase_s = 60.0, double accel_bias_m_s2 = 0.0) {
+SwayResult sway(est::BaseFilter filter) {
   SwayResult out;
   const dyn::Model model;
   auto data = std::make_unique<dyn::Data>();
@@ -390,15 +390,13 @@ SwayResult sway(double tilt_gain_per_s, double rebase_s = 60.0, double accel_bia
   dyn::forward_kinematics(model, *data, q);
   for (int f : kFootFrames) ground += (data->frames[f].translation.z() - kFootRadius_m) / kFeet;
   est::EstimatorParams params = complementary();
+  params.filter = filter;
   params.ground_height_m = ground;
-  params.tilt_gain_per_s = tilt_gain_per_s;
-  params.tilt_window_s = 0.3;
-  params.tilt_rebase_s = rebase_s;
   est::BaseEstimator estimator(params);
   const auto sensed = [&](const VecNq& qt, const VecNv& v, const Vec3& accel_w) {
     hal::Measurements m = measure(model, *data, qt, v);
     const Mat3 r_wi = data->frames[kImuFrame].rotation;
-    m.imu.linear_accel_m_s2 = r_wi.transpose() * (accel_w + Vec3(0, 0, kGravity_m_s2)) + Vec3::Constant(accel_bias_m_s2);
+    m.imu.linear_accel_m_s2 = r_wi.transpose() * (accel_w + Vec3(0, 0, kGravity_m_s2));
     Quat reported(r_wi);
     if (reported.w() < 0.0) reported.coeffs() = -reported.coeffs();
     reported.w() += 0.0018;
@@ -432,42 +430,20 @@ SwayResult sway(double tilt_gain_per_s, double rebase_s = 60.0, double accel_bia
     q = integrate(q, v, dt);
   }
   out.allocations = trap.disarm();
-  out.force_integral_m = estimator.tilt_force_integral_m();
   const VecNq& e = estimator.estimate().q;
-  out.q = e;
   out.tilt_error_rad = tilt_between(Quat(e[6], e[3], e[4], e[5]).toRotationMatrix(), Quat(q[6], q[3], q[4], q[5]).toRotationMatrix());
   return out;
 }
 
-TEST(BaseEstimator, PositionAidedTiltRemovesTheImusTiltErrorWhileTheTrunkAccelerates) {
-  const SwayResult aided = sway(1.0), off = sway(0.0);
-  std::printf("tilt error after 30 s of sway: aided %.2e rad, off %.2e rad (the IMU's q_w error: %.2e rad)\n",
-              aided.tilt_error_rad, off.tilt_error_rad, aided.reported_error_rad);
-  ASSERT_GE(aided.tilt_error_rad, 0.0) << "reset failed";
-  EXPECT_GT(aided.reported_error_rad, 3e-3);
-  EXPECT_LT(aided.tilt_error_rad, 1e-4);
-  EXPECT_EQ(aided.allocations, 0u);
-  EXPECT_NEAR(off.tilt_error_rad, off.reported_error_rad, 1e-4);
-}
-
-// The aid's double integrals restart from zero every tilt_rebase_s, and the stored window
-// loses the same line in time, which no second difference sees: with an accelerometer
-// bias of 0.05 m/s^2 (the integrals grow as b t^2 / 2: 22 m after 30 s) the estimate is the
-// same, to rounding, rebased every 0.25 s as never (the default 60 s, past the run's end),
-// while the integral stays within a quarter second's growth. A rebase that got the line's
-// slope or the entries' ages wrong moves the tilt by the window's 1e-3 rad and more.
-TEST(BaseEstimator, TheTiltAidsIntegralsRestartWithoutChangingTheEstimate) {
-  const SwayResult kept = sway(1.0, 60.0, 0.05), rebased = sway(1.0, 0.25, 0.05);
-  std::printf("biased sway, 30 s: tilt error %.3e rad never rebased, %.3e rad rebased every 0.25 s; |integral| %.2f m, %.4f m; "
-              "estimates apart by %.2e\n",
-              kept.tilt_error_rad, rebased.tilt_error_rad, kept.force_integral_m, rebased.force_integral_m,
-              (kept.q - rebased.q).cwiseAbs().maxCoeff());
-  ASSERT_GE(kept.tilt_error_rad, 0.0) << "reset failed";
-  EXPECT_GT(kept.force_integral_m, 10.0);
-  EXPECT_LT(rebased.force_integral_m, 0.1);
-  EXPECT_NEAR(rebased.tilt_error_rad, kept.tilt_error_rad, 1e-9);
-  EXPECT_LT((kept.q - rebased.q).cwiseAbs().maxCoeff(), 1e-9);
-  EXPECT_EQ(rebased.allocations, 0u);
+TEST(BaseEstimator, TheEkfRemovesTheUpsideDownCanImusTiltErrorWhileTheTrunkAccelerates) {
+  const SwayResult ekf = sway(est::BaseFilter::ekf), complementary = sway(est::BaseFilter::complementary);
+  std::printf("tilt error after 30 s of sway: ekf %.2e rad, complementary %.2e rad (the IMU's q_w error: %.2e rad)\n",
+              ekf.tilt_error_rad, complementary.tilt_error_rad, ekf.reported_error_rad);
+  ASSERT_GE(ekf.tilt_error_rad, 0.0) << "reset failed";
+  EXPECT_GT(ekf.reported_error_rad, 3e-3);
+  EXPECT_LT(ekf.tilt_error_rad, 1e-4);
+  EXPECT_EQ(ekf.allocations, 0u);
+  EXPECT_NEAR(complementary.tilt_error_rad, complementary.reported_error_rad, 1e-4);
 }
 
 }  // namespace

@@ -260,20 +260,16 @@ TEST(EstimatorConfig, ErrorsNameTheFieldAndGoodValuesLoad) {
       params::read_estimator_params(Field(YAML::Load("{filter: complementary, velocity_gain: 20, position_gain: 0}"), "estimator", errors));
   EXPECT_EQ(p.velocity_gain_per_s, 20.0);
   EXPECT_EQ(p.position_gain_per_s, 0.0);
-  EXPECT_EQ(p.tilt_gain_per_s, 0.0);  // off unless asked for
-  EXPECT_NE(error_of("{filter: complementary, tilt_gain: -0.5}").find("estimator.tilt_gain: must be in"), std::string::npos);
-  EXPECT_NE(error_of("{filter: complementary, tilt_window: 2}").find("estimator.tilt_window: must be in"), std::string::npos);  // the ring holds 1.2 s
-  const springbok::est::EstimatorParams tilt =
-      params::read_estimator_params(Field(YAML::Load("{filter: complementary, tilt_gain: 0.5, tilt_window: 0.4}"), "estimator", errors));
-  EXPECT_TRUE(errors.empty()) << errors.joined();
-  EXPECT_EQ(tilt.tilt_gain_per_s, 0.5);
-  EXPECT_EQ(tilt.tilt_window_s, 0.4);
+  // The position-aided tilt is retired: its keys are refused for either filter, saying so.
+  EXPECT_EQ(error_of("{filter: complementary, tilt_gain: 0.5}"),
+            "estimator.tilt_gain: retired with the complementary filter's tilt aid: use filter ekf (line 1)");
+  EXPECT_NE(error_of("{filter: ekf, tilt_window: 0.3}").find("estimator.tilt_window: retired"), std::string::npos);
   // filter: ekf, the default, with its own keys; a key of the other filter is refused, naming it.
   EXPECT_EQ(params::read_estimator_params(Field(YAML::Load("{}"), "estimator", errors)).filter,
             springbok::est::BaseFilter::ekf);
   EXPECT_EQ(error_of("{velocity_gain: 30}"),
             "estimator.velocity_gain: only for filter complementary (the filter is ekf, the default) (line 1)");
-  EXPECT_NE(error_of("{filter: ekf, tilt_gain: 1}").find("estimator.tilt_gain: only for filter complementary"),
+  EXPECT_NE(error_of("{filter: ekf, position_gain: 1}").find("estimator.position_gain: only for filter complementary"),
             std::string::npos);
   EXPECT_NE(error_of("{filter: complementary, ekf: {slip_gate_chi2: 20}}").find("estimator.ekf: only for filter ekf"),
             std::string::npos);

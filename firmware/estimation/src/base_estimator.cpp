@@ -132,10 +132,6 @@ EstimateStatus BaseEstimator::reset(const hal::Measurements& m, const Stance& st
   }
   stance_prev_ = stance;
   reset_ = true;
-  tilt_correction_.setIdentity();
-  turned_rad_ = 0.0;
-  turn_axis_.setZero();
-  restart_tilt_window();  // and the integrals from zero
   write_state(m, rot, trunk_angular_rate(m.imu.angular_rate_rad_s));
   out_.status = EstimateStatus::ok;
   return out_.status;
@@ -150,18 +146,17 @@ const BaseEstimate& BaseEstimator::update(const hal::Measurements& m, const Stan
   }
   if (!measurement_ok(m) || !(dt_s > 0.0 && dt_s < 1.0)) {
     out_.status = EstimateStatus::bad_input;  // hold the last estimate
-    restart_tilt_window();
     return out_;
   }
-  const Mat3 rot = tilt_correction_ * trunk_rotation(m.imu.orientation);
+  const Mat3 rot = trunk_rotation(m.imu.orientation);
   const Vec3 omega_b = trunk_angular_rate(m.imu.angular_rate_rad_s);
   kinematics(m.q_rad);
 
   // Prediction: the IMU's acceleration, moved from the IMU to the trunk origin
   // (centripetal term; the angular-acceleration term is left to the correction).
   const dyn::Placement& imu = model_.frame_placement[kImuFrame];
-  const Vec3 specific_force_w = rot * (imu.rotation * m.imu.linear_accel_m_s2);  // also step 5's
   if (params_.use_accelerometer) {
+    const Vec3 specific_force_w = rot * (imu.rotation * m.imu.linear_accel_m_s2);
     const Vec3 accel_imu_w = specific_force_w + model_.gravity_world_m_s2;
     const Vec3 centripetal_w = rot * omega_b.cross(omega_b.cross(imu.translation));
     velocity_w_ += dt_s * (accel_imu_w - centripetal_w);
@@ -202,81 +197,8 @@ const BaseEstimate& BaseEstimator::update(const hal::Measurements& m, const Stan
     position_w_ += dt_s * velocity_w_;
     out_.status = EstimateStatus::no_stance;
   }
-  if (params_.tilt_gain_per_s > 0.0) aid_tilt(m, rot, specific_force_w, feet, anchored_w, dt_s);
   write_state(m, rot, omega_b);
   return out_;
-}
-
-// rt: no alloc, no block
-void BaseEstimator::aid_tilt(const hal::Measurements& m, const Mat3& rot, const Vec3& specific_force_w, int feet,
-                             const Vec3& anchored_w, double dt_s) noexcept {
-  const dyn::Placement& imu = model_.frame_placement[kImuFrame];
-  const Eigen::Vector2d force_w = specific_force_w.head<2>();  // + g: g has no x, y
-  force_twice_ += dt_s * (force_once_ + 0.5 * dt_s * force_w);  // exact for a force constant over the tick
-  force_once_ += dt_s * force_w;
-  turned_twice_ += dt_s * (turned_once_ + 0.5 * dt_s * turned_rad_);
-  turned_once_ += dt_s * turned_rad_;
-  if (++tilt_ticks_ == kTiltBlockTicks) {
-    tilt_ticks_ = 0;
-    if (feet == 0) {
-      restart_tilt_window();
-    } else {
-      tilt_head_ = (tilt_head_ + 1) % kTiltRing;
-      ring_position_[tilt_head_] = (anchored_w + rot * imu.translation).head<2>();  // the IMU's, from the feet
-      ring_force_twice_[tilt_head_] = force_twice_;
-      ring_turned_twice_[tilt_head_] = turned_twice_;
-      tilt_entries_ = std::min(tilt_entries_ + 1, kTiltRing);
-      const double block_s = kTiltBlockTicks * dt_s;
-      const int lag = std::clamp(static_cast<int>(std::lround(params_.tilt_window_s / block_s)), 1, (kTiltRing - 1) / 2);
-      if (tilt_entries_ > 2 * lag) {
-        const int mid = (tilt_head_ - lag + kTiltRing) % kTiltRing, old = (tilt_head_ - 2 * lag + 2 * kTiltRing) % kTiltRing;
-        const Eigen::Vector2d moved = ring_position_[tilt_head_] - 2.0 * ring_position_[mid] + ring_position_[old];
-        const Eigen::Vector2d forced = ring_force_twice_[tilt_head_] - 2.0 * ring_force_twice_[mid] + ring_force_twice_[old];
-        const double window_s = lag * block_s;
-        const Eigen::Vector2d diff = (moved - forced) / (kGravity_m_s2 * window_s * window_s);
-        tilt_error_ = Vec3(diff.y(), -diff.x(), 0.0);
-        const double turned_mean_rad =
-            (ring_turned_twice_[tilt_head_] - 2.0 * ring_turned_twice_[mid] + ring_turned_twice_[old]) / (window_s * window_s);
-        turned_since_rad_ = turned_rad_ - turned_mean_rad;
-      }
-      // The integrals from zero every tilt_rebase_s (the next second differences unchanged).
-      const double rebase_s = params_.tilt_rebase_s > 0.0 ? params_.tilt_rebase_s : EstimatorParams{}.tilt_rebase_s;
-      if (++tilt_blocks_since_rebase_ >= std::max(1.0, std::round(rebase_s / block_s))) rebase_tilt_integrals(block_s);
-    }
-  }
-  if (tilt_entries_ == 0) return;
-  // The correction turns about the axis of the IMU's quaternion (world axes; the sign of q
-  // flips the axis and the angle together): a turn d about a unit axis u tilts the trunk by
-  // d u_h, so the error's angle is (e . u_h) / |u_h|^2.
-  const Vec3 axis = m.imu.orientation.vec();
-  const double axis_norm = axis.norm();
-  if (!(axis_norm > 1e-3)) return;
-  Vec3 u = axis / axis_norm;
-  if (u.dot(turn_axis_) < 0.0) u = -u;  // the angles turned so far are about this sign of the axis
-  turn_axis_ = u;
-  const double horizontal2 = u.x() * u.x() + u.y() * u.y();
-  if (horizontal2 < 0.75) return;  // an axis over 30 degrees from horizontal: the tilt says little about that angle
-  const double angle_error = (tilt_error_.x() * u.x() + tilt_error_.y() * u.y()) / horizontal2 + turned_since_rad_;
-  const double turn_rad = -std::min(1.0, params_.tilt_gain_per_s * dt_s) * angle_error;
-  turned_rad_ += turn_rad;
-  turned_since_rad_ += turn_rad;
-  const Vec3 step = turn_rad * u;
-  const double angle = step.norm();
-  if (angle > 0.0) tilt_correction_ = Eigen::AngleAxisd(angle, step / angle).toRotationMatrix() * tilt_correction_;
-}
-
-void BaseEstimator::rebase_tilt_integrals(double block_s) noexcept {
-  for (int age = 0; age < tilt_entries_; ++age) {  // the entry `age` blocks old, at t - age block_s
-    const int k = (tilt_head_ - age + kTiltRing) % kTiltRing;
-    const double before_s = age * block_s;
-    ring_force_twice_[k] -= force_twice_ - before_s * force_once_;
-    ring_turned_twice_[k] -= turned_twice_ - before_s * turned_once_;
-  }
-  force_once_.setZero();
-  force_twice_.setZero();
-  turned_once_ = 0.0;
-  turned_twice_ = 0.0;
-  tilt_blocks_since_rebase_ = 0;
 }
 
 // ---- filter ekf -------------------------------------------------------------------------

@@ -160,7 +160,12 @@ est::EstimatorParams read_estimator_params(const Field& f) {
   if (f["filter"].choice(filter, {"complementary", "ekf"})) p.filter = static_cast<est::BaseFilter>(filter);
   // Each filter's own keys: one given for the other filter would be ignored.
   const bool ekf = p.filter == est::BaseFilter::ekf;
-  for (const char* key : {"velocity_gain", "position_gain", "use_accelerometer", "tilt_gain", "tilt_window"}) {
+  // The complementary filter's position-aided tilt is retired: the EKF estimates the tilt from
+  // the raw IMU (the CAN IMU without q_w included).
+  for (const char* key : {"tilt_gain", "tilt_window"}) {
+    if (f[key].present()) f[key].fail("retired with the complementary filter's tilt aid: use filter ekf");
+  }
+  for (const char* key : {"velocity_gain", "position_gain", "use_accelerometer"}) {
     if (ekf && f[key].present()) f[key].fail("only for filter complementary (the filter is ekf, the default)");
   }
   if (!ekf && f["ekf"].present()) f["ekf"].fail("only for filter ekf (the filter is complementary)");
@@ -169,8 +174,6 @@ est::EstimatorParams read_estimator_params(const Field& f) {
   f["foot_radius"].number(p.foot_radius_m, 0.0, 0.5);
   f["ground_height"].number(p.ground_height_m, -1e3, 1e3);
   f["use_accelerometer"].boolean(p.use_accelerometer);
-  f["tilt_gain"].number(p.tilt_gain_per_s, 0.0, 10.0);
-  f["tilt_window"].number(p.tilt_window_s, 0.05, est::kMaxTiltWindow_s);
   // filter ekf: the IMU's datasheet quantities, the feet's, the slip gate, the ground, the priors.
   const Field e = f["ekf"];
   if (e.present()) {

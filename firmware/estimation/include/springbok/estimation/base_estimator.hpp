@@ -3,7 +3,7 @@
 // encoders, with the stance feet as the kinematic anchors.
 //
 // Two filters (EstimatorParams::filter): ekf, the default (below), and the complementary
-// filter of steps 1-5, whose tilt and yaw are the IMU's orientation output as reported.
+// filter of steps 1-4, whose tilt and yaw are the IMU's orientation output as reported.
 //
 // filter: complementary, one tick:
 //  1. orientation R_WB and angular rate w_B from the IMU through its mounting
@@ -19,38 +19,13 @@
 //     towards the one the stance feet's anchors imply (each foot's ground
 //     contact point in world, set when it touches down and then moved as the
 //     sphere rolls without slipping: d/dt anchor = w_shin x r z).
-//  5. optional (tilt_gain > 0), for an IMU whose orientation drifts in tilt (the CAN
-//     IMU mounted upside down: the trunk's pitch lies in q_w, which CAN.md 6.1 does
-//     not send, so the gyro's 1 mrad/s counts carry it): the trunk's tilt is aided
-//     by position. Over a window 2T the IMU's position moves by a triangle-weighted
-//     integral of its acceleration: p(t) - 2 p(t-T) + p(t-2T) = int w(s) a(s) ds,
-//     w peaking at T; the same weighted integral of the specific force rotated to
-//     world (+ g) differs from it by T^2 g x (the tilt error) (to first order), so
-//        tilt error ~ [m_y, -m_x] / (g T^2),  m = (second difference of the stance
-//        feet's position) - (second difference of the doubly integrated specific
-//        force), world axes,
-//     (every 10 ticks a new m). m is the window's weighted mean of the error, centred T
-//     ago: the correction applied since (its value now less its weighted mean over the
-//     same window) is added to it, so the loop does not wait for its own effect (a Smith
-//     predictor; in the twin it took the base's end position, pushes from 3 to 5 s, from
-//     29.7-30.4 mm to 29.8-30.2). Only the angle about the IMU quaternion's own axis
-//     is corrected, at tilt_gain [1/s]: that angle is what q_w carries (q_xyz on the
-//     wire fix the axis), so the tilt about the other horizontal axis stays the
-//     sensor's (an accelerometer's bias would otherwise pull it too); an axis more
-//     than 30 degrees from horizontal gets no aid. The base's acceleration cancels (a push, a
-//     trot), a jump of the kinematic position (a slip, a new anchor) integrates to
-//     zero over 2T, and a stretch without stance or with a bad measurement restarts
-//     the window. The double integrals grow as t^2 (with an accelerometer bias b, as
-//     b t^2 / 2), so every tilt_rebase_s they restart from zero and the window's stored
-//     values lose the same line in time (value and slope now): a second difference over
-//     equally spaced samples does not see a line, so the measurements go on unchanged
-//     while the integrals stay within a minute's growth (rounding would otherwise reach
-//     the measured tilt after some hundred hours). Off by default: a simulated IMU
-//     reports its orientation exactly.
+// Its tilt and yaw are the IMU's orientation output: for an IMU whose own filter is good (a
+// tactical-grade unit's AHRS). An IMU whose orientation drifts (the CAN IMU of CAN.md 6.1, which
+// sends no q_w) is filter ekf's case.
 // Without a stance foot the filter predicts from the IMU alone and says so.
 // A non-finite or invalid measurement holds the last estimate and reports it.
 //
-// filter: ekf (the default) replaces steps 1-5 with est::InertialKinematicEkf (inertial_kinematic_ekf.hpp:
+// filter: ekf (the default) replaces steps 1-4 with est::InertialKinematicEkf (inertial_kinematic_ekf.hpp:
 // the IMU's biases in its state, the raw gyro and specific force, each stance foot's contact
 // point as a measurement, a slipping foot rejected). This class gives it what it needs from
 // the robot: the IMU's mounting (robot::kFrame_trunk_imu), each foot's contact point from the
@@ -90,9 +65,6 @@ struct EstimatorParams {
   double foot_radius_m = kFootRadius_m;
   double ground_height_m = 0.0;       // world z of the ground under the feet at reset
   bool use_accelerometer = true;      // false: velocity = leg odometry alone
-  double tilt_gain_per_s = 0.0;       // 5.: position-aided tilt, 0 = off (the IMU's tilt as reported)
-  double tilt_window_s = 0.3;         // 5.: T, at most kMaxTiltWindow_s
-  double tilt_rebase_s = 60.0;        // 5.: the integrals restart from zero this often (> 0)
   // filter ekf: the filter's own parameters (its ground_height_m is set from ground_height_m
   // above) and the kinematics' noise for each contact point's covariance.
   EkfParams ekf;
@@ -100,7 +72,6 @@ struct EstimatorParams {
   double kinematics_std_m = 2e-3;  // what the kinematics do not know (where the sphere touches, flex)
   double encoder_rate_std_rad_s = 0.02;  // a joint rate's error (a differenced encoder's, a drive's filter)
 };
-inline constexpr double kMaxTiltWindow_s = 1.2;
 // The still time the start-up gyro calibration averages at most (the newest): the bias walks.
 inline constexpr double kCalibrationMemory_s = 60.0;  // the ring below holds 2 T at 10 ms per entry
 
@@ -145,10 +116,6 @@ class BaseEstimator {
   const InertialKinematicEkf& ekf() const noexcept { return ekf_; }
 
   const BaseEstimate& estimate() const noexcept { return out_; }
-  // Diagnostic: |the tilt aid's doubly integrated horizontal specific force| since its last
-  // rebase [m] (step 5).
-  double tilt_force_integral_m() const noexcept { return force_twice_.norm(); }
-
   // The trunk velocity (trunk frame) implied by one stance foot, given the trunk
   // orientation, its angular rate (trunk frame) and the joint state: leg odometry,
   // exposed for tests. Uses the kinematics last computed by kinematics(). rt: no alloc
@@ -170,22 +137,6 @@ class BaseEstimator {
 
  private:
   bool measurement_ok(const hal::Measurements& m) const noexcept;
-  // Step 5: one tick of the tilt aid (rot: the corrected orientation of this tick;
-  // specific_force_w: the IMU's specific force in world axes through it; anchored_w: the mean
-  // over the `feet` stance feet of their anchors' trunk position, unused without one).
-  // rt: no alloc
-  void aid_tilt(const hal::Measurements& m, const Mat3& rot, const Vec3& specific_force_w, int feet,
-                const Vec3& anchored_w, double dt_s) noexcept;
-  void restart_tilt_window() noexcept {
-    tilt_entries_ = 0;
-    tilt_ticks_ = 0;
-    tilt_error_.setZero();
-    turned_since_rad_ = 0.0;
-    rebase_tilt_integrals(0.0);  // nothing stored depends on them
-  }
-  // The integrals from zero; each stored value loses the line through the integrals' value
-  // and slope now (block_s: the entries' spacing).
-  void rebase_tilt_integrals(double block_s) noexcept;
   void write_state(const hal::Measurements& m, const Mat3& rot_wb, const Vec3& omega_b) noexcept;
   // filter ekf: reset() and update() through the EKF. rt: no alloc
   // reset()'s checks and start position done (rot_wb: the IMU's; position_w: the trunk above the feet).
@@ -205,22 +156,6 @@ class BaseEstimator {
   Vec3 velocity_w_ = Vec3::Zero();  // of the trunk origin
   Stance stance_prev_{};
   bool reset_ = false;
-  // Step 5. The correction rotates the IMU's trunk orientation (world axes, about the
-  // IMU quaternion's axis).
-  static constexpr int kTiltBlockTicks = 10;
-  static constexpr int kTiltRing = 256;  // > 2 kMaxTiltWindow_s / 10 ms
-  Mat3 tilt_correction_ = Mat3::Identity();
-  Eigen::Vector2d force_once_ = Eigen::Vector2d::Zero();   // x, y of the integral of R f + g
-  Eigen::Vector2d force_twice_ = Eigen::Vector2d::Zero();  // and of that integral
-  std::array<Eigen::Vector2d, kTiltRing> ring_position_{}, ring_force_twice_{};  // every 10 ticks
-  // The correction's angle about the quaternion's axis so far, its single and double
-  // integrals (the window's weighted mean of it, as of the force), and the part of it
-  // applied since the newest measurement's window (the predictor's term).
-  double turned_rad_ = 0.0, turned_once_ = 0.0, turned_twice_ = 0.0, turned_since_rad_ = 0.0;
-  std::array<double, kTiltRing> ring_turned_twice_{};
-  Vec3 turn_axis_ = Vec3::Zero();  // the last tick's, its sign kept (q and -q are one orientation)
-  int tilt_entries_ = 0, tilt_head_ = 0, tilt_ticks_ = 0, tilt_blocks_since_rebase_ = 0;
-  Vec3 tilt_error_ = Vec3::Zero();  // the newest window's, world axes (z 0)
 
   InertialKinematicEkf ekf_;  // filter ekf
   bool gyro_calibrated_ = false;
