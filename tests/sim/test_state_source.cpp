@@ -146,6 +146,26 @@ TEST(SimStateSource, TheCommandLineChoosesTheStateAndTheSensors) {
   EXPECT_LT(member(estimated, "estimator", "tilt_rms_error_mrad"), 2.0) << estimated;
   EXPECT_LT(member(estimated, "estimator", "velocity_rms_error_m_s"), 0.03) << estimated;
   EXPECT_LT(std::abs(member(estimated, "estimator", "yaw_drift_deg_per_min")), 2.0) << estimated;
+  // The log's per-tick errors are the summary's: the tilt's rms, the heading error's last change.
+  const std::vector<double> active = log_column(dir / "est" / "log.csv", "wbc_active");
+  const std::vector<double> tilt = log_column(dir / "est" / "log.csv", "estimate_tilt_error_rad");
+  const std::vector<double> yaw = log_column(dir / "est" / "log.csv", "estimate_yaw_drift_rad");
+  const std::vector<double> speed = log_column(dir / "est" / "log.csv", "estimate_velocity_error_m_s");
+  ASSERT_EQ(tilt.size(), active.size());
+  ASSERT_EQ(speed.size(), active.size());
+  double tilt_sq = 0.0, speed_sq = 0.0;
+  int ticks = 0;
+  for (std::size_t i = 0; i < active.size(); ++i) {
+    if (active[i] != 1.0) continue;
+    tilt_sq += tilt[i] * tilt[i];
+    speed_sq += speed[i] * speed[i];
+    ++ticks;
+  }
+  ASSERT_GT(ticks, 500);
+  EXPECT_NEAR(1e3 * std::sqrt(tilt_sq / ticks), member(estimated, "estimator", "tilt_rms_error_mrad"), 1e-3);
+  EXPECT_NEAR(std::sqrt(speed_sq / ticks), member(estimated, "estimator", "velocity_rms_error_m_s"), 1e-6);
+  EXPECT_NEAR(yaw.back() * 180.0 / M_PI / ((ticks - 1) * 1e-3 / 60.0),
+              member(estimated, "estimator", "yaw_drift_deg_per_min"), 1e-3);
   // Ideal sensors: the estimate is the truth to within what the filter's models leave.
   EXPECT_LT(member(truth, "estimator", "tilt_rms_error_mrad"), 0.1) << truth;
 

@@ -55,13 +55,20 @@ class EstimatorErrors {
     last_yaw_true_ = yaw_true;
     last_p_true_ = pose_true.head<2>();
     last_p_error_ = p_error;
-    velocity_sq_ += (velocity_est - velocity_true).squaredNorm();
+    last_velocity_error_m_s_ = (velocity_est - velocity_true).norm();
+    last_tilt_rad_ = tilt;
+    velocity_sq_ += last_velocity_error_m_s_ * last_velocity_error_m_s_;
     tilt_sq_ += tilt * tilt;
     position_max_m_ = std::max(position_max_m_, (pose_est.head<3>() - pose_true.head<3>()).norm());
     all_ok_ = all_ok_ && estimate_ok;
     duration_s_ += samples_ > 0 ? dt_s : 0.0;
     ++samples_;
   }
+
+  // The last tick's: |v_est - v_true|, the tilt error, the heading error's change since the first tick.
+  double velocity_error_m_s() const noexcept { return last_velocity_error_m_s_; }
+  double tilt_error_rad() const noexcept { return last_tilt_rad_; }
+  double yaw_drift_rad() const noexcept { return yaw_drift_; }
 
   double velocity_rms_m_s() const noexcept { return rms(velocity_sq_); }
   double tilt_rms_rad() const noexcept { return rms(tilt_sq_); }
@@ -105,7 +112,7 @@ class EstimatorErrors {
 
   std::uint64_t samples_ = 0;
   bool all_ok_ = true;
-  double velocity_sq_ = 0.0, tilt_sq_ = 0.0, position_max_m_ = 0.0;
+  double velocity_sq_ = 0.0, tilt_sq_ = 0.0, position_max_m_ = 0.0, last_velocity_error_m_s_ = 0.0, last_tilt_rad_ = 0.0;
   double last_yaw_error_ = 0.0, yaw_drift_ = 0.0, last_yaw_true_ = 0.0, yaw_rate_lp_ = 0.0;
   double yaw_drift_in_place_ = 0.0, in_place_s_ = 0.0, yaw_error_turning_ = 0.0, turned_rad_ = 0.0;
   Eigen::Vector2d first_p_error_ = Eigen::Vector2d::Zero(), last_p_error_ = Eigen::Vector2d::Zero();

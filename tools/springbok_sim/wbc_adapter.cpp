@@ -316,7 +316,7 @@ std::string WbcAdapter::csv_columns() const {
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",hand_rest_r{}_rad", a);
   h += ",arm_reference_saturated,arm_overloaded,hand_coupling_limited,support_limited,support_distance_m,capture_distance_m";
   for (const char* a : {"x", "y", "z"}) h += fmt::format(",unmeasured_f{}_n", a);
-  h += ",stepping_for_push";
+  h += ",stepping_for_push,estimate_velocity_error_m_s,estimate_tilt_error_rad,estimate_yaw_drift_rad";
   return h;
 }
 
@@ -444,6 +444,9 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   put(row, std::isfinite(o.capture_distance_m) ? o.capture_distance_m : -1.0);
   for (int a = 0; a < 3; ++a) put(row, controller().input().unmeasured_force_world_n[a]);
   row += controller().stepping_for_push() ? ",1" : ",0";
+  put(row, estimator_errors_.velocity_error_m_s());
+  put(row, estimator_errors_.tilt_error_rad());
+  put(row, estimator_errors_.yaw_drift_rad());
 }
 
 std::string WbcAdapter::summary_fields() const {
