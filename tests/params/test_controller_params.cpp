@@ -284,7 +284,7 @@ TEST(EstimatorConfig, ErrorsNameTheFieldAndGoodValuesLoad) {
   EXPECT_NE(error_of("{ekf: {encoder_rate_std: .nan}}").find("estimator.ekf.encoder_rate_std"), std::string::npos);
   const springbok::est::EstimatorParams ekf = params::read_estimator_params(
       Field(YAML::Load("{filter: ekf, ekf: {gyro_noise_density: 2.4e-4, slip_gate_chi2: 30, encoder_std: 1e-3, "
-                       "use_leg_velocity: false, encoder_rate_std: 0.05, leg_velocity_std: 0.02}}"),
+                       "use_leg_velocity: false, encoder_rate_std: 0.08, leg_velocity_std: 0.02}}"),
             "estimator", errors));
   EXPECT_TRUE(errors.empty()) << errors.joined();
   EXPECT_EQ(ekf.filter, springbok::est::BaseFilter::ekf);
@@ -292,7 +292,7 @@ TEST(EstimatorConfig, ErrorsNameTheFieldAndGoodValuesLoad) {
   EXPECT_EQ(ekf.ekf.slip_gate_chi2, 30.0);
   EXPECT_EQ(ekf.encoder_std_rad, 1e-3);
   EXPECT_FALSE(ekf.ekf.use_leg_velocity);
-  EXPECT_EQ(ekf.encoder_rate_std_rad_s, 0.05);
+  EXPECT_EQ(ekf.encoder_rate_std_rad_s, 0.08);
   EXPECT_EQ(ekf.ekf.leg_velocity_std_m_s, 0.02);
 }
 

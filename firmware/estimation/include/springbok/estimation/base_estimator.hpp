@@ -70,7 +70,11 @@ struct EstimatorParams {
   EkfParams ekf;
   double encoder_std_rad = 2e-4;   // a joint angle's error (the encoder's resolution, backlash)
   double kinematics_std_m = 2e-3;  // what the kinematics do not know (where the sphere touches, flex)
-  double encoder_rate_std_rad_s = 0.02;  // a joint rate's error (a differenced encoder's, a drive's filter)
+  // A joint rate's error (a differenced encoder's, a drive's filter). Above a differenced
+  // encoder's own per-sample std (its quantisation's): that error is the difference of two
+  // position errors, not white, and the contact point's too; weighted at its own std, the filter
+  // rectifies it into a heading drift (tools/scenarios/README.md).
+  double encoder_rate_std_rad_s = 0.05;
 };
 // The still time the start-up gyro calibration averages at most (the newest): the bias walks.
 inline constexpr double kCalibrationMemory_s = 60.0;  // the ring below holds 2 T at 10 ms per entry
