@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <ostream>
 #include <string>
 
 #include "cli_test_util.hpp"
@@ -22,6 +23,8 @@ struct SensorCase {
   const char* name;
   const char* sensors;  // the scenario's sim.sensors, flow style
 };
+
+void PrintTo(const SensorCase& c, std::ostream* os) { *os << c.name; }
 
 class HeldOutSensorErrors : public ::testing::TestWithParam<SensorCase> {};
 
