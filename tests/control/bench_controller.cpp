@@ -1,0 +1,84 @@
+// One control-mode tick of springbok::control::RobotController, as the firmware's loop calls it:
+// the base estimate (filter ekf, the default) from the IMU and the encoders, the dynamics, the
+// whole-body controller (tasks, QP, torques), the joint commands.
+//   BM_ControllerTick/estimated  the base from the estimator
+//   BM_ControllerTick/truth      the same tick with the base given (BaseTruth, the simulation
+//                                tool's ground-truth runs): no estimator
+// The difference of the two medians is the estimator's cost inside the tick. The robot stands
+// still on its four feet, its IMU and encoders with white noise (1024 precomputed ticks, cycled),
+// 50 N pushing the hand. Once per instruction-set level the binary holds and the CPU runs
+// (isa_bench.hpp: the dynamics and the WBC have per-level kernels; the estimator is compiled for
+// the build's ISA). Run with repetitions for the spread:
+//   bench_controller --benchmark_repetitions=20 --benchmark_report_aggregates_only=true
+#include <benchmark/benchmark.h>
+
+#include <array>
+#include <memory>
+#include <random>
+
+#include "isa_bench.hpp"
+#include "springbok/control/robot_controller.hpp"
+#include "springbok/dynamics/dynamics.hpp"
+#include "springbok/wbc/stand_controller.hpp"
+
+namespace {
+using namespace springbok;
+
+constexpr double kDt_s = 0.001;
+constexpr int kTicks = 1024;
+
+// The robot standing on its stance, level, at rest: its sensors' readings with noise (MEMS-like:
+// 5 mrad/s and 0.04 m/s^2 per sample; 1e-4 rad of encoder noise).
+std::array<hal::Measurements, kTicks> standing_ticks() {
+  std::array<hal::Measurements, kTicks> out{};
+  const dyn::Model model;
+  const Mat3& r_bi = model.frame_placement[kImuFrame].rotation;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (int k = 0; k < kTicks; ++k) {
+    hal::Measurements& m = out[static_cast<std::size_t>(k)];
+    m.sequence = static_cast<std::uint64_t>(k + 1);
+    m.q_rad = wbc::nominal_stance();
+    for (int j = 0; j < kNj; ++j) m.q_rad[j] += 1e-4 * n(rng);
+    m.imu.valid = true;
+    m.imu.orientation = Quat(r_bi);  // trunk level: world_from_imu = R_BI
+    m.imu.angular_rate_rad_s = 0.005 * Vec3(n(rng), n(rng), n(rng));
+    m.imu.linear_accel_m_s2 = r_bi.transpose() * Vec3(0.0, 0.0, kGravity_m_s2) + 0.04 * Vec3(n(rng), n(rng), n(rng));
+    m.wrist.valid = true;
+    m.wrist.force_n = Vec3(50.0, 0.0, 0.0);  // sensor axes: a push at the hand
+  }
+  return out;
+}
+
+void run(benchmark::State& state, bool truth) {
+  const springbok::test::IsaLevelScope level(state);
+  static const std::array<hal::Measurements, kTicks> ticks = standing_ticks();
+  control::ControlParams params;
+  params.tare_samples = 1;
+  auto controller = std::make_unique<control::RobotController>(params);
+  hal::Measurements first = ticks[0];
+  first.wrist.force_n.setZero();
+  controller->observe(first, kDt_s, true);  // the estimator started, the wrist tared
+  control::BaseTruth base;  // the base where the estimator started it, at rest
+  base.pose = controller->estimate().q.head<7>();
+  hal::JointCommands cmd;
+  int k = 0;
+  for (int i = 0; i < 100; ++i) (void)controller->tick(ticks[static_cast<std::size_t>(i)], kDt_s, cmd, truth ? &base : nullptr);
+  bool failed = false;
+  for (auto _ : state) {
+    const control::TickStatus s = controller->tick(ticks[static_cast<std::size_t>(k)], kDt_s, cmd, truth ? &base : nullptr);
+    failed = failed || s != control::TickStatus::ok;
+    benchmark::DoNotOptimize(cmd.tau_ff_nm.data());
+    k = (k + 1) % kTicks;
+  }
+  if (failed) state.SkipWithError("a tick failed");
+}
+
+void BM_ControllerTickEstimated(benchmark::State& state) { run(state, false); }
+void BM_ControllerTickTruth(benchmark::State& state) { run(state, true); }
+BENCHMARK(BM_ControllerTickEstimated)->Name("BM_ControllerTick/estimated")->Apply(springbok::test::each_isa_level)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ControllerTickTruth)->Name("BM_ControllerTick/truth")->Apply(springbok::test::each_isa_level)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
