@@ -1,14 +1,15 @@
-// One control-mode tick of springbok::control::RobotController, as the firmware's loop calls it:
-// the base estimate (filter ekf, the default) from the IMU and the encoders, the dynamics, the
-// whole-body controller (tasks, QP, torques), the joint commands.
-//   BM_ControllerTick/estimated  the base from the estimator
-//   BM_ControllerTick/truth      the same tick with the base given (BaseTruth, the simulation
-//                                tool's ground-truth runs): no estimator
-// The difference of the two medians is the estimator's cost inside the tick. The robot stands
-// still on its four feet, its IMU and encoders with white noise (1024 precomputed ticks, cycled),
-// 50 N pushing the hand. Once per instruction-set level the binary holds and the CPU runs
-// (isa_bench.hpp: the dynamics and the WBC have per-level kernels; the estimator is compiled for
-// the build's ISA). Run with repetitions for the spread:
+// One control-mode tick of springbok::control::RobotController, as the firmware's loop calls it,
+// and the estimator's part of it:
+//   BM_ControllerTick/isa:N  the whole tick: the base estimate (filter ekf, the default) from the
+//                            IMU and the encoders, the dynamics, the whole-body controller (tasks,
+//                            QP, torques), the joint commands; once per instruction-set level the
+//                            binary holds and the CPU runs (isa_bench.hpp: the dynamics and the
+//                            WBC have per-level kernels)
+//   BM_BaseEstimatorUpdate   est::BaseEstimator::update alone, as the tick calls it (the feet's
+//                            kinematics, the EKF's prediction and updates); compiled for the
+//                            build's ISA (the estimator has no per-level kernels)
+// The robot stands still on its four feet, its IMU and encoders with white noise (1024
+// precomputed ticks, cycled), 50 N pushing the hand. Run with repetitions for the spread:
 //   bench_controller --benchmark_repetitions=20 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
@@ -19,6 +20,7 @@
 #include "isa_bench.hpp"
 #include "springbok/control/robot_controller.hpp"
 #include "springbok/dynamics/dynamics.hpp"
+#include "springbok/estimation/base_estimator.hpp"
 #include "springbok/wbc/stand_controller.hpp"
 
 namespace {
@@ -50,7 +52,7 @@ std::array<hal::Measurements, kTicks> standing_ticks() {
   return out;
 }
 
-void run(benchmark::State& state, bool truth) {
+void BM_ControllerTick(benchmark::State& state) {
   const springbok::test::IsaLevelScope level(state);
   static const std::array<hal::Measurements, kTicks> ticks = standing_ticks();
   control::ControlParams params;
@@ -59,25 +61,36 @@ void run(benchmark::State& state, bool truth) {
   hal::Measurements first = ticks[0];
   first.wrist.force_n.setZero();
   controller->observe(first, kDt_s, true);  // the estimator started, the wrist tared
-  control::BaseTruth base;  // the base where the estimator started it, at rest
-  base.pose = controller->estimate().q.head<7>();
   hal::JointCommands cmd;
-  int k = 0;
-  for (int i = 0; i < 100; ++i) (void)controller->tick(ticks[static_cast<std::size_t>(i)], kDt_s, cmd, truth ? &base : nullptr);
+  for (int i = 0; i < 100; ++i) (void)controller->tick(ticks[static_cast<std::size_t>(i)], kDt_s, cmd);
   bool failed = false;
+  int k = 0;
   for (auto _ : state) {
-    const control::TickStatus s = controller->tick(ticks[static_cast<std::size_t>(k)], kDt_s, cmd, truth ? &base : nullptr);
-    failed = failed || s != control::TickStatus::ok;
+    failed = failed || controller->tick(ticks[static_cast<std::size_t>(k)], kDt_s, cmd) != control::TickStatus::ok;
     benchmark::DoNotOptimize(cmd.tau_ff_nm.data());
     k = (k + 1) % kTicks;
   }
   if (failed) state.SkipWithError("a tick failed");
 }
+BENCHMARK(BM_ControllerTick)->Apply(springbok::test::each_isa_level)->Unit(benchmark::kMicrosecond);
 
-void BM_ControllerTickEstimated(benchmark::State& state) { run(state, false); }
-void BM_ControllerTickTruth(benchmark::State& state) { run(state, true); }
-BENCHMARK(BM_ControllerTickEstimated)->Name("BM_ControllerTick/estimated")->Apply(springbok::test::each_isa_level)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_ControllerTickTruth)->Name("BM_ControllerTick/truth")->Apply(springbok::test::each_isa_level)->Unit(benchmark::kMicrosecond);
+void BM_BaseEstimatorUpdate(benchmark::State& state) {
+  static const std::array<hal::Measurements, kTicks> ticks = standing_ticks();
+  auto estimator = std::make_unique<est::BaseEstimator>(control::ControlParams{}.estimator);
+  const Stance all{true, true, true, true};
+  if (estimator->reset(ticks[0], all, Eigen::Vector2d::Zero()) != est::EstimateStatus::ok) {
+    state.SkipWithError("reset failed");
+    return;
+  }
+  bool failed = false;
+  int k = 1;
+  for (auto _ : state) {
+    failed = failed || estimator->update(ticks[static_cast<std::size_t>(k)], all, kDt_s).status != est::EstimateStatus::ok;
+    k = (k + 1) % kTicks;
+  }
+  if (failed) state.SkipWithError("an update failed");
+}
+BENCHMARK(BM_BaseEstimatorUpdate)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 
