@@ -2,12 +2,11 @@
 // and the estimator's part of it:
 //   BM_ControllerTick/isa:N  the whole tick: the base estimate (filter ekf, the default) from the
 //                            IMU and the encoders, the dynamics, the whole-body controller (tasks,
-//                            QP, torques), the joint commands; once per instruction-set level the
-//                            binary holds and the CPU runs (isa_bench.hpp: the dynamics and the
-//                            WBC have per-level kernels)
-//   BM_BaseEstimatorUpdate   est::BaseEstimator::update alone, as the tick calls it (the feet's
-//                            kinematics, the EKF's prediction and updates); compiled for the
-//                            build's ISA (the estimator has no per-level kernels)
+//                            QP, torques), the joint commands
+//   BM_BaseEstimatorUpdate/isa:N  est::BaseEstimator::update alone, as the tick calls it (the
+//                            feet's kinematics, the EKF's prediction and updates)
+// Both once per instruction-set level the binary holds and the CPU runs (isa_bench.hpp: the
+// estimator, the dynamics and the WBC have per-level kernels).
 // The robot stands still on its four feet, its IMU and encoders with white noise (1024
 // precomputed ticks, cycled), 50 N pushing the hand. Run with repetitions for the spread:
 //   bench_controller --benchmark_repetitions=20 --benchmark_report_aggregates_only=true
@@ -75,6 +74,7 @@ void BM_ControllerTick(benchmark::State& state) {
 BENCHMARK(BM_ControllerTick)->Apply(springbok::test::each_isa_level)->Unit(benchmark::kMicrosecond);
 
 void BM_BaseEstimatorUpdate(benchmark::State& state) {
+  const springbok::test::IsaLevelScope level(state);
   static const std::array<hal::Measurements, kTicks> ticks = standing_ticks();
   auto estimator = std::make_unique<est::BaseEstimator>(control::ControlParams{}.estimator);
   const Stance all{true, true, true, true};
@@ -90,7 +90,7 @@ void BM_BaseEstimatorUpdate(benchmark::State& state) {
   }
   if (failed) state.SkipWithError("an update failed");
 }
-BENCHMARK(BM_BaseEstimatorUpdate)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_BaseEstimatorUpdate)->Apply(springbok::test::each_isa_level)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -1,14 +1,16 @@
 // The kernels of every instruction-set level this binary holds and this CPU runs
-// (springbok/isa/isa.hpp) against the baseline's: the dynamics and the whole-body
-// controller's tick give the same numbers (to rounding: FMA contracts differently), allocate
-// nothing, and the level is one the CPU can run.
+// (springbok/isa/isa.hpp) against the baseline's: the dynamics, the whole-body controller's
+// tick and the base estimator's update give the same numbers (to rounding: FMA contracts
+// differently), allocate nothing, and the level is one the CPU can run.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <random>
 #include <vector>
 
+#include "alloc_trap.hpp"
 #include "random_state.hpp"
+#include "springbok/estimation/base_estimator.hpp"
 #include "springbok/isa/isa.hpp"
 #include "wbc_fixture.hpp"
 
@@ -140,6 +142,58 @@ TEST_F(IsaWbc, WholeTicksAllocateNothingAtEveryRunnableLevel) {
   for (const Level level : runnable_levels()) {
     ASSERT_TRUE(isa::select(level));
     EXPECT_EQ(allocations_over_ticks(), 0u) << isa::name(level);
+  }
+}
+
+// The robot standing on its stance, its IMU (level, at rest) and encoders with white noise: one
+// tick's measurements per entry.
+std::vector<hal::Measurements> noisy_standing_ticks(int n) {
+  std::vector<hal::Measurements> out(static_cast<std::size_t>(n));
+  const dyn::Model model;
+  const Mat3& r_bi = model.frame_placement[kImuFrame].rotation;
+  std::mt19937 rng(11);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (int k = 0; k < n; ++k) {
+    hal::Measurements& m = out[static_cast<std::size_t>(k)];
+    m.sequence = static_cast<std::uint64_t>(k + 1);
+    m.q_rad = standing_q().tail<kNj>();
+    for (int j = 0; j < kNj; ++j) {
+      m.q_rad[j] += 1e-4 * g(rng);
+      m.qd_rad_s[j] = 0.01 * g(rng);
+    }
+    m.imu.valid = true;
+    m.imu.orientation = Quat(r_bi);
+    m.imu.angular_rate_rad_s = 0.005 * Vec3(g(rng), g(rng), g(rng));
+    m.imu.linear_accel_m_s2 = r_bi.transpose() * Vec3(0.0, 0.0, kGravity_m_s2) + 0.04 * Vec3(g(rng), g(rng), g(rng));
+  }
+  return out;
+}
+
+// The same 500 ticks through an estimator at each level (filter ekf, the default): the same
+// pose and velocity, and no allocation in the updates.
+TEST(IsaEstimator, EveryRunnableLevelUpdatesTheBaseEstimatorAsTheBaselineDoes) {
+  const LevelGuard guard;
+  const std::vector<hal::Measurements> ticks = noisy_standing_ticks(500);
+  const Stance all{true, true, true, true};
+  const auto run = [&](Level level, std::size_t& allocations) {
+    EXPECT_TRUE(isa::select(level));
+    auto estimator = std::make_unique<est::BaseEstimator>();
+    EXPECT_EQ(estimator->reset(ticks[0], all, Eigen::Vector2d::Zero()), est::EstimateStatus::ok);
+    AllocationTrap trap;
+    for (std::size_t k = 1; k < ticks.size(); ++k) {
+      EXPECT_EQ(estimator->update(ticks[k], all, 1e-3).status, est::EstimateStatus::ok) << k;
+    }
+    allocations = trap.disarm();
+    return estimator->estimate();
+  };
+  std::size_t allocations = 0;
+  const est::BaseEstimate base = run(Level::baseline, allocations);
+  EXPECT_EQ(allocations, 0u);
+  for (const Level level : runnable_levels()) {
+    const est::BaseEstimate e = run(level, allocations);
+    EXPECT_EQ(allocations, 0u) << isa::name(level);
+    EXPECT_LT((e.q - base.q).cwiseAbs().maxCoeff(), 1e-9) << isa::name(level);
+    EXPECT_LT((e.v - base.v).cwiseAbs().maxCoeff(), 1e-9) << isa::name(level);
   }
 }
 

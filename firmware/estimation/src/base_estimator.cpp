@@ -138,7 +138,7 @@ EstimateStatus BaseEstimator::reset(const hal::Measurements& m, const Stance& st
 }
 
 // rt: no alloc, no block
-const BaseEstimate& BaseEstimator::update(const hal::Measurements& m, const Stance& stance, double dt_s) noexcept {
+const BaseEstimate& BaseEstimator::update_kernel(const hal::Measurements& m, const Stance& stance, double dt_s) noexcept {
   if (params_.filter == BaseFilter::ekf) return update_ekf(m, stance, dt_s);
   if (!reset_) {
     out_.status = EstimateStatus::not_reset;

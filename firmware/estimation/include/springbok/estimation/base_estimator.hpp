@@ -104,8 +104,11 @@ class BaseEstimator {
   // not reset) on a bad measurement or no stance foot. rt: no alloc
   EstimateStatus reset(const hal::Measurements& m, const Stance& stance, const Eigen::Vector2d& xy_m) noexcept;
 
-  // One estimator tick of dt_s. rt: no alloc, no block
+  // One estimator tick of dt_s, at the instruction-set level springbok::isa chose. rt: no
+  // alloc, no block
   const BaseEstimate& update(const hal::Measurements& m, const Stance& stance, double dt_s) noexcept;
+  // The kernel behind update(), compiled once per level (src/dispatch.hpp).
+  const BaseEstimate& update_kernel(const hal::Measurements& m, const Stance& stance, double dt_s) noexcept;
   // filter ekf, before reset(): one IMU sample for the start-up gyro calibration (see above);
   // nothing with the complementary filter. rt: no alloc, no block
   void calibrate(const hal::Measurements& m, double dt_s) noexcept;
