@@ -12,11 +12,11 @@
 //   bench_controller --benchmark_repetitions=20 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
-#include <array>
 #include <memory>
-#include <random>
+#include <vector>
 
 #include "isa_bench.hpp"
+#include "standing_ticks.hpp"
 #include "springbok/control/robot_controller.hpp"
 #include "springbok/dynamics/dynamics.hpp"
 #include "springbok/estimation/base_estimator.hpp"
@@ -28,32 +28,16 @@ using namespace springbok;
 constexpr double kDt_s = 0.001;
 constexpr int kTicks = 1024;
 
-// The robot standing on its stance, level, at rest: its sensors' readings with noise (MEMS-like:
-// 5 mrad/s and 0.04 m/s^2 per sample; 1e-4 rad of encoder noise).
-std::array<hal::Measurements, kTicks> standing_ticks() {
-  std::array<hal::Measurements, kTicks> out{};
-  const dyn::Model model;
-  const Mat3& r_bi = model.frame_placement[kImuFrame].rotation;
-  std::mt19937 rng(3);
-  std::normal_distribution<double> n(0.0, 1.0);
-  for (int k = 0; k < kTicks; ++k) {
-    hal::Measurements& m = out[static_cast<std::size_t>(k)];
-    m.sequence = static_cast<std::uint64_t>(k + 1);
-    m.q_rad = wbc::nominal_stance();
-    for (int j = 0; j < kNj; ++j) m.q_rad[j] += 1e-4 * n(rng);
-    m.imu.valid = true;
-    m.imu.orientation = Quat(r_bi);  // trunk level: world_from_imu = R_BI
-    m.imu.angular_rate_rad_s = 0.005 * Vec3(n(rng), n(rng), n(rng));
-    m.imu.linear_accel_m_s2 = r_bi.transpose() * Vec3(0.0, 0.0, kGravity_m_s2) + 0.04 * Vec3(n(rng), n(rng), n(rng));
-    m.wrist.valid = true;
-    m.wrist.force_n = Vec3(50.0, 0.0, 0.0);  // sensor axes: a push at the hand
-  }
+// 50 N pushing the hand (sensor axes).
+std::vector<hal::Measurements> pushed_standing_ticks() {
+  std::vector<hal::Measurements> out = springbok::test::noisy_standing_ticks(kTicks, 3);
+  for (hal::Measurements& m : out) m.wrist.force_n = Vec3(50.0, 0.0, 0.0);
   return out;
 }
 
 void BM_ControllerTick(benchmark::State& state) {
   const springbok::test::IsaLevelScope level(state);
-  static const std::array<hal::Measurements, kTicks> ticks = standing_ticks();
+  static const std::vector<hal::Measurements> ticks = pushed_standing_ticks();
   control::ControlParams params;
   params.tare_samples = 1;
   auto controller = std::make_unique<control::RobotController>(params);
@@ -75,7 +59,7 @@ BENCHMARK(BM_ControllerTick)->Apply(springbok::test::each_isa_level)->Unit(bench
 
 void BM_BaseEstimatorUpdate(benchmark::State& state) {
   const springbok::test::IsaLevelScope level(state);
-  static const std::array<hal::Measurements, kTicks> ticks = standing_ticks();
+  static const std::vector<hal::Measurements> ticks = pushed_standing_ticks();
   auto estimator = std::make_unique<est::BaseEstimator>(control::ControlParams{}.estimator);
   const Stance all{true, true, true, true};
   if (estimator->reset(ticks[0], all, Eigen::Vector2d::Zero()) != est::EstimateStatus::ok) {

@@ -10,6 +10,7 @@
 
 #include "alloc_trap.hpp"
 #include "random_state.hpp"
+#include "standing_ticks.hpp"
 #include "springbok/estimation/base_estimator.hpp"
 #include "springbok/isa/isa.hpp"
 #include "wbc_fixture.hpp"
@@ -145,35 +146,11 @@ TEST_F(IsaWbc, WholeTicksAllocateNothingAtEveryRunnableLevel) {
   }
 }
 
-// The robot standing on its stance, its IMU (level, at rest) and encoders with white noise: one
-// tick's measurements per entry.
-std::vector<hal::Measurements> noisy_standing_ticks(int n) {
-  std::vector<hal::Measurements> out(static_cast<std::size_t>(n));
-  const dyn::Model model;
-  const Mat3& r_bi = model.frame_placement[kImuFrame].rotation;
-  std::mt19937 rng(11);
-  std::normal_distribution<double> g(0.0, 1.0);
-  for (int k = 0; k < n; ++k) {
-    hal::Measurements& m = out[static_cast<std::size_t>(k)];
-    m.sequence = static_cast<std::uint64_t>(k + 1);
-    m.q_rad = standing_q().tail<kNj>();
-    for (int j = 0; j < kNj; ++j) {
-      m.q_rad[j] += 1e-4 * g(rng);
-      m.qd_rad_s[j] = 0.01 * g(rng);
-    }
-    m.imu.valid = true;
-    m.imu.orientation = Quat(r_bi);
-    m.imu.angular_rate_rad_s = 0.005 * Vec3(g(rng), g(rng), g(rng));
-    m.imu.linear_accel_m_s2 = r_bi.transpose() * Vec3(0.0, 0.0, kGravity_m_s2) + 0.04 * Vec3(g(rng), g(rng), g(rng));
-  }
-  return out;
-}
-
 // The same 500 ticks through an estimator at each level (filter ekf, the default): the same
 // pose and velocity, and no allocation in the updates.
 TEST(IsaEstimator, EveryRunnableLevelUpdatesTheBaseEstimatorAsTheBaselineDoes) {
   const LevelGuard guard;
-  const std::vector<hal::Measurements> ticks = noisy_standing_ticks(500);
+  const std::vector<hal::Measurements> ticks = noisy_standing_ticks(500, 11);
   const Stance all{true, true, true, true};
   const auto run = [&](Level level, std::size_t& allocations) {
     EXPECT_TRUE(isa::select(level));
