@@ -23,6 +23,12 @@ std::string scenario(const std::string& gait) {
          "    gait: " + gait + "\n";
 }
 
+// springbok-sim on the scenario with this gait, written as `dir`/`name`.yaml, into `dir`/`name`.
+CliResult run_gait(const fs::path& dir, const std::string& name, const std::string& gait) {
+  std::ofstream(dir / (name + ".yaml")) << scenario(gait);
+  return run((dir / (name + ".yaml")).string(), dir / name);
+}
+
 TEST(SimTrot, TrotsInPlace) {
   const fs::path dir = scratch("trot");
   std::ofstream(dir / "s.yaml") << scenario("{step_frequency: 1.4, duty_factor: 0.65, step_height: 0.08}");
@@ -70,8 +76,7 @@ std::vector<std::vector<double>> read_columns(const fs::path& log, const std::ve
 // the touch-down it detects from it against the simulator's first contact.
 TEST(SimTrot, FootForcesFromTheLegsMatchTheSimulatorsAndTouchDownsAreSeenWithin3Ticks) {
   const fs::path dir = scratch("trot_forces");
-  std::ofstream(dir / "s.yaml") << scenario("{step_frequency: 1.4, duty_factor: 0.65, step_height: 0.08}");
-  const CliResult r = run((dir / "s.yaml").string(), dir / "out");
+  const CliResult r = run_gait(dir, "out", "{step_frequency: 1.4, duty_factor: 0.65, step_height: 0.08}");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   for (const std::string foot : {"lf", "rf", "lh", "rh"}) {
     const auto c = read_columns(dir / "out" / "log.csv", {"wbc_active", foot + "_contact", foot + "_fz_n",
@@ -217,15 +222,13 @@ TEST(SimWalk, AVelocityScheduleChangesTheCommand) {
   // The trot ran on: no restart (2 s of trot at 1.4 Hz: 2.8 cycles, 2 changes per foot each).
   EXPECT_GE(json_number(json.substr(json.find("\"gait\":")), "stance_changes"), 4 * 2 * 2.0) << json;
 
-  std::ofstream(dir / "bad.yaml") << scenario("{velocity_schedule: [{at_s: 1.0, velocity: [0, 0.5, 0]}]}");
-  const CliResult bad = run((dir / "bad.yaml").string(), dir / "bad");
+  const CliResult bad = run_gait(dir, "bad", "{velocity_schedule: [{at_s: 1.0, velocity: [0, 0.5, 0]}]}");
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.err.find("controller.params.gait.velocity_schedule[0].velocity[1]: must be in [-0.2, 0.2]"),
             std::string::npos)
       << bad.err;
   // A change without its time is refused (it was taken as at 0 s), naming the key.
-  std::ofstream(dir / "untimed.yaml") << scenario("{velocity_schedule: [{velocity: [0.1, 0, 0]}]}");
-  const CliResult untimed = run((dir / "untimed.yaml").string(), dir / "untimed");
+  const CliResult untimed = run_gait(dir, "untimed", "{velocity_schedule: [{velocity: [0.1, 0, 0]}]}");
   EXPECT_NE(untimed.exit_code, 0);
   EXPECT_NE(untimed.err.find("controller.params.gait.velocity_schedule[0].at_s"), std::string::npos) << untimed.err;
 }
@@ -258,14 +261,12 @@ TEST(SimWalk, AScheduleStandsAndTrotsAgain) {
   }
   EXPECT_TRUE(lifted_before && all_stood && lifted_after) << lifted_before << all_stood << lifted_after;
 
-  std::ofstream(dir / "both.yaml") << scenario("{velocity_schedule: [{at_s: 1.0, velocity: [0.1, 0, 0], gait: stand}]}");
-  const CliResult both = run((dir / "both.yaml").string(), dir / "both");
+  const CliResult both = run_gait(dir, "both", "{velocity_schedule: [{at_s: 1.0, velocity: [0.1, 0, 0], gait: stand}]}");
   EXPECT_NE(both.exit_code, 0);
   EXPECT_NE(both.err.find("controller.params.gait.velocity_schedule[0]: needs velocity or gait (one of them)"),
             std::string::npos)
       << both.err;
-  std::ofstream(dir / "walk.yaml") << scenario("{velocity_schedule: [{at_s: 1.0, gait: walk}]}");
-  const CliResult walk = run((dir / "walk.yaml").string(), dir / "walk");
+  const CliResult walk = run_gait(dir, "walk", "{velocity_schedule: [{at_s: 1.0, gait: walk}]}");
   EXPECT_NE(walk.exit_code, 0);
   EXPECT_NE(walk.err.find("controller.params.gait.velocity_schedule[0].gait"), std::string::npos) << walk.err;
 }
@@ -336,8 +337,7 @@ TEST(SimTrot, StandsAHeldPushOnTheTrunk) {
 
 TEST(SimTrot, BadGaitParameterIsNamed) {
   const fs::path dir = scratch("trot_bad");
-  std::ofstream(dir / "s.yaml") << scenario("{duty_factor: 0.3}");
-  const CliResult r = run((dir / "s.yaml").string(), dir / "out");
+  const CliResult r = run_gait(dir, "s", "{duty_factor: 0.3}");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("controller.params.gait.duty_factor"), std::string::npos) << r.err;
 }

@@ -154,8 +154,8 @@ const BaseEstimate& BaseEstimator::update_kernel(const hal::Measurements& m, con
 
   // Prediction: the IMU's acceleration, moved from the IMU to the trunk origin
   // (centripetal term; the angular-acceleration term is left to the correction).
-  const dyn::Placement& imu = model_.frame_placement[kImuFrame];
   if (params_.use_accelerometer) {
+    const dyn::Placement& imu = model_.frame_placement[kImuFrame];
     const Vec3 specific_force_w = rot * (imu.rotation * m.imu.linear_accel_m_s2);
     const Vec3 accel_imu_w = specific_force_w + model_.gravity_world_m_s2;
     const Vec3 centripetal_w = rot * omega_b.cross(omega_b.cross(imu.translation));

@@ -49,7 +49,7 @@ struct Latency {
 struct SimConfig {
   double step_s = 0.001;                   // one controller tick
   int substeps = 1;                        // physics steps per tick (drive law re-evaluated each)
-  int solver_iterations = 10;             // Bullet solver passes; trade-off: tools/scenarios/README.md
+  int solver_iterations = 10;              // Bullet solver passes; trade-off: tools/scenarios/README.md
   int limit_solver_iterations = 40;       // the passes of a step in which a joint is at a stop
   double gravity_m_s2 = kGravity_m_s2;     // along -z; 0 for weightless tests
   bool ground = true;                      // a flat ground plane at z = 0

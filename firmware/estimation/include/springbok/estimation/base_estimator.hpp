@@ -77,7 +77,7 @@ struct EstimatorParams {
   double encoder_rate_std_rad_s = 0.05;
 };
 // The still time the start-up gyro calibration averages at most (the newest): the bias walks.
-inline constexpr double kCalibrationMemory_s = 60.0;  // the ring below holds 2 T at 10 ms per entry
+inline constexpr double kCalibrationMemory_s = 60.0;
 
 enum class EstimateStatus : std::uint8_t {
   ok,

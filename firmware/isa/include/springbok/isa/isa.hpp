@@ -5,10 +5,10 @@
 // baseline (-march=x86-64: SSE2). Eigen picks its SIMD width when it is compiled, so a
 // baseline build leaves AVX2 and FMA unused on the robot's computer. The portable x86-64
 // build therefore compiles the hot kernels (the dynamics sweeps, the whole-body controller's
-// tick with its QP, the base estimator's update) once more per level below, into objects whose every symbol but the
-// level's table is private to them (toolchain/springbok_isa.cmake: no template of another
-// level can stand in for theirs), and each kernel's public function calls the copy of
-// active() through that table:
+// tick with its QP, the base estimator's update) once more per level below, into objects
+// whose every symbol but the level's table is private to them (toolchain/springbok_isa.cmake:
+// no template of another level can stand in for theirs), and each kernel's public function
+// calls the copy of active() through that table:
 //
 //   level      -march       what it adds                        kernels
 //   baseline   x86-64       SSE2 (or the build's -march)        always
