@@ -66,7 +66,7 @@ void expect_no_allocation(const std::string& file) {
   EXPECT_GT(active, S::kShortcutRepairs) << "pick an instance with more active rows than the shortcut repairs";
 }
 
-TEST(QpAllocation, FirmwareSizeColdAndWarm) { expect_no_allocation<64, 32, 160>("wbc_stance4_19.qp"); }
+TEST(QpAllocation, FirmwareSizeColdAndWarm) { expect_no_allocation<64, 32, 160>("wbc_fmax_qdd_07.qp"); }
 TEST(QpAllocation, TightSizeColdAndWarm) { expect_no_allocation<40, 12, 62>("wbc_fmax_qdd_06.qp"); }
 // The trap is armed in the builds that run the allocation tests for real (the debug preset:
 // SPRINGBOK_TRAP_EIGEN_MALLOC with assertions); a Release build has no trap to check.

@@ -521,29 +521,47 @@ TEST(QpHint, AHintOneRowOffIsRepairedInTheShortcut) {
   expect_optimum("three repairs");
 }
 
-// Further than kShortcutRepairs from the answer: the full method, with the same answer.
-// min 1/2 |x|^2 - 2 sum x  s.t.  x_i <= 1 (i < 6): x* = 1, every row active (multipliers 1).
+// kShortcutRepairs rows short of the answer: repaired in the shortcut; one more, and the full
+// method runs (from the rows the repairs reached); the answer is the same either way.
+// min 1/2 |x|^2 - 2 sum x  s.t.  x_i <= 1 (i < 16): x* = 1, every row active (multipliers 1).
 TEST(QpHint, AHintFurtherThanTheRepairsGoesToTheFullMethod) {
-  using Six = springbok::qp::Solver<6, 0, 6>;
-  static_assert(Six::kShortcutRepairs < 6, "the empty hint must be more repairs away than the shortcut makes");
-  auto [solver, problem, result] = springbok::qp::test::on_heap<Six>();
-  problem->resize(6, 0, 6);
-  for (int i = 0; i < 6; ++i) {
+  using Sixteen = springbok::qp::Solver<16, 0, 16>;
+  constexpr int kRepairs = Sixteen::kShortcutRepairs;
+  static_assert(kRepairs < 16, "the hint must be able to be more repairs away than the shortcut makes");
+  auto [solver, problem, result] = springbok::qp::test::on_heap<Sixteen>();
+  problem->resize(16, 0, 16);
+  for (int i = 0; i < 16; ++i) {
     problem->H()(i, i) = 1.0;
     problem->g()[i] = -2.0;
     problem->Ain()(i, i) = 1.0;
     problem->lb()[i] = -springbok::qp::kInfiniteBound;
     problem->ub()[i] = 1.0;
   }
-  springbok::qp::ActiveSet<6> empty;
-  Six::Hint hint;
-  hint.active_set = &empty;
+  const auto expect_optimum = [&](const char* what) {
+    for (int i = 0; i < 16; ++i) {
+      EXPECT_NEAR(result->x[static_cast<std::size_t>(i)], 1.0, 1e-12) << what;
+      EXPECT_NEAR(std::abs(result->lambda_in[static_cast<std::size_t>(i)]), 1.0, 1e-12) << what;
+    }
+  };
+  springbok::qp::ActiveSet<16> set;
+  Sixteen::Hint hint;
+  hint.active_set = &set;
+  for (int i = 0; i < 16 - kRepairs; ++i) set.push(i, Side::upper);
+  ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal);
+  EXPECT_TRUE(result->from_hint);
+  EXPECT_EQ(result->iterations, kRepairs);
+  expect_optimum("repaired");
+
+  set.clear();
+  for (int i = 0; i < 15 - kRepairs; ++i) set.push(i, Side::upper);
   ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal);
   EXPECT_FALSE(result->from_hint);
-  for (int i = 0; i < 6; ++i) {
-    EXPECT_NEAR(result->x[static_cast<std::size_t>(i)], 1.0, 1e-12);
-    EXPECT_NEAR(std::abs(result->lambda_in[static_cast<std::size_t>(i)]), 1.0, 1e-12);
-  }
+  expect_optimum("one row further: the full method");
+
+  set.clear();
+  ASSERT_EQ(solver->solve(*problem, *result, hint), Status::optimal);
+  EXPECT_FALSE(result->from_hint);
+  expect_optimum("no row");
 }
 
 // A hint that repeats a row (here as often as the hint holds entries) on a solver whose

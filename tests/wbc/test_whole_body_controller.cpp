@@ -576,7 +576,9 @@ TEST_F(Fixture, SteadyTicksAreSolvedOnTheLastActiveSet) {
 
 // The problem's zero pattern is laid out once and cleared only where a contact switch changes
 // it: through a sequence of switches (feet lifting, landing, the other diagonal, three feet)
-// every tick's answer is that of a fresh controller built for that tick's stance.
+// every tick's answer is that of a fresh controller built for that tick's stance. A stale
+// entry moves a foot's force by newtons; a warm start's repaired set (semi-normal equations,
+// one refinement) agrees with the cold solve to about 1e-10 of the feet's few hundred newtons.
 TEST_F(Fixture, ContactSwitchesLeaveNoStaleEntriesInTheProblem) {
   in.wrist_force_world_n = Vec3(20.0, 5.0, 0.0);
   const std::array<Stance, 7> stances = {{{true, true, true, true},
@@ -597,7 +599,7 @@ TEST_F(Fixture, ContactSwitchesLeaveNoStaleEntriesInTheProblem) {
     EXPECT_LT((out.udot - expected.udot).cwiseAbs().maxCoeff(), 1e-9) << "tick " << k;
     EXPECT_LT((out.tau_nm - expected.tau_nm).cwiseAbs().maxCoeff(), 1e-8) << "tick " << k;
     for (int f = 0; f < kFeet; ++f)
-      EXPECT_LT((out.foot_force_n[f] - expected.foot_force_n[f]).cwiseAbs().maxCoeff(), 1e-8) << "tick " << k;
+      EXPECT_LT((out.foot_force_n[f] - expected.foot_force_n[f]).cwiseAbs().maxCoeff(), 1e-7) << "tick " << k;
   }
 }
 
