@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "cli_test_util.hpp"
+#include "springbok/isa/isa.hpp"
 
 namespace {
 using namespace springbok::test;
@@ -22,6 +23,10 @@ TEST(SimCli, StandHoldsStillAndRunsAreByteIdentical) {
   EXPECT_GT(json_number(summary, "realtime_factor"), 0.0);
   EXPECT_NEAR(json_number(summary, "contact_fz_over_weight"), 1.0, 1e-3) << summary;
   EXPECT_NEAR(json_number(summary, "feet_fz_over_weight"), 1.0, 1e-3) << summary;
+  // The level its kernels ran at: the one this process (same binary build, same environment) picks.
+  EXPECT_NE(summary.find(std::string("\"kernels\": \"") + springbok::isa::name(springbok::isa::active()) + "\""),
+            std::string::npos)
+      << summary;
 }
 
 // The column of a log.csv named `name`, as text, one entry per row.

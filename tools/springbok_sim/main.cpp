@@ -240,6 +240,7 @@ int run(const std::string& scenario_path, const Overrides& overrides, const std:
   json += fmt::format("  \"sensors\": \"{}\",\n", s.sensors);
   json += controller->summary_fields();
   json += fmt::format("  \"memory_locked\": {},\n", memory_locked);
+  json += fmt::format("  \"kernels\": \"{}\",\n", isa::name(isa::active()));
   json += fmt::format("  \"write_errors\": {}\n", write_errors);
   json += "}\n";
   std::FILE* summary = std::fopen((out_dir / "summary.json").c_str(), "wb");

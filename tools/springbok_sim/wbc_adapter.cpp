@@ -615,10 +615,11 @@ std::string WbcAdapter::summary_fields() const {
                       : slowest_.first                             ? "first_tick"
                       : slowest_.qp_iterations > iterations_p99 ? "qp_solve"
                                                                    : "unattributed";
-  j += fmt::format("  \"tick_us\": {{\"median\": {:.3f}, \"p99\": {:.3f}, \"max\": {:.3f}, \"max_at_s\": {:.3f}, "
+  j += fmt::format("  \"tick_us\": {{\"median\": {:.3f}, \"p99\": {:.3f}, \"p99_9\": {:.3f}, \"max\": {:.3f}, \"max_at_s\": {:.3f}, "
                    "\"max_cause\": \"{}\", \"max_page_faults\": {}, \"max_context_switches\": {}, "
                    "\"max_qp_iterations\": {}, \"max_qp_from_hint\": {}}},\n",
-                   percentile(tick_us_all_, 0.5), percentile(tick_us_all_, 0.99), percentile(tick_us_all_, 1.0),
+                   percentile(tick_us_all_, 0.5), percentile(tick_us_all_, 0.99), percentile(tick_us_all_, 0.999),
+                   percentile(tick_us_all_, 1.0),
                    slowest_.time_s, cause, slowest_.faults, slowest_.switches, slowest_.qp_iterations,
                    slowest_.qp_from_hint ? "true" : "false");
   return j;
