@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <sstream>
 
 #include "cli_test_util.hpp"
 #include "springbok/model/model.hpp"
@@ -45,6 +46,34 @@ TEST(SimAnyRobot, TheQuickExperimentsMeetTheirTargets) {
   EXPECT_NE(out.find("PASS"), std::string::npos) << out;
   const std::string report = slurp(dir / "report.md");
   EXPECT_NE(report.find("## Targets"), std::string::npos);
+  // The tick's timing: three runs of each (memory locked), one line per tick (0 before the WBC
+  // starts), the report's table.
+  int timed = 0;
+  for (const auto& run : fs::directory_iterator(dir)) {
+    if (!fs::exists(run.path() / "summary.json")) continue;
+    ++timed;
+    std::istringstream ticks(slurp(run.path() / "tick_us.txt"));
+    std::string line;
+    std::size_t lines = 0, wbc_ticks = 0;
+    while (std::getline(ticks, line)) {
+      std::istringstream cells(line);
+      double us = 0.0, sum_us = 0.0;
+      int columns = 0;
+      while (cells >> us) {
+        ASSERT_GE(us, 0.0) << run.path();
+        sum_us += us;
+        ++columns;
+      }
+      ASSERT_EQ(columns, 3) << run.path() << ": " << line;
+      ++lines;
+      wbc_ticks += sum_us > 0.0 ? 1 : 0;
+    }
+    EXPECT_EQ(static_cast<double>(lines), json_number(slurp(run.path() / "summary.json"), "ticks")) << run.path();
+    EXPECT_GT(wbc_ticks, lines / 2) << run.path();
+  }
+  EXPECT_GT(timed, 0);
+  EXPECT_NE(report.find("## Tick time: the worst case"), std::string::npos);
+  EXPECT_NE(report.find("minimum over 3 runs"), std::string::npos);
 }
 
 }  // namespace

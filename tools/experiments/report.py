@@ -611,6 +611,7 @@ def robot_report(out, robot, present):
     if others:
         lines += ["", "Other runs (no target): " + ", ".join(others)]
     lines += estimation_section(out, present, checks)
+    lines += timing_section(out, present)
     return lines + targets_section(checks), figs, checks
 
 
@@ -699,6 +700,74 @@ def estimation_section(out, present, checks):
             "| run | sensors | axis | base NRMSE | EE NRMSE | velocity error [mm/s rms] | tilt error [mrad rms] | "
             "yaw drift [deg/min] | walked [m] | position drift | every estimate ok |",
             "|---|---|---|---|---|---|---|---|---|---|---|"] + rows
+
+
+TIMING_TARGETS = {"p99": 1.5, "p99_9": 2.5}
+TIMING_GROUPS = [("steps", ("base_step", "arm_step")), ("chirps", ("base_chirp",)), ("trots", ("trot",)),
+                 ("walks", ("walk",)), ("hand poses", ("hand_",)), ("rotational template", ("rot_",))]
+
+
+def quantile(sorted_v, fraction):
+    """springbok-sim's percentile: the smallest value with at least `fraction` of the values at or below it."""
+    i = int(np.ceil(fraction * len(sorted_v)))
+    return float(sorted_v[min(len(sorted_v) - 1, max(i, 1) - 1)])
+
+
+def tick_times(out, n):
+    """A run's WBC tick times [us]: each tick's minimum over its timing runs (run_all --timing-runs:
+    OUT_DIR/<run>/tick_us.txt, a column per run), and how many runs; None without the file or a WBC tick."""
+    path = os.path.join(out, n, "tick_us.txt")
+    if not os.path.exists(path):
+        return None
+    runs = np.loadtxt(path, ndmin=2)
+    if runs.size == 0 or not np.isfinite(runs).all() or (runs < 0).any():
+        raise SystemExit(f"report.py: {path}: empty, or a negative time or not a number in it")
+    runs = runs[(runs > 0).all(axis=1)]  # 0: a tick before the WBC's start (the stand controller's)
+    if runs.size == 0:
+        return None
+    return np.sort(runs.min(axis=1)), runs.shape[1]
+
+
+def timing_section(out, present):
+    """The tick's cost per run: median, p99 and p99.9 of each tick's minimum over its timing runs,
+    against the flat worst case's targets (p99 within 1.5x the median, p99.9 within 2.5x), by group."""
+    rows, groups = [], {}
+    level, locked, counts = None, set(), set()
+    for n in present:
+        t = tick_times(out, n)
+        if t is None:
+            continue
+        ticks, count = t
+        s = load_summary(out, n) or {}
+        level = level or s.get("kernels")
+        locked.add(s.get("memory_locked"))
+        counts.add(count)
+        med, p99, p999 = quantile(ticks, 0.5), quantile(ticks, 0.99), quantile(ticks, 0.999)
+        ok = p99 <= TIMING_TARGETS["p99"] * med and p999 <= TIMING_TARGETS["p99_9"] * med
+        group = next((g for g, prefixes in TIMING_GROUPS if n.startswith(prefixes)), "other")
+        groups.setdefault(group, []).append((med, p99 / med, p999 / med, ok))
+        rows.append(f"| {n} | {med:.1f} | {p99:.1f} ({p99 / med:.2f}x) | {p999:.1f} ({p999 / med:.2f}x) | "
+                    f"{ticks[-1]:.1f} | {'met' if ok else 'MISSED'} |")
+    if not rows:
+        return []
+    lines = ["", "## Tick time: the worst case", "",
+             f"The firmware's tick in each run (sensors in, the estimate, the WBC with its QP, the commands out), "
+             f"kernels at {level or 'an unknown level'}, memory "
+             f"{'locked' if locked == {True} else 'not locked everywhere'} (`springbok-sim --lock-memory`). "
+             f"Each tick's time is its minimum over {', '.join(str(c) for c in sorted(counts))} runs of the scenario "
+             "(`run_all --timing-runs`): the runs compute the same ticks, so the minimum is the tick's own cost "
+             "without what the OS took from it. Targets: p99 within "
+             f"{TIMING_TARGETS['p99']}x the median, p99.9 within {TIMING_TARGETS['p99_9']}x. The max is "
+             "the first WBC tick's (its code and data not yet in a cache) in most runs: no target.", "",
+             "| group | runs | median of medians [us] | worst p99 / median | worst p99.9 / median | targets met |",
+             "|---|---|---|---|---|---|"]
+    for g, _ in TIMING_GROUPS + [("other", ())]:
+        v = groups.get(g)
+        if v:
+            lines.append(f"| {g} | {len(v)} | {np.median([x[0] for x in v]):.1f} | {max(x[1] for x in v):.2f}x | "
+                         f"{max(x[2] for x in v):.2f}x | {sum(x[3] for x in v)} of {len(v)} |")
+    return lines + ["", "| run | median [us] | p99 [us] | p99.9 [us] | max [us] | targets |",
+                    "|---|---|---|---|---|---|"] + rows
 
 
 def targets_section(checks):
@@ -842,6 +911,7 @@ def main():
     figs += rot_figs
 
     lines += estimation_section(out, present, checks)
+    lines += timing_section(out, present)
     lines += targets_section(checks)
 
     lines += ["", "## Compared with the paper's findings", ""]
