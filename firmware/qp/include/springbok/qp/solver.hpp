@@ -169,7 +169,9 @@ class Solver {
   bool add_set_column(int& cols, int row, std::int8_t sigma) noexcept;
   void drop_set_column(int& cols, int k) noexcept;
   bool append_gram_row(int cols) noexcept;
-  Shortcut solve_on_set(int cols, ResultType& result, Status& status, SetRepair& fix) noexcept;
+  Shortcut solve_on_set(int cols, bool added, ResultType& result, Status& status, SetRepair& fix) noexcept;
+  void solve_set_equations(int cols) noexcept;
+  void extend_solution(int cols) noexcept;
   bool hinted_row(int i, int cols) const noexcept;
   double ain_row_norm(int i) const noexcept;
   void solve_gram(double* y, int cols) noexcept;
@@ -247,7 +249,7 @@ class Solver {
   Buf<double, N> gram_min_pivot_{};                 // 1e-8 S_jj
   alignas(64) Buf<double, kLd> gram_row_{};         // append_gram_row's U^-1 s
   int gram_cols_ = 0;                               // columns of S that gram_ holds the factor of
-  alignas(64) Buf<double, kLd> lam_{}, step_{}, hinted_v_{};
+  alignas(64) Buf<double, kLd> lam_{}, step_{}, hinted_v_{}, hinted_z_{};  // hinted_z_: extend_solution's z
   Buf<std::int8_t, N> hinted_side_{};  // side of column k >= me_ of b_ (+1 lower, -1 upper)
   alignas(64) Buf<double, kLd * N> gram_s_{};  // S = B'B itself (lower triangle), kept across repairs
   ActiveSet<MI> repaired_set_{};  // the shortcut's set after its repairs, when they did not fit

@@ -29,8 +29,9 @@ namespace springbok::qp {
 // A hint a few rows off (rows that became active since the last tick, or left: wrong signs)
 // is repaired here, up to kShortcutRepairs times: every hinted row whose multiplier has the
 // wrong sign leaves the set, else the most violated row joins it on its violated side, and
-// the set is solved again (one column of B and one row and column of S change; the small
-// Cholesky of S is redone). A repaired set's answer passes the same checks (and so is the
+// the set is solved again (one column of B and one row and column of S change; S's factor
+// keeps its rows before the change, and after an added row the last answer is extended,
+// extend_solution, rather than solved anew). A repaired set's answer passes the same checks (and so is the
 // QP's unique minimiser); result.iterations counts the repairs. In the trots a force ramp's
 // end and a touch-down change four to seven rows at once, hence several repairs, and every
 // wrong sign leaving at once rather than one per repair. (Every violated row joining at once
@@ -63,9 +64,10 @@ inline auto Solver<N, ME, MI>::solve_on_hinted_set(
     dense::gemv_t_chunks(bcol(j), kLd, n_padded_, cols - j, bcol(j), sj + j);
     std::fill(sj + cols, sj + cp, 0.0);
   }
+  bool added = false;  // the last repair added a row: lam_ and hinted_v_ hold the answer without it
   for (int repair = 0;; ++repair) {
     SetRepair fix;
-    if (solve_on_set(cols, result, status, fix) == Shortcut::solved) return Shortcut::solved;
+    if (solve_on_set(cols, added, result, status, fix) == Shortcut::solved) return Shortcut::solved;
     if (fix.kind == SetRepair::Kind::none || repair == kShortcutRepairs) {
       if (repair > 0) {  // the full method starts from where the repairs got
         for (int k = me_; k < cols; ++k) repaired_set_.push(-1 - eq_src_[k], hinted_side_[k] > 0 ? Side::lower : Side::upper);
@@ -78,6 +80,7 @@ inline auto Solver<N, ME, MI>::solve_on_hinted_set(
       for (int k = fix.drops - 1; k >= 0; --k) drop_set_column(cols, drop_col_[k]);
       gram_cols_ = std::min(gram_cols_, drop_col_[0]);  // the factor's rows before the first drop stay
     }
+    added = fix.kind == SetRepair::Kind::add;
     ++iterations_;
   }
 }
@@ -164,10 +167,11 @@ inline auto Solver<N, ME, MI>::append_gram_row(int cols) noexcept -> bool {
 }
 
 // The block's columns 0 .. cols-1 (the equalities, then the set's rows) taken as active,
-// L^-1 g in column cols, S in gram_s_.
+// L^-1 g in column cols, S in gram_s_; added: column cols - 1 was just added to a set whose
+// answer lam_ and hinted_v_ hold.
 template <int N, int ME, int MI>
 inline auto Solver<N, ME, MI>::solve_on_set(
-    int cols, ResultType& result, Status& status, SetRepair& fix) noexcept -> Shortcut {
+    int cols, bool added, ResultType& result, Status& status, SetRepair& fix) noexcept -> Shortcut {
   const ProblemType& p = *p_;
   const double* c = bcol(cols);
   // S's lower triangle into gram_ and its Cholesky factor in the layout of H's: a
@@ -176,6 +180,7 @@ inline auto Solver<N, ME, MI>::solve_on_set(
   // the rows past the columns it kept are computed (S's leading block, and so the
   // factor's, did not change): the added row, or the rows from the first dropped one on.
   const int cp = dense::padded(cols);
+  const bool extend = added && gram_cols_ > 0 && gram_cols_ + 1 == cols;
   if (gram_cols_ > 0 && gram_cols_ == cols) {  // only trailing rows dropped: clear their rows
     for (int l = 0; l < cols; ++l) std::fill(gcol(l) + cols, gcol(l) + cp, 0.0);
     std::fill(gram_inv_diag_.begin() + cols, gram_inv_diag_.begin() + cp, 0.0);
@@ -194,26 +199,12 @@ inline auto Solver<N, ME, MI>::solve_on_set(
     std::fill(gram_inv_diag_.begin() + cols, gram_inv_diag_.begin() + cp, 0.0);
   }
   gram_cols_ = cols;
-  dense::gemv_t_chunks(bcol(0), kLd, n_padded_, cols, c, lam_.data());
-  for (int j = 0; j < cols; ++j) lam_[j] += eq_rhs_[j];
-  solve_gram(lam_.data(), cols);
-  // v = B lam - c (stationarity holds by construction whatever lam's rounding), then
-  // one refinement step, lam += S^-1 (b - B'v), v += B (that step): the normal
-  // equations square B's conditioning, the corrected ones recover what a QR of B
-  // would give. (Skipping it when b - B'v is already at 1e-14 of the rows' scale left
-  // x 1e-12 off: rows of norm 1e3 |x| then violated by 1e-8 in the soak.)
   double* v = hinted_v_.data();
-  for (int j = 0; j < cols; ++j) step_[j] = -lam_[j];
-  for (int i = 0; i < n_padded_; ++i) v[i] = -c[i];
-  dense::gemv_sub_chunks(bcol(0), kLd, n_padded_, cols, step_.data(), v);
-  dense::gemv_t_chunks(bcol(0), kLd, n_padded_, cols, v, step_.data());
-  for (int j = 0; j < cols; ++j) step_[j] = eq_rhs_[j] - step_[j];
-  solve_gram(step_.data(), cols);
-  for (int j = 0; j < cols; ++j) {
-    lam_[j] += step_[j];
-    step_[j] = -step_[j];
+  if (extend) {
+    extend_solution(cols);
+  } else {
+    solve_set_equations(cols);
   }
-  dense::gemv_sub_chunks(bcol(0), kLd, n_padded_, cols, step_.data(), v);
   fix.drops = 0;
   for (int j = me_; j < cols; ++j) {
     if (static_cast<double>(hinted_side_[j]) * lam_[j] < 0.0) drop_col_[fix.drops++] = j;
@@ -301,6 +292,59 @@ inline auto Solver<N, ME, MI>::solve_on_set(
   status = Status::optimal;
   result.from_hint = true;
   return Shortcut::solved;
+}
+
+// The set's equations solved with S's factor: S lam = b + B'c, v = B lam - c.
+template <int N, int ME, int MI>
+inline auto Solver<N, ME, MI>::solve_set_equations(int cols) noexcept -> void {
+  const double* c = bcol(cols);
+  double* v = hinted_v_.data();
+  dense::gemv_t_chunks(bcol(0), kLd, n_padded_, cols, c, lam_.data());
+  for (int j = 0; j < cols; ++j) lam_[j] += eq_rhs_[j];
+  solve_gram(lam_.data(), cols);
+  // v = B lam - c (stationarity holds by construction whatever lam's rounding), then
+  // one refinement step, lam += S^-1 (b - B'v), v += B (that step): the normal
+  // equations square B's conditioning, the corrected ones recover what a QR of B
+  // would give. (Skipping it when b - B'v is already at 1e-14 of the rows' scale left
+  // x 1e-12 off: rows of norm 1e3 |x| then violated by 1e-8 in the soak.)
+  for (int j = 0; j < cols; ++j) step_[j] = -lam_[j];
+  for (int i = 0; i < n_padded_; ++i) v[i] = -c[i];
+  dense::gemv_sub_chunks(bcol(0), kLd, n_padded_, cols, step_.data(), v);
+  dense::gemv_t_chunks(bcol(0), kLd, n_padded_, cols, v, step_.data());
+  for (int j = 0; j < cols; ++j) step_[j] = eq_rhs_[j] - step_[j];
+  solve_gram(step_.data(), cols);
+  for (int j = 0; j < cols; ++j) {
+    lam_[j] += step_[j];
+    step_[j] = -step_[j];
+  }
+  dense::gemv_sub_chunks(bcol(0), kLd, n_padded_, cols, step_.data(), v);
+}
+
+// The answer on the set after one row joined it, from the answer before (lam_, hinted_v_ on
+// the first j = cols - 1 columns, refined): with beta = L^-1 a the new column, s = B'beta
+// (S's new row) and w = S^-1 s,
+//   z = beta - B w   (beta's part outside B's range: B'z = 0),
+//   v += t z,  t = (b_new - beta'v) / beta'z,   lam = [lam - t w; t],
+// keeps the old rows met and v + c = B lam, and meets the new one. w costs one solve with
+// the factor's transpose: append_gram_row left D^-2 U^-1 s in the factor's new row. One
+// product with B here, against the four and two Gram solves of solve_set_equations; the
+// answer passes the same checks (its rounding is the answer's before plus one step's).
+template <int N, int ME, int MI>
+inline auto Solver<N, ME, MI>::extend_solution(int cols) noexcept -> void {
+  const int j = cols - 1;
+  double* w = step_.data();
+  for (int l = 0; l < j; ++l) w[l] = gcol(l)[j];
+  std::fill(w + j, w + dense::padded(j), 0.0);  // the solve reads whole chunks
+  dense::unit_backward_solve_transposed(gram_.data(), kLd, j, w);
+  double* z = hinted_z_.data();
+  const double* beta = bcol(j);
+  std::copy_n(beta, n_padded_, z);
+  dense::gemv_sub_chunks(bcol(0), kLd, n_padded_, j, w, z);
+  double* v = hinted_v_.data();
+  const double t = (eq_rhs_[j] - dense::dot_chunks(beta, v, n_padded_)) / dense::dot_chunks(beta, z, n_padded_);
+  dense::axpy_chunks(t, z, v, n_padded_);
+  for (int l = 0; l < j; ++l) lam_[l] -= t * w[l];
+  lam_[j] = t;
 }
 
 // Row i of Ain is one of the hinted rows, columns me_ .. cols-1 of the block.
