@@ -50,17 +50,28 @@ void sym_cols3(const EkfCovariance& P, int c, Eigen::Matrix<double, kN, 3>& out)
   }
 }
 
-// P -= U U^T on the lower triangle.
+// P -= U U^T on the lower triangle, by blocks of four rows 3 + 4m .. 6 + 4m: column j from the
+// block that holds its diagonal on (the rows of that block above the diagonal land in the
+// upper triangle, which the tick does not read); rows 0..2 of the first three columns one by
+// one.
 template <int M>
 void lower_rank_update(EkfCovariance& P, const Eigen::Matrix<double, kN, M>& u) noexcept {
+  static_assert(kN % 4 == 3, "rows 3 .. kN-1 are whole blocks of four");
+  const double* uc = u.data();
   for (int j = 0; j < kN; ++j) {
     double c[M];
-    for (int k = 0; k < M; ++k) c[k] = u(j, k);
+    for (int k = 0; k < M; ++k) c[k] = uc[k * kN + j];
     double* col = P.data() + static_cast<std::ptrdiff_t>(j) * kN;
-    for (int i = j; i < kN; ++i) {
+    for (int i = j; i < 3; ++i) {
       double sum = 0.0;
-      for (int k = 0; k < M; ++k) sum += c[k] * u(i, k);
+      for (int k = 0; k < M; ++k) sum += c[k] * uc[k * kN + i];
       col[i] -= sum;
+    }
+    for (int i = j < 3 ? 3 : 3 + ((j - 3) & ~3); i < kN; i += 4) {
+      double acc[4] = {col[i], col[i + 1], col[i + 2], col[i + 3]};
+      for (int k = 0; k < M; ++k)
+        for (int r = 0; r < 4; ++r) acc[r] -= c[k] * uc[k * kN + i + r];
+      for (int r = 0; r < 4; ++r) col[i + r] = acc[r];
     }
   }
 }
