@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-#include <Eigen/Cholesky>
+#include "springbok/dynamics/small_cholesky.hpp"
 
 namespace springbok::est {
 namespace {
@@ -42,7 +42,8 @@ bool gate_enabled(double chi2) noexcept { return chi2 > 0.0 && std::isfinite(chi
 // During a tick only P's lower triangle is kept (the prediction and the updates write it
 // alone); condition_covariance mirrors it at the tick's end. Columns c..c+2 of the symmetric
 // matrix, from the lower triangle.
-void sym_cols3(const EkfCovariance& P, int c, Eigen::Matrix<double, kN, 3>& out) noexcept {
+// Inlined (five feed each foot's update): for the state's fixed blocks the loops' lengths are constants.
+[[gnu::always_inline]] inline void sym_cols3(const EkfCovariance& P, int c, Eigen::Matrix<double, kN, 3>& out) noexcept {
   for (int k = 0; k < 3; ++k) {
     const int col = c + k;
     for (int r = 0; r < col; ++r) out(r, k) = P(col, r);
@@ -55,7 +56,7 @@ void sym_cols3(const EkfCovariance& P, int c, Eigen::Matrix<double, kN, 3>& out)
 // upper triangle, which the tick does not read); rows 0..2 of the first three columns one by
 // one.
 template <int M>
-void lower_rank_update(EkfCovariance& P, const Eigen::Matrix<double, kN, M>& u) noexcept {
+void lower_rank_update(EkfCovariance& P, const Eigen::Map<Eigen::Matrix<double, kN, M>>& u) noexcept {
   static_assert(kN % 4 == 3, "rows 3 .. kN-1 are whole blocks of four");
   const double* uc = u.data();
   for (int j = 0; j < kN; ++j) {
@@ -425,13 +426,8 @@ EkfStatus InertialKinematicEkf::update(const EkfInput& in, double dt_s) noexcept
       reset_foot(f, m);  // standing still again: a new anchor, as at a touch-down
       mode = FootMode::anchored;
     }
-    switch (fuse_foot(f, m, gate)) {
-      case Fused::yes:
-        ++fused;
-        if (params_.use_leg_velocity && m.velocity_valid) {
-          (void)fuse_leg_velocity(m, mounting_.rotation_bi * (in.imu.rate_i_rad_s - x_.b_g), dt_s, gate);
-        }
-        break;
+    switch (fuse_foot(f, m, mounting_.rotation_bi * (in.imu.rate_i_rad_s - x_.b_g), dt_s, gate)) {
+      case Fused::yes: ++fused; break;
       case Fused::gated:
         mode = FootMode::rejected;
         x_.probe_count[idx(f)] = 0;
@@ -549,24 +545,31 @@ void InertialKinematicEkf::reset_foot(int foot, const FootMeasurement& m) noexce
 }
 
 // rt: no alloc
-InertialKinematicEkf::Fused InertialKinematicEkf::fuse_foot(int foot, const FootMeasurement& m, bool gate) noexcept {
-  return params_.use_ground ? fuse_foot_rows<4>(foot, m, gate) : fuse_foot_rows<3>(foot, m, gate);
+InertialKinematicEkf::Fused InertialKinematicEkf::fuse_foot(int foot, const FootMeasurement& m, const Vec3& w_b,
+                                                            double dt_s, bool gate) noexcept {
+  const bool velocity = params_.use_leg_velocity && m.velocity_valid;
+  if (params_.use_ground) {
+    return velocity ? fuse_foot_rows<4, true>(foot, m, w_b, dt_s, gate) : fuse_foot_rows<4, false>(foot, m, w_b, dt_s, gate);
+  }
+  return velocity ? fuse_foot_rows<3, true>(foot, m, w_b, dt_s, gate) : fuse_foot_rows<3, false>(foot, m, w_b, dt_s, gate);
 }
 
 // rt: no alloc
-template <int M>
-InertialKinematicEkf::Fused InertialKinematicEkf::fuse_foot_rows(int foot, const FootMeasurement& m, bool gate) noexcept {
+template <int K, bool kVelocity>
+InertialKinematicEkf::Fused InertialKinematicEkf::fuse_foot_rows(int foot, const FootMeasurement& m, const Vec3& w_b,
+                                                                 double dt_s, bool gate) noexcept {
+  constexpr int M = K + (kVelocity ? 3 : 0);
   Filter& x = x_;
   const EkfCovariance& P = x.P;  // its lower triangle (see sym_cols3)
   const int i = ekf_foot_index(foot);
   const Mat3 rot = x.q.toRotationMatrix();
-  const Vec3 rel = x.d[idx(foot)] - x.p;                                      // predicted R^ (s - r)
-  const Vec3 y = rot * (m.contact_point_b_m - mounting_.position_bi_m) - rel;  // innovation, world axes
-  const Mat3 hth = skew(rel);                                     // H's dth block
-  const Mat3 noise = rot * m.covariance_b_m2 * rot.transpose();
+  const Vec3 a = m.contact_point_b_m - mounting_.position_bi_m;
+  const Vec3 rel = x.d[idx(foot)] - x.p;  // predicted R^ (s - r)
+  const Mat3 hth = skew(rel);             // the kinematics' dth block
 
-  // P H^T and H P H^T + N: H = [-I (p), [rel]x (th), I (d_i)], and with the ground row
-  // d_i,z = h, H = e_z on dd_i (M = 4).
+  // P H^T and S = H P H^T + N. Kinematics: H = [-I (p), [rel]x (th), I (d_i)]; the ground
+  // row (K = 4): e_z on dd_i; the leg velocity (rows K..K+2): H = [I (v), -[R^ c]x (th),
+  // R^ [a]x R_BI (b_g)].
   Eigen::Matrix<double, kN, 3> cols_p, cols_th, cols_d;
   sym_cols3(P, kEkfP, cols_p);
   sym_cols3(P, kEkfTh, cols_th);
@@ -577,86 +580,86 @@ InertialKinematicEkf::Fused InertialKinematicEkf::fuse_foot_rows(int foot, const
   Eigen::Matrix<double, M, M> s;
   Mat3 s3 = pht.template middleRows<3>(i).template leftCols<3>() - pht.template middleRows<3>(kEkfP).template leftCols<3>();
   s3.noalias() += hth * pht.template middleRows<3>(kEkfTh).template leftCols<3>();
-  s.template topLeftCorner<3, 3>() = 0.5 * (s3 + s3.transpose()) + noise;
+  s.template topLeftCorner<3, 3>() = 0.5 * (s3 + s3.transpose()) + rot * m.covariance_b_m2 * rot.transpose();
   Eigen::Matrix<double, M, 1> innovation;
-  innovation.template head<3>() = y;
-  if constexpr (M == 4) {
+  innovation.template head<3>() = rot * a - rel;
+  if constexpr (K == 4) {
     pht.col(3) = cols_d.col(2);
-    s.template block<3, 1>(0, 3) = pht.template leftCols<3>().row(i + 2).transpose();
     s.template block<1, 3>(3, 0) = pht.template leftCols<3>().row(i + 2);
+    s.template block<3, 1>(0, 3) = s.template block<1, 3>(3, 0).transpose();
     s(3, 3) = cols_d(i + 2, 2) + params_.ground_std_m * params_.ground_std_m;
     innovation[3] = params_.ground_height_m - x.d[idx(foot)].z();
   }
-  const Eigen::LLT<Eigen::Matrix<double, M, M>> llt(s);
-  if (llt.info() != Eigen::Success) return Fused::failed;
-  // The gate: the kinematic rows' leading 3x3 factor is the 3x3 S's own Cholesky factor.
-  const Eigen::Matrix<double, M, M>& l = llt.matrixLLT();
-  Vec3 e = y;
-  for (int k = 0; k < 3; ++k) {
+  if constexpr (kVelocity) {
+    const Vec3 c_w = rot * (w_b.cross(a) + m.velocity_b_m_s);
+    const Mat3 hthv = -skew(c_w);
+    const Mat3 ax = skew(a);
+    const Mat3 hbg = rot * ax * mounting_.rotation_bi;
+    const double qg = params_.gyro_noise_rad_s_per_sqrt_hz * params_.gyro_noise_rad_s_per_sqrt_hz / dt_s;
+    const double model = params_.leg_velocity_std_m_s * params_.leg_velocity_std_m_s;
+    Mat3 noise_b = m.velocity_covariance_b_m2_s2;
+    noise_b.noalias() += qg * ax * ax.transpose();
+    Eigen::Matrix<double, kN, 3> cols_v, cols_bg;
+    sym_cols3(P, kEkfV, cols_v);
+    sym_cols3(P, kEkfBg, cols_bg);
+    auto pv = pht.template middleCols<3>(K);
+    pv = cols_v;
+    pv.noalias() += cols_th * hthv.transpose();
+    pv.noalias() += cols_bg * hbg.transpose();
+    Mat3 sv = pv.template middleRows<3>(kEkfV);
+    sv.noalias() += hthv * pv.template middleRows<3>(kEkfTh);
+    sv.noalias() += hbg * pv.template middleRows<3>(kEkfBg);
+    s.template bottomRightCorner<3, 3>() =
+        0.5 * (sv + sv.transpose()) + rot * noise_b * rot.transpose() + model * Mat3::Identity();
+    // The velocity rows against the kinematic ones: H_v (P H_k^T).
+    auto svk = s.template block<3, K>(K, 0);
+    svk = pht.template middleRows<3>(kEkfV).template leftCols<K>();
+    svk.noalias() += hthv * pht.template middleRows<3>(kEkfTh).template leftCols<K>();
+    svk.noalias() += hbg * pht.template middleRows<3>(kEkfBg).template leftCols<K>();
+    s.template block<K, 3>(0, K) = svk.transpose();
+    innovation.template tail<3>() = -(x.v + c_w);
+  }
+  const dyn::SmallCholesky<M> llt(s);
+  if (!llt.ok()) {
+    if constexpr (kVelocity) return fuse_foot_rows<K, false>(foot, m, w_b, dt_s, gate);  // the kinematics alone
+    return Fused::failed;
+  }
+  // The whitened innovation e = L^-1 y. Its first three entries are the kinematic rows' own
+  // (the leading 3x3 of L is their S's factor): the slip gate. The velocity's three are its
+  // innovation given the kinematic rows (what a sequential update's gate would see).
+  const Eigen::Matrix<double, M, M>& l = llt.matrix_l();
+  Eigen::Matrix<double, M, 1> e = innovation;
+  for (int k = 0; k < M; ++k) {
     for (int j = 0; j < k; ++j) e[k] -= l(k, j) * e[j];
     e[k] /= l(k, k);
   }
-  const double d2 = e.squaredNorm();
+  const double d2 = e.template head<3>().squaredNorm();
   x.mahalanobis2[idx(foot)] = d2;
   if (gate && d2 > params_.slip_gate_chi2) return Fused::gated;
-  fuse<M>(pht, llt, innovation);
-  return Fused::yes;
-}
-
-// rt: no alloc
-InertialKinematicEkf::Fused InertialKinematicEkf::fuse_leg_velocity(const FootMeasurement& m, const Vec3& w_b,
-                                                                    double dt_s, bool gate) noexcept {
-  const EkfCovariance& P = x_.P;  // its lower triangle (see sym_cols3)
-  const Mat3 rot = x_.q.toRotationMatrix();
-  const Vec3 a = m.contact_point_b_m - mounting_.position_bi_m;
-  const Vec3 c_w = rot * (w_b.cross(a) + m.velocity_b_m_s);
-  const Vec3 y = -(x_.v + c_w);
-  const Mat3 hth = -skew(c_w);
-  const Mat3 ax = skew(a);
-  const Mat3 hbg = rot * ax * mounting_.rotation_bi;
-  const double qg = params_.gyro_noise_rad_s_per_sqrt_hz * params_.gyro_noise_rad_s_per_sqrt_hz / dt_s;
-  const double model = params_.leg_velocity_std_m_s * params_.leg_velocity_std_m_s;
-  Mat3 noise_b = m.velocity_covariance_b_m2_s2;
-  noise_b.noalias() += qg * ax * ax.transpose();
-  const Mat3 noise = rot * noise_b * rot.transpose() + model * Mat3::Identity();
-
-  // P H^T and H P H^T + N: H = [I (v), -[R^ c]x (th), R^ [a]x R_BI (b_g)].
-  Eigen::Matrix<double, kN, 3> cols_th, cols_bg, pht;
-  sym_cols3(P, kEkfV, pht);
-  sym_cols3(P, kEkfTh, cols_th);
-  sym_cols3(P, kEkfBg, cols_bg);
-  pht.noalias() += cols_th * hth.transpose();
-  pht.noalias() += cols_bg * hbg.transpose();
-  Mat3 s3 = pht.middleRows<3>(kEkfV);
-  s3.noalias() += hth * pht.middleRows<3>(kEkfTh);
-  s3.noalias() += hbg * pht.middleRows<3>(kEkfBg);
-  const Mat3 s = 0.5 * (s3 + s3.transpose()) + noise;
-  const Eigen::LLT<Mat3> llt(s);
-  if (llt.info() != Eigen::Success) return Fused::failed;
-  if (gate && llt.matrixL().solve(y).squaredNorm() > params_.slip_gate_chi2) return Fused::gated;
-  fuse<3>(pht, llt, y);
+  if constexpr (kVelocity) {
+    if (gate && e.template tail<3>().squaredNorm() > params_.slip_gate_chi2) {
+      fuse<K>(pht.data(), l.data(), M, e.data());  // the kinematic rows alone: U's leading columns
+      return Fused::yes;
+    }
+  }
+  fuse<M>(pht.data(), l.data(), M, e.data());
   return Fused::yes;
 }
 
 // rt: no alloc
 template <int M>
-void InertialKinematicEkf::fuse(Eigen::Matrix<double, kN, M>& pht, const Eigen::LLT<Eigen::Matrix<double, M, M>>& llt,
-                                const Eigen::Matrix<double, M, 1>& innovation) noexcept {
+void InertialKinematicEkf::fuse(double* pht, const double* l, int ld, const double* e) noexcept {
   // K y = P H^T S^-1 y = U (L^-1 y),  K S K^T = U U^T,  U = P H^T L^-T (forward substitution
-  // on the columns, in place).
-  const Eigen::Matrix<double, M, M>& l = llt.matrixLLT();  // L in its lower triangle
-  Eigen::Matrix<double, M, 1> e = innovation;
+  // on the columns, in place). Rows and columns 0..M-1 of an update of more rows are the
+  // update by those rows alone: the substitution's first M columns read no later one.
+  Eigen::Map<Eigen::Matrix<double, kN, M>> u(pht);
   for (int k = 0; k < M; ++k) {
-    for (int j = 0; j < k; ++j) {
-      pht.col(k) -= l(k, j) * pht.col(j);
-      e[k] -= l(k, j) * e[j];
-    }
-    pht.col(k) /= l(k, k);
-    e[k] /= l(k, k);
+    for (int j = 0; j < k; ++j) u.col(k) -= l[j * ld + k] * u.col(j);
+    u.col(k) /= l[k * ld + k];
   }
   EkfVector dx;
-  dx.noalias() = pht * e;
-  lower_rank_update<M>(x_.P, pht);
+  dx.noalias() = u * Eigen::Map<const Eigen::Matrix<double, M, 1>>(e);
+  lower_rank_update<M>(x_.P, u);
   inject(dx);
 }
 
@@ -686,10 +689,10 @@ bool InertialKinematicEkf::retest_foot(int foot, const FootMeasurement& m, doubl
   const double n = x.probe_count[f];
   const Vec3 e = w - x.probe_mean_w_m[f];
   const Mat3 s = (1.0 + 1.0 / n) * (rot * m.covariance_b_m2 * rot.transpose());
-  const Eigen::LLT<Mat3> llt(s);
-  const double d2 = llt.info() == Eigen::Success ? llt.matrixL().solve(e).squaredNorm() : 0.0;
+  const dyn::SmallCholesky<3> llt(s);
+  const double d2 = llt.ok() ? llt.matrix_l().triangularView<Eigen::Lower>().solve(e).squaredNorm() : 0.0;
   x.mahalanobis2[f] = d2;
-  if (llt.info() != Eigen::Success || d2 > params_.slip_gate_chi2) {  // moved: start again from here
+  if (!llt.ok() || d2 > params_.slip_gate_chi2) {  // moved: start again from here
     x.probe_mean_w_m[f] = w;
     x.probe_count[f] = 1;
     x.probe_passed_s[f] = 0.0;
@@ -716,11 +719,11 @@ void InertialKinematicEkf::fuse_yaw(const Quat& orientation_wi) noexcept {
   sym_cols3(x.P, kEkfTh, cols_th);
   Eigen::Matrix<double, kN, 1> pht;
   pht.noalias() = cols_th * h;
-  Eigen::Matrix<double, 1, 1> s, y;
-  s(0, 0) = h.dot(pht.segment<3>(kEkfTh)) + params_.yaw_std_rad * params_.yaw_std_rad;
-  y(0, 0) = innovation;
-  const Eigen::LLT<Eigen::Matrix<double, 1, 1>> llt(s);
-  if (llt.info() == Eigen::Success) fuse<1>(pht, llt, y);
+  const double s = h.dot(pht.segment<3>(kEkfTh)) + params_.yaw_std_rad * params_.yaw_std_rad;
+  if (!(s > 0.0)) return;
+  const double l = std::sqrt(s);
+  const double e = innovation / l;
+  fuse<1>(pht.data(), &l, 1, &e);
 }
 
 // rt: no alloc

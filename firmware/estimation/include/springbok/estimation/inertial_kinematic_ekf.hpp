@@ -89,7 +89,7 @@
 //   z_i = R^ (s_i - r) = (d_i - p) + R^ n_s,i      predicted  d_i^ - p^
 //   H: dp -> -I,  dth -> [d_i^ - p^]x,  dd_i -> I;   noise R^ Sigma_i R^^T
 //   (from R^ R^T = Exp(-dth):  R^ R^T (d - p) = (I - [dth]x)(d - p) = (d - p) + [d - p]x dth)
-// Leg velocity (option, default on; after the same foot's kinematics, when they were fused):
+// Leg velocity (option, default on; in the same update as the foot's kinematics, rows after theirs):
 // the stance foot's material contact point stands (leg odometry), with a = s_i - r and
 // c = w x a + e_i (w this tick's corrected rate):
 //   0 = v + R c + n_v,   predicted v^ + R^ c;   innovation y = -(v^ + R^ c)
@@ -99,8 +99,9 @@
 //   use of the same sample is neglected). Without it the velocity is known only as the
 //   kinematic position's derivative over the accelerometer's integration: the low
 //   frequencies of a tilt error (g dth of false acceleration) stay in the velocity for the
-//   position fusion's time constant. A velocity innovation outside slip_gate_chi2 is not
-//   fused (a touch-down's impact, a slip starting; the position's gate judges the foot).
+//   position fusion's time constant. A velocity innovation outside slip_gate_chi2, given the
+//   kinematic rows (e's last three entries below), is not fused: the kinematics are, alone
+//   (a touch-down's impact, a slip starting; the position's gate judges the foot).
 // Flat ground (option, default on), with the kinematics of the same foot (one 4-row update):
 //   d_i,z = ground height + n_h,  n_h ~ N(0, sigma_h^2);  H: dd_i,z -> 1
 // Without it a foot's position and the trunk's tilt enter the kinematics only as d_i - p in
@@ -113,9 +114,14 @@
 //   yaw = atan2(R_10, R_00) of R_WI R_BI^T, innovation wrapped to (-pi, pi];
 //   H: dth -> (cos(yaw) tan(pitch), sin(yaw) tan(pitch), 1);  skipped above 60 degrees of pitch.
 //   It makes the absolute yaw observable (and the vertical gyro bias through steps and flight).
-// Update: K = P H^T S^-1 with S = H P H^T + N = L L^T; P -= U U^T with U = P H^T L^-T (the
-// optimal gain's form of Joseph's; P H^T takes H's three nonzero 3-column blocks), the error
-// injected into the mean after each foot (p, v, d, b added; R <- Exp(dth) R). Within a tick
+// Update, one per foot (3, 4, 6 or 7 rows: kinematics, ground, leg velocity): K = P H^T S^-1
+// with S = H P H^T + N = L L^T, e = L^-1 y; P -= U U^T with U = P H^T L^-T (the optimal
+// gain's form of Joseph's; P H^T takes H's nonzero 3-column blocks), dx = U e, injected into
+// the mean after each foot (p, v, d, b added; R <- Exp(dth) R). The first rows' entries of e
+// and columns of U are those rows' own update (L is lower triangular), which gives the slip
+// gate (e's first three) and the update without the velocity rows when they are gated; the
+// rows of one foot together are the sequential updates' result but for where H is linearised
+// (all at the prior). Within a tick
 // only P's lower triangle is written (the prediction and the rank-M updates, half the work);
 // at the tick's end it is mirrored (P exactly symmetric) and its diagonal bounded (a row and
 // column scaled down to the bound: it stays positive semidefinite).
@@ -401,21 +407,20 @@ class InertialKinematicEkf {
   bool input_ok(const EkfInput& in, double dt_s) const noexcept;
   void predict(const EkfInput& in, double dt_s) noexcept;
   enum class Fused : std::uint8_t { yes, gated, failed };  // failed: S not positive definite
-  // The foot's kinematics (and the ground) fused, or rejected by the gate (nothing fused).
-  // rt: no alloc
-  Fused fuse_foot(int foot, const FootMeasurement& m, bool gate) noexcept;
+  // The foot's kinematics (and the ground, and its leg velocity) fused, or rejected by the
+  // gate (nothing fused); w_b: this tick's corrected rate, trunk axes. rt: no alloc
+  Fused fuse_foot(int foot, const FootMeasurement& m, const Eigen::Vector3d& w_b, double dt_s, bool gate) noexcept;
   void fuse_yaw(const Eigen::Quaterniond& orientation_wi) noexcept;
   // A rejected foot: one tick of its stillness test; true when it is accepted again.
   bool retest_foot(int foot, const FootMeasurement& m, double dt_s) noexcept;
   void reset_foot(int foot, const FootMeasurement& m) noexcept;
-  template <int M>  // M = 4: with the ground row
-  Fused fuse_foot_rows(int foot, const FootMeasurement& m, bool gate) noexcept;
-  // The foot's leg velocity (w_b: this tick's corrected rate, trunk axes), or gated. rt: no alloc
-  Fused fuse_leg_velocity(const FootMeasurement& m, const Eigen::Vector3d& w_b, double dt_s, bool gate) noexcept;
-  // The update with P H^T (overwritten), the Cholesky factor of S and the innovation.
+  template <int K, bool kVelocity>  // K = 4: with the ground row; kVelocity: the leg velocity's 3 rows after
+  Fused fuse_foot_rows(int foot, const FootMeasurement& m, const Eigen::Vector3d& w_b, double dt_s, bool gate) noexcept;
+  // The update by the first M rows: P H^T (kN x M, column-major, overwritten), the Cholesky
+  // factor L of S (its lower triangle, column-major, leading dimension ld >= M) and the
+  // whitened innovation L^-1 y.
   template <int M>
-  void fuse(Eigen::Matrix<double, kEkfErrorDim, M>& pht, const Eigen::LLT<Eigen::Matrix<double, M, M>>& llt,
-            const Eigen::Matrix<double, M, 1>& innovation) noexcept;
+  void fuse(double* pht, const double* l, int ld, const double* e) noexcept;
   void inject(const EkfVector& dx) noexcept;
   // P's lower triangle mirrored, its diagonal bounded; false if an entry is not finite.
   bool condition_covariance() noexcept;

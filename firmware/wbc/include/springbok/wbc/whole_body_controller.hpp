@@ -47,7 +47,7 @@
 #include "springbok/qp/qp.hpp"
 #include "springbok/wbc/contact_kinematics.hpp"
 #include "springbok/wbc/impedance_template.hpp"
-#include "springbok/wbc/small_cholesky.hpp"
+#include "springbok/dynamics/small_cholesky.hpp"
 
 namespace springbok::wbc {
 
@@ -61,6 +61,7 @@ inline constexpr int kQpIn = 2 * kNj + kStanceFootRows * kFeet;  // 58 (all feet
 using WbcSolver = qp::Solver<kQpVars, kQpEq, kQpIn>;
 using VecArm = Vec<kArmDofs>;
 using MatArm = Eigen::Matrix<double, kArmDofs, kArmDofs>;
+using dyn::SmallCholesky;
 
 struct WbcParams {
   TemplateParams template_params;

@@ -1,4 +1,4 @@
-// wbc::SmallCholesky against Eigen's LLT: the factor, solves with several right-hand sides,
+// dyn::SmallCholesky against Eigen's LLT: the factor, solves with several right-hand sides,
 // and a matrix that is not positive definite.
 #include <random>
 
@@ -6,10 +6,10 @@
 
 #include <Eigen/Cholesky>
 
-#include "springbok/wbc/small_cholesky.hpp"
+#include "springbok/dynamics/small_cholesky.hpp"
 
 namespace {
-using springbok::wbc::SmallCholesky;
+using springbok::dyn::SmallCholesky;
 
 template <int N>
 Eigen::Matrix<double, N, N> random_spd(std::mt19937& rng, double condition_scale) {

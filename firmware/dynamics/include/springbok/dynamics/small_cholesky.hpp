@@ -1,8 +1,9 @@
 // Cholesky factor A = L L' of a small symmetric positive definite matrix of compile-time
 // size, and solves with it, in plain loops the compiler unrolls. Eigen's LLT sends a
 // matrix right-hand side through its general blocked triangular solver, which at these
-// sizes costs more than the arithmetic (the arm task's 7 x 7 solve with 3 columns: a
-// third of a microsecond a tick). Reads A's lower triangle.
+// sizes costs more than the arithmetic (the arm task's 7 x 7 solve with 3 columns; and its
+// factorisation runs generic loops: the base estimator's per-foot update of up to 7 rows).
+// Reads A's lower triangle.
 #pragma once
 
 #include <cmath>
@@ -10,7 +11,7 @@
 
 #include <Eigen/Core>
 
-namespace springbok::wbc {
+namespace springbok::dyn {
 
 template <int N>
 class SmallCholesky {
@@ -62,4 +63,4 @@ class SmallCholesky {
   bool ok_ = true;
 };
 
-}  // namespace springbok::wbc
+}  // namespace springbok::dyn
