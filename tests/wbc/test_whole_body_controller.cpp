@@ -574,6 +574,31 @@ TEST_F(Fixture, SteadyTicksAreSolvedOnTheLastActiveSet) {
   EXPECT_LT((out.tau_nm - cold.tau_nm).cwiseAbs().maxCoeff(), 1e-8);
 }
 
+// A touch-down ramp's start: a cap at or below normal_force_min_n makes the foot's normal
+// row an equality (lb == ub). When the next tick's cap opens the range, the row is hinted
+// on the side its multiplier pushed (here the upper: the foot wants more than the cap), so
+// that tick is solved on the hinted set with no repair, and its answer is the cold one.
+TEST_F(Fixture, AnEqualityForceRowThatOpensIsHintedOnItsMultipliersSide) {
+  const double inf = std::numeric_limits<double>::infinity();
+  in.normal_force_cap_n = {1.0, inf, inf, inf};
+  ASSERT_EQ(tick().qp_status, qp::Status::optimal);
+  const auto& pinned = tick();
+  ASSERT_EQ(pinned.qp_status, qp::Status::optimal);
+  EXPECT_NEAR(pinned.foot_force_n[0].z(), params.normal_force_min_n, 1e-9);
+  in.normal_force_cap_n[0] = params.normal_force_min_n + 1.0;
+  const wbc::WbcOutput out = tick();
+  ASSERT_EQ(out.qp_status, qp::Status::optimal);
+  EXPECT_TRUE(out.qp_from_hint);
+  EXPECT_EQ(out.qp_iterations, 0);
+  EXPECT_NEAR(out.foot_force_n[0].z(), params.normal_force_min_n + 1.0, 1e-9);
+  auto cold_wbc = std::make_unique<wbc::WholeBodyController>(params);
+  cold_wbc->set_reference(in.state.q, *data);
+  const auto& cold = tick(*cold_wbc);
+  ASSERT_EQ(cold.qp_status, qp::Status::optimal);
+  EXPECT_LT((out.udot - cold.udot).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((out.tau_nm - cold.tau_nm).cwiseAbs().maxCoeff(), 1e-8);
+}
+
 // The problem's zero pattern is laid out once and cleared only where a contact switch changes
 // it: through a sequence of switches (feet lifting, landing, the other diagonal, three feet)
 // every tick's answer is that of a fresh controller built for that tick's stance. A stale

@@ -662,7 +662,17 @@ const WbcOutput& WholeBodyController::tick_kernel(const WbcInput& in, const dyn:
   out_.qp_from_hint = result_->from_hint;
   last_stance_ = in.state.stance;
   if (status == qp::Status::optimal) {
+    // A row with lb == ub (a foot's force minimum that is also its cap, at a touch-down
+    // ramp's start) is hinted on the side its multiplier pushes: the next tick's cap
+    // opens the range, and an `equal` hint would leave the row out (a repair or more to
+    // find it again). While lb == ub the solver takes it as an equality either way.
     *warm_start_ = result_->active;
+    for (int e = 0; e < warm_start_->size; ++e) {
+      qp::Side& side = warm_start_->side[static_cast<std::size_t>(e)];
+      if (side != qp::Side::equal) continue;
+      const int row = warm_start_->row[static_cast<std::size_t>(e)];
+      side = result_->lambda_in[static_cast<std::size_t>(row)] > 0.0 ? qp::Side::upper : qp::Side::lower;
+    }
     have_warm_start_ = true;
     out_.failed = false;
     torques_from_solution(in, d);
