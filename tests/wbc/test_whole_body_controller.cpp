@@ -116,6 +116,25 @@ TEST_F(Fixture, ANormalForceCapIsObeyedAndTheOtherFeetTakeTheLoad) {
   }
 }
 
+// A ramping foot's tangential force is regularised by (weight / 4) / cap: with a push on the
+// hand that the feet resist sideways, the foot capped low carries a tangential share that
+// shrinks with its cap (inside its pyramid, not on a face of it), the uncapped feet the rest.
+TEST_F(Fixture, ARampingFootCarriesATangentialShareThatShrinksWithItsCap) {
+  const double inf = std::numeric_limits<double>::infinity();
+  const double mu = params.friction_mu / std::sqrt(2.0);
+  in.wrist_force_world_n = Vec3(60.0, 40.0, 0.0);
+  for (double cap : {40.0, 10.0}) {
+    in.normal_force_cap_n = {cap, inf, inf, inf};
+    const auto& out = tick();
+    ASSERT_EQ(out.qp_status, qp::Status::optimal) << cap;
+    const Vec3& f0 = out.foot_force_n[0];
+    double others = 0.0;
+    for (int f = 1; f < kFeet; ++f) others = std::max(others, out.foot_force_n[f].head<2>().norm());
+    EXPECT_LT(f0.head<2>().cwiseAbs().maxCoeff(), 0.5 * mu * f0.z()) << cap << ": " << f0.transpose();
+    EXPECT_LT(f0.head<2>().norm(), 0.5 * others) << cap;
+  }
+}
+
 // The hand's template acceleration is bounded in norm (arm.max_acceleration), its
 // direction kept; below the bound it is the template's, F / M_e at rest.
 TEST_F(Fixture, TheHandsTemplateAccelerationIsBoundedInNorm) {

@@ -409,8 +409,21 @@ void WholeBodyController::build_qp(const WbcInput& in, const dyn::Data& d) noexc
   hess.block<kArmDofs, kArmDofs>(kArmCol, kArmCol).diagonal().array() += params_.weight_arm;
   grad.segment<kArmDofs>(kArmCol) -= params_.weight_arm * out_.arm_qdd_desired;
   hess.diagonal().head<6>().array() += params_.reg_acceleration;
+  // A foot whose force ramps (the gait's cap below a quarter of the weight) has its
+  // tangential force regularised by (weight / 4) / cap: the share of the ground forces'
+  // free part (what the tasks leave undetermined) it carries shrinks with its cap, as its
+  // friction pyramid does, rather than the pyramid's faces joining the active set one by one
+  // at the ramp's end.
+  const double quarter_weight_n = 0.25 * d.composite[0].mass_kg * kGravity_m_s2;
   for (int f = 0; f < kFeet; ++f) {
-    hess.diagonal().segment<kFootVars>(foot_var(f)).setConstant(in.state.stance[f] ? params_.reg_force : params_.reg_slack);
+    auto vars = hess.diagonal().segment<kFootVars>(foot_var(f));
+    if (!in.state.stance[f]) {
+      vars.setConstant(params_.reg_slack);
+      continue;
+    }
+    const double cap = std::max(in.normal_force_cap_n[f], params_.normal_force_min_n);
+    vars.setConstant(params_.reg_force);
+    if (cap < quarter_weight_n) vars.head<2>().setConstant(params_.reg_force * quarter_weight_n / cap);
   }
 
   // ---- equalities ----------------------------------------------------------------
