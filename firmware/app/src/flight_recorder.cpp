@@ -1,5 +1,6 @@
 #include "springbok/app/flight_recorder.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -52,18 +53,32 @@ void FlightRecorder::request(DumpReason reason) noexcept {
   (void)pending_.compare_exchange_strong(none, static_cast<std::uint8_t>(reason), std::memory_order_acq_rel);
 }
 
+// Newest first: the RT side overwrites the oldest slots, so a copy that walks away from it
+// loses at most the oldest end of the ring to a fast writer (walking oldest first, a writer
+// faster than the copy overwrites every slot just before it is read). The first slot found
+// overwritten ends the walk: the writer goes in order, so every older slot is gone too.
 std::size_t FlightRecorder::snapshot() {
-  copy_.clear();
-  const std::uint64_t head = head_.load(std::memory_order_acquire);
   const std::uint64_t n = slots_.size();
-  for (std::uint64_t k = head > n ? head - n : 0; k < head; ++k) {
-    const Slot& s = slots_[static_cast<std::size_t>(k % n)];
-    const std::uint64_t before = s.sequence.load(std::memory_order_acquire);
-    if (before != 2 * k + 2) continue;  // overwritten since (or being written)
-    copy_.push_back(s.record);
-    std::atomic_thread_fence(std::memory_order_acquire);
-    if (s.sequence.load(std::memory_order_relaxed) != before) copy_.pop_back();  // written over meanwhile
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    copy_.clear();
+    const std::uint64_t head = head_.load(std::memory_order_acquire);
+    const std::uint64_t oldest = head > n ? head - n : 0;
+    for (std::uint64_t k = head; k > oldest; --k) {
+      const Slot& s = slots_[static_cast<std::size_t>((k - 1) % n)];
+      const std::uint64_t whole = 2 * (k - 1) + 2;
+      if (s.sequence.load(std::memory_order_acquire) != whole) break;  // overwritten since
+      copy_.push_back(s.record);
+      std::atomic_thread_fence(std::memory_order_acquire);
+      if (s.sequence.load(std::memory_order_relaxed) != whole) {  // written over meanwhile
+        copy_.pop_back();
+        break;
+      }
+    }
+    // Nothing whole although ticks were recorded: the copy was lapped at its first slot (its
+    // thread preempted for a whole ring's worth of ticks); look again.
+    if (!copy_.empty() || head == 0) break;
   }
+  std::reverse(copy_.begin(), copy_.end());
   return copy_.size();
 }
 

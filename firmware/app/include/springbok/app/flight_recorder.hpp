@@ -70,7 +70,8 @@ class FlightRecorder {
     std::atomic<std::uint64_t> sequence{0};  // 2k+1 while tick k is written, 2k+2 when it is whole
     TelemetryRecord record;
   };
-  // The ring's whole records, oldest first, into copy_ (the writer's). Returns their number.
+  // The newest run of consecutive whole records, oldest first, into copy_ (the writer's). Returns
+  // their number.
   std::size_t snapshot();
   void run();
 
