@@ -2,10 +2,9 @@
 // Body Dynamics Algorithms", table 7.1), in frame A (world-aligned, trunk
 // origin), with the trunk as a 6-DoF root joint of motion subspace
 // blockdiag(R_WB, R_WB).
-#include <Eigen/Cholesky>
-
 #include "dispatch.hpp"
 #include "kernels.hpp"
+#include "springbok/dynamics/small_cholesky.hpp"
 
 namespace springbok::dyn {
 using namespace detail;
@@ -69,7 +68,7 @@ const VecNv& kernel::aba(const Model& model, Data& data, const VecNq& q, const V
   Vec6 rhs;
   rhs.head<3>() = r0 * tau.segment<3>(0) - data.art_bias[0].head<3>();
   rhs.tail<3>() = r0 * tau.segment<3>(3) - data.art_bias[0].tail<3>();
-  const Vec6 a0 = data.art_inertia[0].llt().solve(rhs);
+  const Vec6 a0 = SmallCholesky<6>(data.art_inertia[0]).solve(rhs);
   data.acc_lin[0] = a0.head<3>();
   data.acc_ang[0] = a0.tail<3>();
   data.ddq.segment<3>(0).noalias() = r0.transpose() * (data.acc_lin[0] - minus_g);
