@@ -62,8 +62,15 @@ TEST(SimCli, LockedMemoryTakesNoPageFaultsAndChangesNothingElse) {
   EXPECT_NE(slurp(dir / "plain" / "summary.json").find("\"memory_locked\": null"), std::string::npos);
   const std::string summary = slurp(dir / "locked" / "summary.json");
   const std::string log = slurp(dir / "locked" / "log.csv"), plain_log = slurp(dir / "plain" / "log.csv");
-  for (const char* name : {"time_s", "base_x_m", "tau_lf_kfe_joint", "tau_arm_joint_2", "qp_iterations"})
+  for (const char* name : {"time_s", "base_x_m", "tau_lf_kfe_joint", "tau_arm_joint_2", "qp_iterations", "qp_from_hint"})
     EXPECT_EQ(column(log, name), column(plain_log, name)) << name;
+  // The log's per-tick hint flags add up to the summary's count; the first WBC tick is cold.
+  const std::vector<std::string> from_hint = column(log, "qp_from_hint");
+  ASSERT_GT(from_hint.size(), 7000u);
+  EXPECT_EQ(from_hint.front(), "0");
+  const auto hinted = std::count(from_hint.begin(), from_hint.end(), std::string("1"));
+  EXPECT_GT(hinted, 0);
+  EXPECT_NE(summary.find("\"qp_from_hint_ticks\": " + std::to_string(hinted) + ","), std::string::npos) << summary;
   if (summary.find("\"memory_locked\": true") != std::string::npos) {
     EXPECT_NE(locked.err.find("memory locked"), std::string::npos) << locked.err;
     const std::vector<std::string> faults = column(log, "tick_page_faults");

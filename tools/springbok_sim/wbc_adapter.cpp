@@ -297,7 +297,7 @@ std::string WbcAdapter::csv_columns() const {
   for (const char* f : kFootNames) {
     for (const char* a : {"x", "y", "z"}) h += fmt::format(",{}_f{}_n", f, a);
   }
-  h += ",qp_status,qp_iterations,tick_failed,manipulability,tick_us,tick_page_faults,tick_context_switches";
+  h += ",qp_status,qp_iterations,qp_from_hint,tick_failed,manipulability,tick_us,tick_page_faults,tick_context_switches";
   for (const char* b : {"base", "ee"}) {
     for (const char* a : {"x", "y", "z"}) h += fmt::format(",{}_r{}_rad", b, a);
   }
@@ -417,6 +417,7 @@ void WbcAdapter::after_step(const sim::GroundTruth& truth, std::string& row) {
   row += ",";
   row += qp::to_string(o.qp_status);
   put(row, o.qp_iterations);
+  row += o.qp_from_hint ? ",1" : ",0";
   row += failed ? ",1" : ",0";
   put(row, o.manipulability);
   put(row, tick_us_);
