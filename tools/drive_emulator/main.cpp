@@ -48,13 +48,10 @@ namespace {
 std::atomic<bool> g_stop{false};
 void on_signal(int) { g_stop = true; }
 
+// Stance: the legs at the robot's nominal stance (its model's kStance_rad), the arm at zero.
 double initial_position(int joint, const std::string& pose) {
   if (pose == "zero" || joint >= springbok::kFirstArmJoint) return 0.0;
-  // Stance (robot/PARAMS.md): front legs (0, 0.7, -1.4), hind legs (0, -0.7, 1.4).
-  const int leg = joint / 3, k = joint % 3;
-  const double front[3] = {0.0, 0.7, -1.4};
-  const double sign = leg < 2 ? 1.0 : -1.0;
-  return sign * front[k];
+  return springbok::robot::kStance_rad[static_cast<std::size_t>(joint)];
 }
 
 void print_layout(const springbok::can::CanConfig& c) {
