@@ -66,11 +66,11 @@ struct Fixture {
       in.imu.specific_force_i_m_s2 = rot.transpose() * (a + Vec3(0, 0, 9.81)) + sa * Vec3(n(rng), n(rng), n(rng));
       for (int f = 0; f < kEkfFeet; ++f) {
         FootMeasurement& m = in.feet[static_cast<std::size_t>(f)];
+        const Vec3 s_b = rot.transpose() * (feet[static_cast<std::size_t>(f)] - p);
         m.contact = true;
-        m.contact_point_b_m = rot.transpose() * (feet[static_cast<std::size_t>(f)] - p) + ss * Vec3(n(rng), n(rng), n(rng));
+        m.contact_point_b_m = s_b + ss * Vec3(n(rng), n(rng), n(rng));
         m.covariance_b_m2 = Mat3::Identity() * ss * ss;
         // The foot still on the ground: the legs move it against the trunk by -R^T v - w x s.
-        const Vec3 s_b = rot.transpose() * (feet[static_cast<std::size_t>(f)] - p);
         m.velocity_valid = true;
         m.velocity_b_m_s = -rot.transpose() * v - rate_b.cross(s_b) + sv * Vec3(n(rng), n(rng), n(rng));
         m.velocity_covariance_b_m2_s2 = Mat3::Identity() * sv * sv;
